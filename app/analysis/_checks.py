@@ -4,6 +4,7 @@ channel and what was expected, before numpy or scipy can fail deep inside."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -91,3 +92,11 @@ def check_rate(rate: float, *, what: str = "sampling rate") -> float:
     if not np.isfinite(value) or value <= 0:
         raise RecordingError(f"{what} is {value}", expected="a positive rate in Hz")
     return value
+
+
+def scipy_signal() -> ModuleType:
+    """``scipy.signal``, imported on first use: importing it takes most of a second."""
+    from scipy import signal
+
+    module: ModuleType = signal
+    return module

@@ -11,29 +11,19 @@ second and the CLI should start fast.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from app.analysis._checks import as_signal, channel_label, check_rate
+from app.analysis._checks import as_signal, channel_label, check_rate, scipy_signal
 from app.recordings.types import RecordingError
-
-if TYPE_CHECKING:
-    from types import ModuleType
 
 EnvelopeMethod = Literal["lowpass", "rms"]
 OnsetMethod = Literal["threshold", "tkeo"]
 
 #: The band-pass upper edge is capped at this fraction of the Nyquist frequency.
 NYQUIST_CAP = 0.95
-
-
-def _scipy_signal() -> ModuleType:
-    from scipy import signal
-
-    module: ModuleType = signal
-    return module
 
 
 def _rows(arr: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -61,7 +51,7 @@ def _filtfilt(
             channel=channel_label(names, 0) if names else None,
             expected=f"at least {need} samples",
         )
-    out: NDArray[np.float64] = _scipy_signal().sosfiltfilt(sos, rows, axis=-1)
+    out: NDArray[np.float64] = scipy_signal().sosfiltfilt(sos, rows, axis=-1)
     return out
 
 
@@ -89,7 +79,7 @@ def bandpass_sos(
             f"(upper edge capped at {hi_eff:g} Hz)",
             expected="0 <= low cut-off < high cut-off < Nyquist",
         )
-    signal = _scipy_signal()
+    signal = scipy_signal()
     if lo == 0:
         sos = signal.butter(order, hi_eff, btype="lowpass", fs=rate, output="sos")
     else:
@@ -98,7 +88,7 @@ def bandpass_sos(
 
 
 def _notch_sos(mains: float, rate: float, *, harmonics: int, quality: float) -> NDArray[np.float64]:
-    signal = _scipy_signal()
+    signal = scipy_signal()
     sections = []
     nyq = rate / 2.0
     for k in range(1, harmonics + 1):

@@ -1,0 +1,519 @@
+"""Sagittal-plane arm angles from pose landmarks or motion-capture markers.
+
+Conventions (DESIGN.md): radians inside; shoulder flexion is the angle of the upper arm
+(shoulder -> elbow) from the trunk's downward direction (shoulder -> hip), positive forward;
+elbow flexion is 180 deg minus the included angle at the elbow, 0 with the forearm straight.
+
+Time series are cleaned before they are differentiated: samples whose landmark confidence is low
+are masked, short holes are interpolated, long holes and jumps (frames skipped by the recorder)
+split the series into segments, and each segment is low-passed (zero-phase Butterworth) and
+differentiated on its own, so no derivative is ever taken across a gap. Derivatives within half a
+derivative window of a gap are left NaN.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.analysis._checks import scipy_signal
+from app.recordings.types import Channel, Recording, RecordingError
+
+Side = Literal["left", "right"]
+DerivativeMethod = Literal["savgol", "spline"]
+ROLES = ("shoulder", "elbow", "wrist", "hip")
+
+
+@dataclass(frozen=True)
+class ArmAngles:
+    """Joint angles of one arm over time, with derivatives and the gaps they respect.
+
+    Attributes:
+        t: (T,) sample times [s] on the pose clock.
+        shoulder: (T,) shoulder flexion [rad], NaN in gaps.
+        elbow: (T,) elbow flexion [rad], NaN in gaps.
+        shoulder_velocity, elbow_velocity: (T,) angular velocities [rad/s].
+        shoulder_acceleration, elbow_acceleration: (T,) angular accelerations [rad/s^2].
+        wrist_acceleration: (T, D) linear acceleration of the wrist [position unit/s^2]
+            (D = 3 for markers, 2 for image landmarks).
+        valid: (T,) True where the angles are measured or interpolated across a short hole.
+        segments: (S, 2) [start, stop) sample indices of the gap-free stretches.
+        gaps: (G, 2) (start, end) times [s] of the long holes and jumps between segments.
+        rate: sampling rate [Hz].
+        side: which arm (``"left"``, ``"right"``, or ``"unspecified"`` for a one-arm marker set).
+        position_unit: unit of the positions behind ``wrist_acceleration`` (``"m"``, ``"px"``,
+            ``"norm"``).
+    """
+
+    t: NDArray[np.float64]
+    shoulder: NDArray[np.float64]
+    elbow: NDArray[np.float64]
+    shoulder_velocity: NDArray[np.float64]
+    elbow_velocity: NDArray[np.float64]
+    shoulder_acceleration: NDArray[np.float64]
+    elbow_acceleration: NDArray[np.float64]
+    wrist_acceleration: NDArray[np.float64]
+    valid: NDArray[np.bool_]
+    segments: NDArray[np.intp]
+    gaps: NDArray[np.float64]
+    rate: float
+    side: str
+    position_unit: str
+
+    @property
+    def q(self) -> NDArray[np.float64]:
+        """(T, 2) (shoulder flexion, elbow flexion) [rad]."""
+        return np.stack([self.shoulder, self.elbow], axis=1)
+
+    @property
+    def qd(self) -> NDArray[np.float64]:
+        """(T, 2) joint velocities [rad/s]."""
+        return np.stack([self.shoulder_velocity, self.elbow_velocity], axis=1)
+
+    @property
+    def qdd(self) -> NDArray[np.float64]:
+        """(T, 2) joint accelerations [rad/s^2]."""
+        return np.stack([self.shoulder_acceleration, self.elbow_acceleration], axis=1)
+
+
+# ---------------------------------------------------------------------------------------------
+# geometry
+
+
+def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out: NDArray[np.float64] = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    return out
+
+
+def _cross2(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    out: NDArray[np.float64] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def joint_angles(
+    shoulder: NDArray[np.float64],
+    elbow: NDArray[np.float64],
+    wrist: NDArray[np.float64],
+    *,
+    hip: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Shoulder and elbow flexion from joint-centre positions.
+
+    Points are (T, 2) in a y-up plane (image coordinates must be flipped first) or (T, 3) in a
+    z-up lab frame. In 3-D the sagittal plane is the plane the elbow flexes in: its normal is the
+    mean elbow axis (upper arm x forearm) over the frames where the elbow is clearly bent.
+    Without a hip, the trunk's downward direction is the frame's -y (2-D) or -z (3-D).
+    "Forward" is the side the forearm points to when the elbow is bent, which is where a curl
+    carries the hand.
+
+    Args:
+        shoulder, elbow, wrist: (T, D) positions, NaN where missing.
+        hip: (T, D) hip (or pelvis centre) positions, or None.
+
+    Returns:
+        (shoulder flexion, elbow flexion), each (T,) [rad], NaN where a point is missing.
+    """
+    upper = elbow - shoulder
+    fore = wrist - elbow
+    dim = shoulder.shape[1]
+    if dim == 2:
+        cross = _cross2(upper, fore)
+        elbow_flex = np.arctan2(np.abs(cross), np.einsum("ij,ij->i", upper, fore))
+        down = _unit(hip - shoulder) if hip is not None else np.tile([0.0, -1.0], (len(upper), 1))
+        fwd = np.stack([-down[:, 1], down[:, 0]], axis=1)
+        up_p, fore_p = upper, fore
+    else:
+        crossv = np.cross(upper, fore)
+        elbow_flex = np.arctan2(np.linalg.norm(crossv, axis=1), np.einsum("ij,ij->i", upper, fore))
+        normal = _sagittal_normal(crossv, elbow_flex)
+        raw_down = hip - shoulder if hip is not None else np.tile([0.0, 0.0, -1.0], (len(upper), 1))
+        down = _unit(raw_down - np.outer(raw_down @ normal, normal))
+        fwd = np.cross(normal, down)
+        up_p = upper - np.outer(upper @ normal, normal)
+        fore_p = fore - np.outer(fore @ normal, normal)
+    # Make "forward" the side the bent forearm points to (the hand comes forward in a curl).
+    bent = elbow_flex > np.deg2rad(45.0)
+    if not np.any(bent):
+        bent = np.isfinite(elbow_flex)
+    if np.any(bent) and np.nanmedian(np.einsum("ij,ij->i", fore_p[bent], fwd[bent])) < 0:
+        fwd = -fwd
+    shoulder_flex = np.arctan2(np.einsum("ij,ij->i", up_p, fwd), np.einsum("ij,ij->i", up_p, down))
+    return shoulder_flex, elbow_flex
+
+
+def _sagittal_normal(
+    crossv: NDArray[np.float64], elbow_flex: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    axes = _unit(crossv)
+    use = np.isfinite(axes).all(axis=1) & (elbow_flex > np.deg2rad(20.0))
+    if use.sum() < 3:
+        use = np.isfinite(axes).all(axis=1)
+    if not use.any():
+        return np.array([1.0, 0.0, 0.0])
+    chosen = axes[use]
+    # Flip every axis to agree with the first before averaging (the sign is arbitrary).
+    chosen = chosen * np.sign(chosen @ chosen[0])[:, None]
+    mean = chosen.mean(axis=0)
+    normal: NDArray[np.float64] = mean / np.linalg.norm(mean)
+    return normal
+
+
+# ---------------------------------------------------------------------------------------------
+# landmark lookup
+
+
+def _key(name: str) -> str:
+    return name.split(":")[-1].strip().lower().replace(" ", "_")
+
+
+def _candidates(side: Side) -> dict[str, list[tuple[str, ...]]]:
+    s = side[0]
+    return {
+        "shoulder": [(f"{side}_shoulder",), (f"{s}sho",), ("acro_tip",), ("acro",)],
+        "elbow": [(f"{side}_elbow",), (f"{s}elb",), ("epicl", "epicm"), ("elb",)],
+        "wrist": [(f"{side}_wrist",), (f"{s}wra", f"{s}wrb"), ("stylr", "stylu"), ("wrist",)],
+        "hip": [
+            (f"{side}_hip",),
+            (f"{s}asi", f"{s}psi"),
+            ("asisr", "asisl", "psisr", "psisl"),
+            ("asisr", "asisl"),
+        ],
+    }
+
+
+def _position_channels(recording: Recording) -> dict[str, Channel]:
+    return {
+        _key(name): ch
+        for name, ch in recording.channels.items()
+        if ch.kind in ("landmark", "marker") and ch.data.ndim == 2 and ch.data.shape[1] >= 2
+    }
+
+
+def _resolve(
+    recording: Recording,
+    side: Side,
+    landmarks: Mapping[str, str | Sequence[str]] | None,
+) -> tuple[dict[str, list[Channel]], bool]:
+    """Channels per role for one side, and whether the names were side-specific."""
+    available = _position_channels(recording)
+    found: dict[str, list[Channel]] = {}
+    sided = False
+    for role, options in _candidates(side).items():
+        if landmarks and role in landmarks:
+            spec = landmarks[role]
+            names = (spec,) if isinstance(spec, str) else tuple(spec)
+            missing = [n for n in names if _key(n) not in available]
+            if missing:
+                raise RecordingError(
+                    f"landmark(s) {missing} given for the {role} are not in the recording",
+                    file=recording.source,
+                    expected=f"names among {sorted(available)[:20]}",
+                )
+            found[role] = [available[_key(n)] for n in names]
+            continue
+        for option in options:
+            if all(name in available for name in option):
+                found[role] = [available[name] for name in option]
+                sided = sided or option[0].startswith((side, side[0]))
+                break
+    return found, sided
+
+
+def _points(
+    channels: list[Channel],
+    *,
+    min_visibility: float,
+    image_size: tuple[float, float] | None,
+) -> tuple[NDArray[np.float64], str]:
+    """(T, D) mean position of the channels, NaN where any is missing or not visible."""
+    stacks = []
+    unit = channels[0].unit
+    for ch in channels:
+        data = np.array(ch.data, dtype=np.float64)
+        if ch.confidence is not None:
+            data[np.asarray(ch.confidence) < min_visibility] = np.nan
+        if unit == "norm":
+            # Image landmarks: the depth estimate is unreliable, keep x, y and flip y to point up.
+            xy = data[:, :2].copy()
+            if image_size is not None:
+                xy[:, 0] *= image_size[0]
+                xy[:, 1] *= image_size[1]
+            xy[:, 1] = -xy[:, 1]
+            data = xy
+        else:
+            data = data[:, :3]
+        stacks.append(data)
+    pos = np.mean(np.stack(stacks), axis=0) if len(stacks) > 1 else stacks[0]
+    if unit == "norm":
+        unit = "px" if image_size is not None else "norm"
+    return pos, unit
+
+
+def _confidence(channels: list[Channel], min_visibility: float) -> float:
+    scores = []
+    for ch in channels:
+        finite = np.isfinite(ch.data).all(axis=1)
+        if ch.confidence is not None:
+            finite &= np.asarray(ch.confidence) >= min_visibility
+        scores.append(float(finite.mean()))
+    return float(np.mean(scores))
+
+
+# ---------------------------------------------------------------------------------------------
+# time-series cleaning
+
+
+def _nan_runs(mask: NDArray[np.bool_]) -> NDArray[np.intp]:
+    padded = np.concatenate(([False], mask, [False]))
+    return np.flatnonzero(padded[1:] != padded[:-1]).reshape(-1, 2)
+
+
+def _segments(
+    t: NDArray[np.float64],
+    y: NDArray[np.float64],
+    *,
+    rate: float,
+    max_gap: float,
+    max_speed: float,
+    jump_columns: int,
+) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]:
+    """Interpolate short holes; split at long holes, time gaps and jumps.
+
+    Returns (filled y, (S, 2) segment index ranges, (G, 2) gap times).
+    """
+    y = y.copy()
+    n = len(t)
+    finite = np.asarray(np.isfinite(y).all(axis=1), dtype=bool)
+    y[~finite] = np.nan
+    idx = np.flatnonzero(finite)
+    # breaks[i]: the series must not be joined between sample i and i + 1. Explicit clocks
+    # with a missing frame break (the derivative filters assume a uniform grid), and so does a
+    # jump: an angle change between two valid samples faster than any arm moves.
+    breaks = np.diff(t) > 1.5 / rate
+    if len(idx) > 1:
+        step = np.abs(np.diff(y[idx, :jump_columns], axis=0)).max(axis=1)
+        jump = step > max_speed * np.diff(t[idx])
+        breaks[idx[1:][jump] - 1] = True
+    # Fill holes short enough and not crossing a break.
+    for start, stop in _nan_runs(~finite):
+        if start == 0 or stop == n:
+            continue
+        if (stop - start) / rate > max_gap or breaks[start - 1 : stop].any():
+            continue
+        lo, hi = start - 1, stop
+        w = (t[start:stop] - t[lo]) / (t[hi] - t[lo])
+        y[start:stop] = y[lo] + w[:, None] * (y[hi] - y[lo])
+    ok = np.asarray(np.isfinite(y).all(axis=1), dtype=bool)
+    runs = _nan_runs(ok)
+    segs: list[tuple[int, int]] = []
+    for start, stop in runs:
+        cuts = start + 1 + np.flatnonzero(breaks[start : stop - 1])
+        edges = np.concatenate(([start], cuts, [stop]))
+        segs.extend(itertools.pairwise(edges.tolist()))
+    segments = np.array(segs, dtype=np.intp).reshape(-1, 2)
+    gaps = (
+        np.stack([t[segments[:-1, 1] - 1], t[segments[1:, 0]]], axis=1)
+        if len(segments) > 1
+        else np.zeros((0, 2))
+    )
+    return y, segments, gaps
+
+
+def smooth_and_differentiate(
+    t: NDArray[np.float64],
+    y: NDArray[np.float64],
+    *,
+    rate: float,
+    segments: NDArray[np.intp],
+    lowpass: float | None = 6.0,
+    derivative: DerivativeMethod = "savgol",
+    window: float = 0.15,
+    polyorder: int = 3,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Low-pass and differentiate each segment on its own.
+
+    Args:
+        t: (T,) sample times [s].
+        y: (T, K) signals (NaN outside the segments).
+        rate: sampling rate [Hz].
+        segments: (S, 2) [start, stop) index ranges free of gaps.
+        lowpass: zero-phase Butterworth (order 4) cut-off [Hz], None to skip; skipped when it is
+            not below 0.95 of Nyquist.
+        derivative: ``"savgol"`` (Savitzky-Golay, ``polyorder`` over ``window`` seconds) or
+            ``"spline"`` (cubic interpolating spline of the smoothed samples).
+        window: derivative window [s]; derivatives within half of it of a gap are NaN.
+        polyorder: Savitzky-Golay polynomial order.
+
+    Returns:
+        (smoothed, first derivative, second derivative), each (T, K), NaN outside segments.
+    """
+    signal = scipy_signal()
+    smooth = np.full_like(y, np.nan)
+    d1 = np.full_like(y, np.nan)
+    d2 = np.full_like(y, np.nan)
+    # Savitzky-Golay needs an odd window longer than the polynomial order.
+    n_win = max(round(window * rate), polyorder + 1)
+    n_win += 1 - n_win % 2
+    half = n_win // 2
+    sos = None
+    if lowpass is not None and lowpass < 0.95 * rate / 2:
+        sos = signal.butter(4, lowpass, fs=rate, output="sos")
+    n = len(t)
+    for start, stop in segments:
+        seg = y[start:stop]
+        length = stop - start
+        if sos is not None and length > 1:
+            pad = min(3 * (2 * len(sos) + 1), length - 1)
+            seg = signal.sosfiltfilt(sos, seg, axis=0, padlen=pad)
+        smooth[start:stop] = seg
+        if length < n_win:
+            continue
+        if derivative == "spline":
+            from scipy.interpolate import CubicSpline
+
+            spline = CubicSpline(t[start:stop], seg, axis=0)
+            d1[start:stop] = spline(t[start:stop], 1)
+            d2[start:stop] = spline(t[start:stop], 2)
+        else:
+            dt = 1.0 / rate
+            d1[start:stop] = signal.savgol_filter(
+                seg, n_win, polyorder, deriv=1, delta=dt, axis=0, mode="interp"
+            )
+            d2[start:stop] = signal.savgol_filter(
+                seg, n_win, polyorder, deriv=2, delta=dt, axis=0, mode="interp"
+            )
+        # Near a gap the derivative window would reach across it: leave those samples NaN.
+        if start > 0:
+            d1[start : start + half] = np.nan
+            d2[start : start + half] = np.nan
+        if stop < n:
+            d1[stop - half : stop] = np.nan
+            d2[stop - half : stop] = np.nan
+    return smooth, d1, d2
+
+
+# ---------------------------------------------------------------------------------------------
+# public entry point
+
+
+def arm_angles(
+    recording: Recording,
+    *,
+    side: Side | None = None,
+    landmarks: Mapping[str, str | Sequence[str]] | None = None,
+    min_visibility: float = 0.5,
+    max_gap: float = 0.2,
+    max_speed: float = 15.0,
+    lowpass: float | None = 6.0,
+    derivative: DerivativeMethod = "savgol",
+    window: float = 0.15,
+    image_size: tuple[float, float] | None = None,
+) -> ArmAngles:
+    """Shoulder and elbow flexion with velocities and accelerations from a pose recording.
+
+    Args:
+        recording: a recording with landmark or marker channels ((N, 2|3) positions). Names
+            recognised per role: MediaPipe ``left_shoulder`` ..., Vicon Plug-in Gait ``LSHO``,
+            ``LELB``, ``LWRA/LWRB``, ``LASI/LPSI``, or ``ACRO_tip``, ``EPICl/EPICm``,
+            ``STYLr/STYLu``, ``ASIS*/PSIS*`` (averaged where several are listed).
+        side: ``"left"`` or ``"right"``; None picks the side whose landmarks are visible most.
+        landmarks: role (``shoulder``, ``elbow``, ``wrist``, ``hip``) -> channel name(s) to use
+            instead of the automatic lookup (several names are averaged).
+        min_visibility: landmark samples with lower confidence are treated as missing.
+        max_gap: holes up to this long [s] are interpolated; longer ones stay gaps.
+        max_speed: an angle change faster than this between valid samples [rad/s] is a jump
+            (frames skipped by the recorder) and splits the series.
+        lowpass: zero-phase Butterworth cut-off [Hz] for angles and positions, None for none.
+        derivative: ``"savgol"`` or ``"spline"``.
+        window: derivative window [s].
+        image_size: (width, height) [px] of the video behind normalised image landmarks, so x
+            and y get the same scale; defaults to ``recording.metadata["image_size"]``.
+
+    Returns:
+        ArmAngles on the recording's pose clock.
+
+    Raises:
+        RecordingError: no shoulder, elbow and wrist landmarks for the side(s), or none valid.
+    """
+    if side not in (None, "left", "right"):
+        raise RecordingError(f"unknown side {side!r}", expected="'left', 'right' or None")
+    options: list[Side] = [side] if side is not None else ["left", "right"]
+    resolved: list[tuple[float, Side, dict[str, list[Channel]], bool]] = []
+    for s in options:
+        found, sided = _resolve(recording, s, landmarks)
+        if all(role in found for role in ("shoulder", "elbow", "wrist")):
+            arm = [ch for role in ("shoulder", "elbow", "wrist") for ch in found[role]]
+            resolved.append((_confidence(arm, min_visibility), s, found, sided))
+    if not resolved:
+        names = sorted(_position_channels(recording))
+        raise RecordingError(
+            "no arm landmarks found" + (f" for the {side} side" if side else ""),
+            file=recording.source,
+            expected="shoulder, elbow and wrist landmarks or markers (e.g. left_shoulder, "
+            "left_elbow, left_wrist; LSHO, LELB, LWRA; or ACRO_tip, EPICl/EPICm, STYLr/STYLu)"
+            + (f"; position channels present: {names[:12]}" if names else "; none present"),
+        )
+    resolved.sort(key=lambda item: -item[0])
+    _, chosen_side, found, sided = resolved[0]
+    lengths = {ch.n_samples for chans in found.values() for ch in chans}
+    if len(lengths) != 1:
+        raise RecordingError(
+            f"arm landmarks have different lengths {sorted(lengths)}",
+            file=recording.source,
+            expected="landmarks sampled together",
+        )
+    first = found["shoulder"][0]
+    rate = float(first.rate)
+    t = np.asarray(first.times, dtype=np.float64)
+    if image_size is None and "image_size" in recording.metadata:
+        size = recording.metadata["image_size"]
+        image_size = (float(size[0]), float(size[1]))
+    pts = {}
+    unit = "m"
+    for role, chans in found.items():
+        pts[role], unit = _points(chans, min_visibility=min_visibility, image_size=image_size)
+    shoulder_flex, elbow_flex = joint_angles(
+        pts["shoulder"], pts["elbow"], pts["wrist"], hip=pts.get("hip")
+    )
+    if not np.isfinite(elbow_flex).any():
+        raise RecordingError(
+            "no frame has shoulder, elbow and wrist all visible",
+            file=recording.source,
+            expected=f"landmark confidence >= {min_visibility}",
+        )
+    stacked = np.column_stack([shoulder_flex, elbow_flex, pts["wrist"]])
+    filled, segments, gaps = _segments(
+        t, stacked, rate=rate, max_gap=max_gap, max_speed=max_speed, jump_columns=2
+    )
+    smooth, d1, d2 = smooth_and_differentiate(
+        t,
+        filled,
+        rate=rate,
+        segments=segments,
+        lowpass=lowpass,
+        derivative=derivative,
+        window=window,
+    )
+    valid = np.isfinite(smooth[:, 1])
+    return ArmAngles(
+        t=t,
+        shoulder=smooth[:, 0],
+        elbow=smooth[:, 1],
+        shoulder_velocity=d1[:, 0],
+        elbow_velocity=d1[:, 1],
+        shoulder_acceleration=d2[:, 0],
+        elbow_acceleration=d2[:, 1],
+        wrist_acceleration=d2[:, 2:],
+        valid=valid,
+        segments=segments,
+        gaps=gaps,
+        rate=rate,
+        side=chosen_side if sided else "unspecified",
+        position_unit=unit,
+    )
