@@ -1,8 +1,54 @@
-"""Energy metrics of a joint trajectory, their physical floors, and the motor model."""
+"""Energy metrics of a joint trajectory, their physical floors, and the motor model.
+
+All metrics take the joint velocities q̇ and the joint-side torques τ on a time grid (τ from the
+rigid-body dynamics, armature included, as the dynamics module returns it) and integrate with the
+trapezoidal rule (DESIGN.md, "Energy metrics"):
+
+- ``tau_sq`` = ∫ Σ_j τ_j² dt [N²m²s]
+- ``abs_work`` = ∫ Σ_j |τ_j q̇_j| dt [J] (no regeneration)
+- ``pos_work`` = ∫ Σ_j max(τ_j q̇_j, 0) dt [J]
+- ``electrical_energy`` [J], see :func:`electrical_power`
+- ``peak_power`` = max_t Σ_j |τ_j q̇_j| [W]
+- ``peak_torque`` = max_t |τ_j| per joint [Nm]
+
+Floors: no rest-to-rest motion does less positive work than the rise in potential energy ΔPE,
+so ``abs_work`` and ``pos_work`` are at least ``delta_potential``, and ``peak_power`` at least
+``min_peak_power`` = max(ΔPE, 0) / T.
+
+Electrical model (per joint j, joint side): friction τ_f = b q̇ + c tanh(q̇ / ε) with
+ε = :data:`FRICTION_VELOCITY_SCALE` (a smooth Coulomb term, so PSO sees a smooth cost), motor
+torque τ_m = (τ + τ_f) / N, current i = τ_m / k_t, electrical power
+P_j = (τ + τ_f) q̇ + R i² (mechanical power at the motor shaft, N q̇ · τ_m, plus copper loss).
+The joints share one DC bus, P_bus = Σ_j P_j; the energy drawn is
+∫ max(P_bus, 0) dt − η ∫ max(−P_bus, 0) dt with η the smallest regeneration efficiency of the
+joints (the bus can only recover what its worst converter passes back). The rotor inertia is
+not added here: it belongs in τ as armature.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: The metrics PSO can minimise (see :func:`objective_values`).
+OBJECTIVES: tuple[str, ...] = (
+    "tau_sq",
+    "abs_work",
+    "pos_work",
+    "electrical_energy",
+    "peak_power",
+    "peak_torque",
+)
+
+#: ε in the smooth Coulomb friction c tanh(q̇ / ε) [rad/s]: above 3ε (0.03 rad/s, 1.7 deg/s)
+#: it is within 0.5 % of c sign(q̇).
+FRICTION_VELOCITY_SCALE = 0.01
 
 
 @dataclass(frozen=True)
@@ -32,3 +78,353 @@ class MotorModel:
     def armature(self) -> float:
         """Reflected rotor inertia at the joint, N^2 J_m [kg m^2]."""
         return self.gear_ratio**2 * self.rotor_inertia
+
+
+@dataclass(frozen=True)
+class EnergyMetrics:
+    """The energy metrics of one trajectory (DESIGN.md).
+
+    Attributes:
+        tau_sq: ∫ Σ τ² dt [N²m²s].
+        abs_work: ∫ Σ |τ q̇| dt [J].
+        pos_work: ∫ Σ max(τ q̇, 0) dt [J].
+        electrical_energy: energy drawn from the DC bus [J] (motor model; ideal actuators when
+            no motors are given).
+        peak_power: max over time of Σ |τ q̇| [W].
+        peak_torque: (n,) max over time of |τ_j| per joint [Nm].
+    """
+
+    tau_sq: float
+    abs_work: float
+    pos_work: float
+    electrical_energy: float
+    peak_power: float
+    peak_torque: tuple[float, ...]
+
+    def to_dict(self) -> dict[str, float | list[float]]:
+        """Plain JSON-ready values; ``peak_torque`` becomes a list."""
+        out: dict[str, float | list[float]] = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            out[f.name] = [float(v) for v in value] if isinstance(value, tuple) else float(value)
+        return out
+
+
+@dataclass(frozen=True)
+class Floors:
+    """Physical lower bounds of the metrics of a rest-to-rest motion.
+
+    Attributes:
+        delta_potential: ΔPE = PE(goal) − PE(start) [J]; ``pos_work`` and ``abs_work`` cannot
+            be smaller.
+        min_peak_power: max(ΔPE, 0) / T [W]; ``peak_power`` cannot be smaller.
+    """
+
+    delta_potential: float
+    min_peak_power: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {"delta_potential": self.delta_potential, "min_peak_power": self.min_peak_power}
+
+
+def floors(delta_potential: float, duration: float) -> Floors:
+    """The floors of a rest-to-rest motion that raises the potential energy by ΔPE in T.
+
+    Args:
+        delta_potential: ΔPE [J] (negative for a lowering motion).
+        duration: T [s], > 0.
+
+    Returns:
+        ``Floors(delta_potential, max(ΔPE, 0) / T)``.
+    """
+    dpe = float(delta_potential)
+    t = float(duration)
+    if not math.isfinite(dpe):
+        raise ValueError(f"delta_potential must be a finite energy [J], got {delta_potential!r}")
+    if not (math.isfinite(t) and t > 0.0):
+        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+    return Floors(delta_potential=dpe, min_peak_power=max(dpe, 0.0) / t)
+
+
+# ----------------------------------------------------------------------------------------------
+# Input checks
+# ----------------------------------------------------------------------------------------------
+
+
+def _check_time(t: ArrayLike) -> FloatArray:
+    tt = np.asarray(t, dtype=np.float64)
+    if tt.ndim != 1 or tt.size < 2:
+        raise ValueError(f"t must be a 1-D array of at least 2 times [s], got shape {tt.shape}")
+    if not (np.all(np.isfinite(tt)) and np.all(np.diff(tt) > 0.0)):
+        raise ValueError("t must be finite and strictly increasing [s]")
+    return tt
+
+
+def _check_pair(qd: ArrayLike, tau: ArrayLike, n_t: int | None = None) -> tuple[FloatArray, ...]:
+    v = np.asarray(qd, dtype=np.float64)
+    f = np.asarray(tau, dtype=np.float64)
+    if v.ndim < 2 or v.shape != f.shape:
+        raise ValueError(
+            f"qd and tau must have the same shape (..., T, n), got {v.shape} and {f.shape}"
+        )
+    if n_t is not None and v.shape[-2] != n_t:
+        raise ValueError(
+            f"qd and tau have {v.shape[-2]} samples along axis -2 but t has {n_t} "
+            "(expected shape (..., T, n))"
+        )
+    return v, f
+
+
+def _motor_arrays(motors: Sequence[MotorModel], n: int) -> tuple[FloatArray, ...]:
+    if len(motors) != n:
+        raise ValueError(f"expected one MotorModel per joint ({n}), got {len(motors)}")
+    gear = np.array([m.gear_ratio for m in motors], dtype=np.float64)
+    kt = np.array([m.torque_constant for m in motors], dtype=np.float64)
+    res = np.array([m.winding_resistance for m in motors], dtype=np.float64)
+    visc = np.array([m.viscous_friction for m in motors], dtype=np.float64)
+    coul = np.array([m.coulomb_friction for m in motors], dtype=np.float64)
+    eta = np.array([m.regen_efficiency for m in motors], dtype=np.float64)
+    if not (np.all(gear > 0) and np.all(kt > 0)):
+        raise ValueError("every motor needs gear_ratio > 0 and torque_constant > 0 [Nm/A]")
+    if np.any(res < 0) or np.any(visc < 0) or np.any(coul < 0):
+        raise ValueError("winding resistance and friction coefficients must be >= 0")
+    if np.any((eta < 0) | (eta > 1)):
+        raise ValueError(f"regen_efficiency must lie in [0, 1], got {eta.tolist()}")
+    return gear, kt, res, visc, coul, eta
+
+
+# ----------------------------------------------------------------------------------------------
+# Curves over time
+# ----------------------------------------------------------------------------------------------
+
+
+def joint_power(qd: ArrayLike, tau: ArrayLike) -> FloatArray:
+    """Mechanical power per joint, τ_j q̇_j.
+
+    Args:
+        qd: (..., T, n) joint velocities [rad/s].
+        tau: (..., T, n) joint torques [Nm].
+
+    Returns:
+        (..., T, n) power [W]; positive when the actuator does work on the arm.
+    """
+    v, f = _check_pair(qd, tau)
+    result: FloatArray = v * f
+    return result
+
+
+def power_curve(qd: ArrayLike, tau: ArrayLike) -> FloatArray:
+    """Total absolute mechanical power Σ_j |τ_j q̇_j| (the curve under ``abs_work``).
+
+    Args:
+        qd: (..., T, n) joint velocities [rad/s].
+        tau: (..., T, n) joint torques [Nm].
+
+    Returns:
+        (..., T) power [W].
+    """
+    v, f = _check_pair(qd, tau)
+    result: FloatArray = np.abs(v * f).sum(axis=-1)
+    return result
+
+
+def _electrical_power(
+    v: FloatArray, f: FloatArray, motors: Sequence[MotorModel] | None
+) -> tuple[FloatArray, float]:
+    """Bus power (..., T) and the regeneration efficiency used for it."""
+    if motors is None:
+        ideal: FloatArray = (v * f).sum(axis=-1)
+        return ideal, 0.0
+    gear, kt, res, visc, coul, eta = _motor_arrays(motors, v.shape[-1])
+    total = f + visc * v + coul * np.tanh(v / FRICTION_VELOCITY_SCALE)
+    current = total / (gear * kt)
+    power: FloatArray = (total * v + res * current * current).sum(axis=-1)
+    return power, float(eta.min())
+
+
+def electrical_power(
+    qd: ArrayLike, tau: ArrayLike, motors: Sequence[MotorModel] | None = None
+) -> FloatArray:
+    """Electrical power on the shared DC bus, P_bus = Σ_j [(τ_j + τ_f,j) q̇_j + R_j i_j²].
+
+    See the module docstring for the model. ``motors=None`` means ideal actuators (N = 1,
+    R = 0, no friction), so P_bus = Σ_j τ_j q̇_j.
+
+    Args:
+        qd: (..., T, n) joint velocities [rad/s].
+        tau: (..., T, n) joint-side torques [Nm] (rigid body incl. armature).
+        motors: (n,) one motor model per joint, or None.
+
+    Returns:
+        (..., T) bus power [W]; negative while the joints generate.
+    """
+    v, f = _check_pair(qd, tau)
+    power, _ = _electrical_power(v, f, motors)
+    result: FloatArray = power
+    return result
+
+
+def cumulative_energy(t: ArrayLike, power: ArrayLike) -> FloatArray:
+    """Running integral of a power curve (trapezoidal rule), starting at 0.
+
+    Args:
+        t: (T,) sample times [s].
+        power: (..., T) power [W].
+
+    Returns:
+        (..., T) energy [J]; the last sample equals ``np.trapezoid(power, t)``.
+    """
+    tt = _check_time(t)
+    p = np.asarray(power, dtype=np.float64)
+    if p.ndim < 1 or p.shape[-1] != tt.size:
+        raise ValueError(f"power must have shape (..., {tt.size}) to match t, got {p.shape}")
+    steps = 0.5 * (p[..., 1:] + p[..., :-1]) * np.diff(tt)
+    out = np.zeros(p.shape, dtype=np.float64)
+    np.cumsum(steps, axis=-1, out=out[..., 1:])
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Scalar metrics
+# ----------------------------------------------------------------------------------------------
+
+
+def _bus_energy(tt: FloatArray, p_bus: FloatArray, eta: float) -> FloatArray:
+    drawn = np.maximum(p_bus, 0.0)
+    if eta > 0.0:
+        drawn = drawn - eta * np.maximum(-p_bus, 0.0)
+    result: FloatArray = np.trapezoid(drawn, tt, axis=-1)
+    return result
+
+
+def objective_values(
+    objective: str,
+    t: ArrayLike,
+    qd: ArrayLike,
+    tau: ArrayLike,
+    *,
+    motors: Sequence[MotorModel] | None = None,
+    tau_max: ArrayLike | None = None,
+) -> FloatArray:
+    """One scalar metric for a batch of trajectories (the PSO cost).
+
+    ``"peak_torque"`` as an objective is one number per trajectory: the largest torque relative
+    to its joint's limit, max_{t, j} |τ_j| / tau_max_j (dimensionless), or max_{t, j} |τ_j| [Nm]
+    when ``tau_max`` is None. The other objectives are the metrics of :class:`EnergyMetrics`.
+
+    Args:
+        objective: one of :data:`OBJECTIVES`.
+        t: (T,) sample times [s].
+        qd: (..., T, n) joint velocities [rad/s].
+        tau: (..., T, n) joint torques [Nm].
+        motors: (n,) motor models for ``"electrical_energy"``; None means ideal actuators.
+        tau_max: (n,) torque limits [Nm] > 0 for ``"peak_torque"``.
+
+    Returns:
+        (...,) the metric per trajectory.
+
+    Raises:
+        ValueError: unknown objective (the message lists the valid ones) or bad shapes.
+    """
+    if objective not in OBJECTIVES:
+        raise ValueError(
+            f"unknown objective {objective!r}; expected one of: {', '.join(OBJECTIVES)}"
+        )
+    tt = _check_time(t)
+    v, f = _check_pair(qd, tau, tt.size)
+    result: FloatArray
+    if objective == "tau_sq":
+        result = np.trapezoid((f * f).sum(axis=-1), tt, axis=-1)
+    elif objective == "abs_work":
+        result = np.trapezoid(np.abs(v * f).sum(axis=-1), tt, axis=-1)
+    elif objective == "pos_work":
+        result = np.trapezoid(np.maximum(v * f, 0.0).sum(axis=-1), tt, axis=-1)
+    elif objective == "electrical_energy":
+        p_bus, eta = _electrical_power(v, f, motors)
+        result = _bus_energy(tt, p_bus, eta)
+    elif objective == "peak_power":
+        result = np.abs(v * f).sum(axis=-1).max(axis=-1)
+    else:  # peak_torque
+        mag = np.abs(f)
+        if tau_max is not None:
+            lim = np.asarray(tau_max, dtype=np.float64)
+            if lim.shape != (f.shape[-1],) or not np.all(lim > 0.0):
+                raise ValueError(
+                    f"tau_max must be ({f.shape[-1]},) positive torque limits [Nm], got {lim}"
+                )
+            mag = mag / lim
+        result = mag.max(axis=(-2, -1))
+    return result
+
+
+def energy_metrics(
+    t: ArrayLike,
+    qd: ArrayLike,
+    tau: ArrayLike,
+    *,
+    motors: Sequence[MotorModel] | None = None,
+) -> EnergyMetrics:
+    """All metrics of one trajectory.
+
+    Args:
+        t: (T,) sample times [s].
+        qd: (T, n) joint velocities [rad/s].
+        tau: (T, n) joint torques [Nm] (rigid body incl. armature).
+        motors: (n,) one motor model per joint; None means ideal actuators, for which
+            ``electrical_energy`` = ∫ max(Σ_j τ_j q̇_j, 0) dt.
+
+    Returns:
+        The metrics.
+    """
+    tt = _check_time(t)
+    v, f = _check_pair(qd, tau, tt.size)
+    if v.ndim != 2:
+        raise ValueError(f"qd and tau must have shape (T, n) for one trajectory, got {v.shape}")
+    p = v * f
+    p_bus, eta = _electrical_power(v, f, motors)
+    return EnergyMetrics(
+        tau_sq=float(np.trapezoid((f * f).sum(axis=-1), tt)),
+        abs_work=float(np.trapezoid(np.abs(p).sum(axis=-1), tt)),
+        pos_work=float(np.trapezoid(np.maximum(p, 0.0).sum(axis=-1), tt)),
+        electrical_energy=float(_bus_energy(tt, p_bus, eta)),
+        peak_power=float(np.abs(p).sum(axis=-1).max()),
+        peak_torque=tuple(float(x) for x in np.abs(f).max(axis=0)),
+    )
+
+
+def improvement_pct(
+    standard: EnergyMetrics, optimized: EnergyMetrics
+) -> dict[str, float | list[float]]:
+    """Relative saving per metric, 100 (standard − optimized) / |standard| [%].
+
+    Positive means the optimised one is lower (saves). Dividing by |standard| keeps that sign
+    meaning when a standard value is negative (net regeneration). When the standard value is 0
+    the result is 0.0 if the optimised one is 0 too and NaN otherwise (no relative change is
+    defined); no exception and no numpy warning either way.
+
+    Args:
+        standard: metrics of the reference (e.g. the quintic) trajectory.
+        optimized: metrics of the optimised trajectory.
+
+    Returns:
+        Metric name -> percent; ``peak_torque`` is a per-joint list.
+    """
+
+    def pct(s: float, o: float) -> float:
+        if s == 0.0:
+            return 0.0 if o == 0.0 else math.nan
+        return 100.0 * (s - o) / abs(s)
+
+    out: dict[str, float | list[float]] = {}
+    for f in fields(EnergyMetrics):
+        s_val = getattr(standard, f.name)
+        o_val = getattr(optimized, f.name)
+        if isinstance(s_val, tuple):
+            if len(s_val) != len(o_val):
+                raise ValueError(
+                    f"{f.name} has {len(s_val)} joints in standard but {len(o_val)} in optimized"
+                )
+            out[f.name] = [pct(a, b) for a, b in zip(s_val, o_val, strict=True)]
+        else:
+            out[f.name] = pct(s_val, o_val)
+    return out

@@ -1,11 +1,28 @@
-"""Point-to-point joint trajectories on a time grid."""
+"""Point-to-point joint trajectories on a time grid.
+
+Every profile moves all joints from ``q0`` to ``q1`` in the same ``duration`` and returns a
+:class:`Trajectory` with positions, velocities, accelerations and jerks sampled on
+``time_grid(duration, n_samples)``. The classical rest-to-rest profiles are a normalised shape
+``s(tau)`` with ``s(0) = 0``, ``s(1) = 1`` and ``tau = t / duration``, scaled per joint by the
+stroke ``q1 - q0``; so every joint starts, peaks and stops at the same instants.
+
+Piecewise quintic Hermite segments through via points (position, velocity and acceleration given at
+each knot) are the planner's free-form trajectories; :func:`piecewise_quintic_batch` evaluates a
+whole PSO swarm of them in one vectorised call.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: Default tolerance of :func:`is_monotonic` [rad].
+MONOTONIC_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -35,3 +52,627 @@ class Trajectory:
     @property
     def n_joints(self) -> int:
         return int(self.q.shape[1])
+
+
+# ----------------------------------------------------------------------------------------------
+# Input checks
+# ----------------------------------------------------------------------------------------------
+
+
+def _check_duration(duration: float) -> float:
+    value = float(duration)
+    if not np.isfinite(value) or value <= 0.0:
+        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+    return value
+
+
+def _check_n_samples(n_samples: int) -> int:
+    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
+        raise ValueError(f"n_samples must be an integer >= 2, got {n_samples!r}")
+    if n_samples < 2:
+        raise ValueError(f"n_samples must be >= 2 (both end points), got {n_samples}")
+    return int(n_samples)
+
+
+def _check_endpoints(q0: ArrayLike, q1: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    a = np.atleast_1d(np.asarray(q0, dtype=np.float64))
+    b = np.atleast_1d(np.asarray(q1, dtype=np.float64))
+    if a.ndim != 1 or b.ndim != 1 or a.shape != b.shape or a.size == 0:
+        raise ValueError(
+            f"q0 and q1 must be 1-D arrays of the same length n >= 1 [rad], "
+            f"got shapes {a.shape} and {b.shape}"
+        )
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ValueError("q0 and q1 must be finite joint angles [rad]")
+    return a, b
+
+
+def _check_fraction(name: str, value: float, upper: float) -> float:
+    f = float(value)
+    if not (0.0 < f <= upper):
+        raise ValueError(f"{name} must lie in (0, {upper}], got {value!r}")
+    return f
+
+
+def time_grid(duration: float, n_samples: int) -> FloatArray:
+    """Uniform sample times from 0 to ``duration`` inclusive.
+
+    Args:
+        duration: motion time [s], > 0.
+        n_samples: number of samples T, >= 2.
+
+    Returns:
+        (T,) times [s]; the first is exactly 0 and the last exactly ``duration``.
+    """
+    return np.linspace(0.0, _check_duration(duration), _check_n_samples(n_samples))
+
+
+# ----------------------------------------------------------------------------------------------
+# Classical rest-to-rest profiles
+# ----------------------------------------------------------------------------------------------
+
+
+def _scale(
+    q0: FloatArray,
+    q1: FloatArray,
+    duration: float,
+    t: FloatArray,
+    shape: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+    name: str,
+) -> Trajectory:
+    """Turn a normalised shape s(tau) and its tau-derivatives (each (T,)) into a Trajectory."""
+    s, ds, dds, ddds = (x[:, None] for x in shape)
+    delta = (q1 - q0)[None, :]
+    # q0 (1 - s) + q1 s hits both end points exactly when s is exactly 0 and 1 there.
+    q = q0[None, :] * (1.0 - s) + q1[None, :] * s
+    return Trajectory(
+        t=t,
+        q=q,
+        qd=ds * delta / duration,
+        qdd=dds * delta / duration**2,
+        jerk=ddds * delta / duration**3,
+        name=name,
+    )
+
+
+def _piecewise_constant_jerk(
+    tau: FloatArray, edges: Sequence[float], acc0: Sequence[float], jerk: Sequence[float]
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Evaluate a normalised profile made of phases with constant jerk.
+
+    Args:
+        tau: (T,) normalised times in [0, 1].
+        edges: (M + 1,) phase boundaries, edges[0] = 0, edges[-1] = 1, non-decreasing.
+        acc0: (M,) acceleration at the start of each phase.
+        jerk: (M,) constant jerk in each phase.
+
+    Returns:
+        s, s', s'', s''' each (T,), starting from s(0) = s'(0) = 0.
+    """
+    e = np.asarray(edges, dtype=np.float64)
+    a = np.asarray(acc0, dtype=np.float64)
+    j = np.asarray(jerk, dtype=np.float64)
+    m = j.size
+    pos = np.zeros(m)
+    vel = np.zeros(m)
+    # A loop over the (at most seven) phases, not over samples: exact integration of each phase.
+    for k in range(m - 1):
+        h = e[k + 1] - e[k]
+        vel[k + 1] = vel[k] + a[k] * h + j[k] * h**2 / 2.0
+        pos[k + 1] = pos[k] + vel[k] * h + a[k] * h**2 / 2.0 + j[k] * h**3 / 6.0
+    k_of = np.clip(np.searchsorted(e, tau, side="right") - 1, 0, m - 1)
+    dt = tau - e[k_of]
+    jk, ak, vk, pk = j[k_of], a[k_of], vel[k_of], pos[k_of]
+    s = pk + vk * dt + ak * dt**2 / 2.0 + jk * dt**3 / 6.0
+    ds = vk + ak * dt + jk * dt**2 / 2.0
+    dds = ak + jk * dt
+    return s, ds, dds, jk
+
+
+def trapezoidal(
+    q0: ArrayLike,
+    q1: ArrayLike,
+    duration: float,
+    *,
+    n_samples: int = 100,
+    accel_fraction: float = 1.0 / 3.0,
+) -> Trajectory:
+    """Trapezoidal velocity profile: constant acceleration, cruise, constant deceleration.
+
+    The acceleration and the deceleration each last ``accel_fraction * duration``; the cruise
+    velocity is ``(q1 - q0) / (duration * (1 - accel_fraction))``. The acceleration jumps at the
+    phase corners, so the jerk there is a Dirac impulse; the sampled jerk is reported as 0 (its
+    value between the corners).
+
+    Args:
+        q0: (n,) start [rad].
+        q1: (n,) goal [rad].
+        duration: motion time [s].
+        n_samples: samples T on the time grid.
+        accel_fraction: share of the duration spent accelerating, in (0, 0.5]; 0.5 is the
+            triangular profile.
+
+    Returns:
+        The trajectory (T samples, n joints), name ``"trapezoidal"``.
+    """
+    a0, a1 = _check_endpoints(q0, q1)
+    duration = _check_duration(duration)
+    f = _check_fraction("accel_fraction", accel_fraction, 0.5)
+    t = time_grid(duration, n_samples)
+    v = 1.0 / (1.0 - f)
+    a = v / f
+    shape = _piecewise_constant_jerk(t / duration, (0.0, f, 1.0 - f, 1.0), (a, 0.0, -a), (0, 0, 0))
+    return _scale(a0, a1, duration, t, shape, "trapezoidal")
+
+
+def triangular(
+    q0: ArrayLike, q1: ArrayLike, duration: float, *, n_samples: int = 100
+) -> Trajectory:
+    """Triangular velocity profile: accelerate for half the duration, decelerate for the rest.
+
+    Peak velocity ``2 (q1 - q0) / duration`` at ``duration / 2``. Same as
+    ``trapezoidal(..., accel_fraction=0.5)`` but named ``"triangular"``.
+
+    Args:
+        q0: (n,) start [rad].
+        q1: (n,) goal [rad].
+        duration: motion time [s].
+        n_samples: samples T on the time grid.
+
+    Returns:
+        The trajectory (T samples, n joints), name ``"triangular"``.
+    """
+    traj = trapezoidal(q0, q1, duration, n_samples=n_samples, accel_fraction=0.5)
+    return Trajectory(traj.t, traj.q, traj.qd, traj.qdd, traj.jerk, name="triangular")
+
+
+def s_curve(
+    q0: ArrayLike,
+    q1: ArrayLike,
+    duration: float,
+    *,
+    n_samples: int = 100,
+    accel_fraction: float = 1.0 / 3.0,
+    jerk_fraction: float = 1.0 / 3.0,
+) -> Trajectory:
+    """Seven-phase jerk-limited S-curve: jerk up, constant acceleration, jerk down, cruise, and the
+    mirror image to stop.
+
+    With ``Ta = accel_fraction * duration`` the acceleration phase (phases 1-3) and
+    ``Tj = jerk_fraction * Ta`` each jerk phase, the cruise velocity is
+    ``v = (q1 - q0) / (duration (1 - accel_fraction))`` (as for the trapezoid), the peak
+    acceleration ``a = v / (Ta - Tj)`` and the jerk magnitude ``j = a / Tj``. Velocity and
+    acceleration are continuous; the jerk is piecewise constant and bounded by ``j``.
+
+    Args:
+        q0: (n,) start [rad].
+        q1: (n,) goal [rad].
+        duration: motion time [s].
+        n_samples: samples T on the time grid.
+        accel_fraction: Ta / duration, in (0, 0.5] (0.5: no cruise).
+        jerk_fraction: Tj / Ta, in (0, 0.5] (0.5: no constant-acceleration phase).
+
+    Returns:
+        The trajectory (T samples, n joints), name ``"s_curve"``.
+    """
+    a0, a1 = _check_endpoints(q0, q1)
+    duration = _check_duration(duration)
+    fa = _check_fraction("accel_fraction", accel_fraction, 0.5)
+    fj = _check_fraction("jerk_fraction", jerk_fraction, 0.5)
+    t = time_grid(duration, n_samples)
+    ta = fa
+    tj = fj * fa
+    v = 1.0 / (1.0 - fa)
+    a = v / (ta - tj)
+    j = a / tj
+    edges = (0.0, tj, ta - tj, ta, 1.0 - ta, 1.0 - ta + tj, 1.0 - tj, 1.0)
+    acc0 = (0.0, a, a, 0.0, 0.0, -a, -a)
+    jerk = (j, 0.0, -j, 0.0, -j, 0.0, j)
+    shape = _piecewise_constant_jerk(t / duration, edges, acc0, jerk)
+    return _scale(a0, a1, duration, t, shape, "s_curve")
+
+
+def cubic(q0: ArrayLike, q1: ArrayLike, duration: float, *, n_samples: int = 100) -> Trajectory:
+    """Cubic polynomial with zero velocity at both ends: s = 3 tau^2 - 2 tau^3.
+
+    Peak velocity ``1.5 (q1 - q0) / duration`` at ``duration / 2``; the acceleration jumps from
+    0 to its end values at start and stop.
+
+    Args:
+        q0: (n,) start [rad].
+        q1: (n,) goal [rad].
+        duration: motion time [s].
+        n_samples: samples T on the time grid.
+
+    Returns:
+        The trajectory (T samples, n joints), name ``"cubic"``.
+    """
+    a0, a1 = _check_endpoints(q0, q1)
+    duration = _check_duration(duration)
+    t = time_grid(duration, n_samples)
+    u = t / duration
+    shape = (u**2 * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u), 6.0 - 12.0 * u, np.full_like(u, -12.0))
+    return _scale(a0, a1, duration, t, shape, "cubic")
+
+
+def quintic(q0: ArrayLike, q1: ArrayLike, duration: float, *, n_samples: int = 100) -> Trajectory:
+    """Quintic polynomial with zero velocity and acceleration at both ends (the paper's standard).
+
+    Built as a single quintic Hermite segment (see :func:`piecewise_quintic`); peak velocity
+    ``1.875 (q1 - q0) / duration`` at ``duration / 2``.
+
+    Args:
+        q0: (n,) start [rad].
+        q1: (n,) goal [rad].
+        duration: motion time [s].
+        n_samples: samples T on the time grid.
+
+    Returns:
+        The trajectory (T samples, n joints), name ``"quintic"``.
+    """
+    a0, a1 = _check_endpoints(q0, q1)
+    duration = _check_duration(duration)
+    zeros = np.zeros((2, a0.size))
+    return piecewise_quintic(
+        np.array([0.0, duration]),
+        np.stack([a0, a1]),
+        zeros,
+        zeros,
+        n_samples=n_samples,
+        name="quintic",
+    )
+
+
+def minimum_jerk(
+    q0: ArrayLike, q1: ArrayLike, duration: float, *, n_samples: int = 100
+) -> Trajectory:
+    """Minimum-jerk point-to-point motion (Flash & Hogan 1985): s = 10 tau^3 - 15 tau^4 + 6 tau^5.
+
+    Minimising the integral of squared jerk gives the Euler-Lagrange equation q^(6) = 0, so the
+    optimum is a quintic; with zero velocity and acceleration at both ends that quintic is unique,
+    hence this profile equals :func:`quintic` (computed here from Flash & Hogan's closed form,
+    there from the Hermite boundary-value solution).
+
+    Args:
+        q0: (n,) start [rad].
+        q1: (n,) goal [rad].
+        duration: motion time [s].
+        n_samples: samples T on the time grid.
+
+    Returns:
+        The trajectory (T samples, n joints), name ``"minimum_jerk"``.
+    """
+    a0, a1 = _check_endpoints(q0, q1)
+    duration = _check_duration(duration)
+    t = time_grid(duration, n_samples)
+    u = t / duration
+    shape = (
+        u**3 * (10.0 - 15.0 * u + 6.0 * u**2),
+        30.0 * u**2 * (1.0 - u) ** 2,
+        60.0 * u * (1.0 - u) * (1.0 - 2.0 * u),
+        60.0 * (1.0 - 6.0 * u + 6.0 * u**2),
+    )
+    return _scale(a0, a1, duration, t, shape, "minimum_jerk")
+
+
+CLASSICAL_PROFILES: dict[str, Callable[..., Trajectory]] = {
+    "trapezoidal": trapezoidal,
+    "s_curve": s_curve,
+    "triangular": triangular,
+    "cubic": cubic,
+    "quintic": quintic,
+    "minimum_jerk": minimum_jerk,
+}
+"""The classical profiles by name, each ``f(q0, q1, duration, *, n_samples=...)``."""
+
+
+# ----------------------------------------------------------------------------------------------
+# Piecewise quintic Hermite through via points
+# ----------------------------------------------------------------------------------------------
+
+
+#: Maps a segment's Hermite data [p0, v0 h, a0 h^2, p1, v1 h, a1 h^2] to the power-basis
+#: coefficients c_0..c_5 of q(u) = sum_m c_m u^m, u = (t - t_k) / h in [0, 1].
+_HERMITE_TO_POWER = np.array(
+    [
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.5, 0.0, 0.0, 0.0],
+        [-10.0, -6.0, -1.5, 10.0, -4.0, 0.5],
+        [15.0, 8.0, 1.5, -15.0, 7.0, -1.0],
+        [-6.0, -3.0, -0.5, 6.0, -3.0, 0.5],
+    ]
+)
+
+
+def _check_knots(
+    t_knots: ArrayLike, q_knots: ArrayLike, qd_knots: ArrayLike, qdd_knots: ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Validate batched knots: t (B, K) strictly increasing, states (B, K, n), all finite."""
+    tk = np.asarray(t_knots, dtype=np.float64)
+    qk = np.asarray(q_knots, dtype=np.float64)
+    qdk = np.asarray(qd_knots, dtype=np.float64)
+    qddk = np.asarray(qdd_knots, dtype=np.float64)
+    if tk.ndim != 2 or tk.shape[1] < 2:
+        raise ValueError(f"t_knots must have shape (B, K) with K >= 2 knots, got {tk.shape}")
+    expected = (*tk.shape, qk.shape[-1] if qk.ndim == 3 else -1)
+    for label, arr in (("q_knots", qk), ("qd_knots", qdk), ("qdd_knots", qddk)):
+        if arr.ndim != 3 or arr.shape != expected or arr.shape[2] < 1:
+            raise ValueError(
+                f"{label} must have shape (B, K, n) = {expected[:2]} + (n,) matching t_knots "
+                f"and q_knots, got {arr.shape}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{label} must be finite")
+    if not np.all(np.isfinite(tk)):
+        raise ValueError("t_knots must be finite times [s]")
+    steps = np.diff(tk, axis=1)
+    if not np.all(steps > 0.0):
+        row = int(np.flatnonzero(~np.all(steps > 0.0, axis=1))[0])
+        raise ValueError(
+            f"t_knots must be strictly increasing in every row; row {row} is {tk[row].tolist()}"
+        )
+    return tk, qk, qdk, qddk
+
+
+def _evaluate_quintic_segments(
+    tk: FloatArray,
+    qk: FloatArray,
+    qdk: FloatArray,
+    qddk: FloatArray,
+    t: FloatArray,
+    *,
+    with_jerk: bool,
+) -> tuple[FloatArray, ...]:
+    """Evaluate validated batched quintic Hermite splines on the grid t (T,) -> each (B, T, n).
+
+    For every (row, sample) the time-derivatives of the power basis u^0..u^5 of its own segment
+    fill that segment's six columns of a zero-padded basis; one batched matrix product with the
+    stacked segment coefficients then gives q, qd, qdd (and jerk) together. Gathering per-sample
+    coefficients instead is several times slower: the cost here is memory traffic (allocating
+    and touching large temporaries), not arithmetic, so few large arrays are made.
+    """
+    n_batch, n_knots = tk.shape
+    n_seg = n_knots - 1
+    n_t = t.size
+    h = np.diff(tk, axis=1)  # (B, S)
+    # Segment of every (row, sample): the number of interior knots at or before t.
+    seg = np.sum(t[None, :, None] >= tk[:, None, 1:-1], axis=2)  # (B, T)
+    rows = np.arange(n_batch)[:, None]
+    inv_h = 1.0 / h[rows, seg]
+    u = (t[None, :] - tk[rows, seg]) * inv_h
+    n_der = 4 if with_jerk else 3
+    # basis[d, b, 6 s + m, k] = d^d/dt^d u^m at sample k when it lies in segment s, else 0.
+    basis = np.zeros((n_der, n_batch, 6 * n_seg, n_t))
+    for s in range(n_seg):  # (B, T)-sized work only; the big arrays are touched once
+        m = (seg == s).astype(np.float64) if n_seg > 1 else np.ones_like(u)
+        um = u * m
+        u2 = um * u
+        u3 = u2 * u
+        ih = inv_h * m
+        ih2 = ih * inv_h
+        o = 6 * s
+        basis[0, :, o] = m
+        basis[0, :, o + 1] = um
+        basis[0, :, o + 2] = u2
+        basis[0, :, o + 3] = u3
+        basis[0, :, o + 4] = u3 * u
+        basis[0, :, o + 5] = u3 * u2
+        basis[1, :, o + 1] = ih
+        basis[1, :, o + 2] = 2.0 * um * inv_h
+        basis[1, :, o + 3] = 3.0 * u2 * inv_h
+        basis[1, :, o + 4] = 4.0 * u3 * inv_h
+        basis[1, :, o + 5] = 5.0 * u3 * u * inv_h
+        basis[2, :, o + 2] = 2.0 * ih2
+        basis[2, :, o + 3] = 6.0 * um * ih2
+        basis[2, :, o + 4] = 12.0 * u2 * ih2
+        basis[2, :, o + 5] = 20.0 * u3 * ih2
+        if with_jerk:
+            ih3 = ih2 * inv_h
+            basis[3, :, o + 3] = 6.0 * ih3
+            basis[3, :, o + 4] = 24.0 * um * ih3
+            basis[3, :, o + 5] = 60.0 * u2 * ih3
+    hh = h[:, :, None]
+    hermite = np.stack(
+        [
+            qk[:, :-1],
+            qdk[:, :-1] * hh,
+            qddk[:, :-1] * hh**2,
+            qk[:, 1:],
+            qdk[:, 1:] * hh,
+            qddk[:, 1:] * hh**2,
+        ],
+        axis=2,
+    )  # (B, S, 6, n)
+    coeffs = np.matmul(_HERMITE_TO_POWER, hermite).reshape(n_batch, 6 * n_seg, -1)
+    out = np.matmul(basis.transpose(0, 1, 3, 2), coeffs)  # (n_der, B, T, n)
+    return tuple(out)
+
+
+def piecewise_quintic_batch(
+    t_knots: ArrayLike,
+    q_knots: ArrayLike,
+    qd_knots: ArrayLike,
+    qdd_knots: ArrayLike,
+    t: ArrayLike,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Evaluate B piecewise quintic Hermite splines (one per PSO particle) on a common grid.
+
+    Segment k joins knot k and k + 1 with the unique quintic matching position, velocity and
+    acceleration at both knots, so every spline is C2. Knot times may differ between rows; all
+    rows are evaluated together (no Python loop over rows, samples or segments).
+
+    Args:
+        t_knots: (B, K) knot times [s], strictly increasing in each row, K >= 2.
+        q_knots: (B, K, n) positions at the knots [rad].
+        qd_knots: (B, K, n) velocities at the knots [rad/s].
+        qdd_knots: (B, K, n) accelerations at the knots [rad/s^2].
+        t: (T,) sample times [s], inside every row's [t_knots[b, 0], t_knots[b, -1]].
+
+    Returns:
+        q, qd, qdd, each (B, T, n) [rad, rad/s, rad/s^2].
+
+    Raises:
+        ValueError: on mismatched shapes, non-finite values, knots that do not increase, or
+            samples outside a row's knot span.
+    """
+    tk, qk, qdk, qddk = _check_knots(t_knots, q_knots, qd_knots, qdd_knots)
+    tt = np.asarray(t, dtype=np.float64)
+    if tt.ndim != 1 or tt.size == 0 or not np.all(np.isfinite(tt)):
+        raise ValueError(f"t must be a non-empty 1-D array of finite times [s], got {tt.shape}")
+    # Round-off slack: a grid built as linspace(0, duration) may miss the last knot by an ulp.
+    slack = 1e-9 * (tk[:, -1] - tk[:, 0])
+    outside = (tt.min() < tk[:, 0] - slack) | (tt.max() > tk[:, -1] + slack)
+    if np.any(outside):
+        row = int(np.flatnonzero(outside)[0])
+        raise ValueError(
+            f"t spans [{tt.min():.6g}, {tt.max():.6g}] s but row {row}'s knots span only "
+            f"[{tk[row, 0]:.6g}, {tk[row, -1]:.6g}] s (expected samples inside the knot span)"
+        )
+    q, qd, qdd = _evaluate_quintic_segments(tk, qk, qdk, qddk, tt, with_jerk=False)
+    return q, qd, qdd
+
+
+def piecewise_quintic(
+    t_knots: ArrayLike,
+    q_knots: ArrayLike,
+    qd_knots: ArrayLike,
+    qdd_knots: ArrayLike,
+    *,
+    n_samples: int = 100,
+    name: str = "piecewise_quintic",
+) -> Trajectory:
+    """A C2 trajectory of quintic Hermite segments through via points.
+
+    Args:
+        t_knots: (K,) knot times [s], strictly increasing, t_knots[0] = 0; the duration is
+            t_knots[-1].
+        q_knots: (K, n) positions at the knots [rad] ((K,) for a single joint).
+        qd_knots: (K, n) velocities at the knots [rad/s].
+        qdd_knots: (K, n) accelerations at the knots [rad/s^2].
+        n_samples: samples T on ``time_grid(t_knots[-1], n_samples)``.
+        name: the trajectory's name.
+
+    Returns:
+        The trajectory (T samples, n joints), passing every knot with the given position,
+        velocity and acceleration.
+    """
+    tk = np.asarray(t_knots, dtype=np.float64)
+    if tk.ndim != 1 or tk.size < 2:
+        raise ValueError(f"t_knots must be a 1-D array of K >= 2 times [s], got shape {tk.shape}")
+    if tk[0] != 0.0:
+        raise ValueError(f"t_knots[0] must be 0 s (trajectories start at t = 0), got {tk[0]!r}")
+
+    def as_states(label: str, x: ArrayLike) -> FloatArray:
+        arr = np.asarray(x, dtype=np.float64)
+        if arr.ndim == 1:
+            arr = arr[:, None]
+        if arr.ndim != 2 or arr.shape[0] != tk.size:
+            raise ValueError(
+                f"{label} must have shape (K, n) with K = {tk.size} knots, got {arr.shape}"
+            )
+        return arr[None]
+
+    qk, qdk, qddk = (
+        as_states(lbl, x)
+        for lbl, x in (("q_knots", q_knots), ("qd_knots", qd_knots), ("qdd_knots", qdd_knots))
+    )
+    btk, qk, qdk, qddk = _check_knots(tk[None], qk, qdk, qddk)
+    t = time_grid(float(tk[-1]), n_samples)
+    q, qd, qdd, jerk = _evaluate_quintic_segments(btk, qk, qdk, qddk, t, with_jerk=True)
+    return Trajectory(t=t, q=q[0], qd=qd[0], qdd=qdd[0], jerk=jerk[0], name=name)
+
+
+# ----------------------------------------------------------------------------------------------
+# Checks
+# ----------------------------------------------------------------------------------------------
+
+
+def _per_joint(label: str, value: ArrayLike, n: int) -> FloatArray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,) or np.any(np.isnan(arr)):
+        raise ValueError(f"{label} must be a number or a ({n},) array (one per joint), got {arr}")
+    return arr
+
+
+def check_limits(
+    traj: Trajectory,
+    *,
+    q_min: ArrayLike | None = None,
+    q_max: ArrayLike | None = None,
+    qd_max: ArrayLike | None = None,
+    qdd_max: ArrayLike | None = None,
+    joint_names: Sequence[str] | None = None,
+) -> list[str]:
+    """Find the samples where a trajectory leaves its joint limits.
+
+    Each limit is a number (all joints) or an (n,) array; velocity and acceleration limits bound
+    the magnitude. For every joint and limit the worst violation is reported, e.g.
+    ``"joint 2 velocity 3.4 rad/s exceeds 3.0 rad/s at t=0.41 s"``. Joints are numbered from 1
+    (J1, J2, ... as on the robot) unless ``joint_names`` are given. Only samples are checked.
+
+    Args:
+        traj: the trajectory.
+        q_min: lower position limits [rad].
+        q_max: upper position limits [rad].
+        qd_max: velocity magnitude limits [rad/s].
+        qdd_max: acceleration magnitude limits [rad/s^2].
+        joint_names: (n,) names used in the messages.
+
+    Returns:
+        Human-readable violations; empty when the trajectory respects every limit.
+    """
+    n = traj.n_joints
+    if joint_names is not None and len(joint_names) != n:
+        raise ValueError(f"joint_names must name all {n} joints, got {len(joint_names)}")
+    names = list(joint_names) if joint_names is not None else [f"joint {j + 1}" for j in range(n)]
+    out: list[str] = []
+
+    def report(
+        values: FloatArray, limit: ArrayLike | None, label: str, unit: str, kind: str
+    ) -> None:
+        if limit is None:
+            return
+        lim = _per_joint(f"{label} limit", limit, n)
+        excess = lim[None, :] - values if kind == "min" else values - lim[None, :]
+        worst = np.argmax(excess, axis=0)
+        for j in range(n):
+            k = int(worst[j])
+            if excess[k, j] > 0.0:
+                verb = "is below" if kind == "min" else "exceeds"
+                out.append(
+                    f"{names[j]} {label} {values[k, j]:.4g} {unit} {verb} {lim[j]:.4g} {unit} "
+                    f"at t={traj.t[k]:.3g} s"
+                )
+
+    report(traj.q, q_min, "position", "rad", "min")
+    report(traj.q, q_max, "position", "rad", "max")
+    report(np.abs(traj.qd), qd_max, "velocity", "rad/s", "max")
+    report(np.abs(traj.qdd), qdd_max, "acceleration", "rad/s^2", "max")
+    return out
+
+
+def is_monotonic(traj: Trajectory, *, tol: float = MONOTONIC_TOL) -> NDArray[np.bool_]:
+    """Per joint: does q never reverse direction?
+
+    A joint is monotonic when it is non-decreasing or non-increasing over the samples, allowing
+    it to fall back by at most ``tol`` from the furthest position reached so far (so round-off
+    at a standstill does not count as a reversal, and many tiny reversals cannot add up).
+    A joint that does not move is monotonic.
+
+    Args:
+        traj: the trajectory.
+        tol: allowed setback [rad], >= 0.
+
+    Returns:
+        (n,) booleans.
+    """
+    if not tol >= 0.0:
+        raise ValueError(f"tol must be >= 0 rad, got {tol!r}")
+    q = traj.q
+    rising = np.all(q >= np.maximum.accumulate(q, axis=0) - tol, axis=0)
+    falling = np.all(q <= np.minimum.accumulate(q, axis=0) + tol, axis=0)
+    result: NDArray[np.bool_] = rising | falling
+    return result
