@@ -1,0 +1,26 @@
+"""The API router: includes one router per resource, nothing else."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+
+from app.api.routes import (
+    analyses,
+    jobs,
+    meta,
+    plans,
+    recordings,
+    robots,
+    simulations,
+    sweeps,
+)
+
+api_router = APIRouter()
+api_router.include_router(meta.router)
+api_router.include_router(recordings.router)
+api_router.include_router(analyses.router)
+api_router.include_router(plans.router)
+api_router.include_router(simulations.router)
+api_router.include_router(sweeps.router)
+api_router.include_router(jobs.router)
+api_router.include_router(robots.router)

@@ -1,0 +1,128 @@
+"""Helpers shared by the result routers (analyses, plans, simulations, sweeps)."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Annotated, Any
+
+import numpy as np
+from fastapi import Path
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session, undefer
+
+from app.api.errors import ApiError
+from app.db.arrays import decode_arrays
+from app.db.crud import json_safe
+from app.db.models import RESULT_MODELS, JobRecord
+from app.jobs.service import job_to_dict
+
+#: Ids in paths: positive and within a 32-bit integer, so no database overflows.
+IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
+
+PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
+    code: {"description": desc, "content": {"application/problem+json": {}}}
+    for code, desc in (
+        (401, "API token missing or wrong"),
+        (404, "not found"),
+        (409, "conflict"),
+        (413, "request body too large"),
+        (422, "invalid request"),
+    )
+}
+
+
+def get_result_row(session: Session, kind: str, result_id: int, *, arrays: bool = False) -> Any:
+    model: Any = RESULT_MODELS[kind]
+    stmt = select(model).where(model.id == result_id)
+    if arrays:
+        stmt = stmt.options(undefer(model.arrays))
+    row = session.scalars(stmt).first()
+    if row is None:
+        raise ApiError(404, f"{kind} {result_id} does not exist")
+    return row
+
+
+def job_of(session: Session, result_id: int) -> dict[str, Any]:
+    job = session.get(JobRecord, result_id, populate_existing=True)
+    if job is None:  # pragma: no cover - rows cascade with their job
+        raise ApiError(404, f"job {result_id} does not exist")
+    return job_to_dict(job)
+
+
+def result_out(session: Session, kind: str, result_id: int) -> dict[str, Any]:
+    row = get_result_row(session, kind, result_id)
+    return {
+        "id": row.id,
+        "robot": getattr(row, "robot", ""),
+        "job": job_of(session, row.id),
+        "result": row.result,
+    }
+
+
+def list_results(
+    session: Session,
+    kind: str,
+    *,
+    limit: int,
+    offset: int,
+    state: str | None = None,
+    robot: str | None = None,
+) -> tuple[list[dict[str, Any]], int]:
+    model: Any = RESULT_MODELS[kind]
+    stmt = select(model, JobRecord).join(JobRecord, JobRecord.id == model.id)
+    count = select(func.count(model.id)).join(JobRecord, JobRecord.id == model.id)
+    if state is not None:
+        stmt, count = stmt.where(JobRecord.state == state), count.where(JobRecord.state == state)
+    if robot is not None and hasattr(model, "robot"):
+        stmt, count = stmt.where(model.robot == robot), count.where(model.robot == robot)
+    rows = session.execute(stmt.order_by(model.id.desc()).limit(limit).offset(offset)).all()
+    items = []
+    for row, job in rows:
+        items.append(
+            {
+                "id": row.id,
+                "robot": getattr(row, "robot", ""),
+                "recording_id": getattr(row, "recording_id", None),
+                "template": getattr(row, "template", None),
+                "job": job_to_dict(job),
+                "result": row.result,
+            }
+        )
+    return items, int(session.scalar(count) or 0)
+
+
+def arrays_out(
+    session: Session, kind: str, result_id: int, *, points: int, names: list[str] | None
+) -> dict[str, Any]:
+    """Stored arrays decimated to at most ``points`` samples along the time axis."""
+    row = get_result_row(session, kind, result_id, arrays=True)
+    if row.arrays is None:
+        state = job_of(session, result_id)["state"]
+        raise ApiError(409, f"{kind} {result_id} has no arrays (job state {state})")
+    arrays = decode_arrays(row.arrays)
+    if names:
+        unknown = sorted(set(names) - set(arrays))
+        if unknown:
+            raise ApiError(
+                422, f"unknown arrays {unknown} (expected some of {sorted(arrays)})", field="name"
+            )
+        arrays = {k: arrays[k] for k in names}
+    n = max((a.shape[0] for a in arrays.values() if a.ndim >= 1), default=0)
+    # Trajectories are smooth: an even stride keeps their shape (no spikes to preserve).
+    idx = np.unique(np.linspace(0, n - 1, min(points, n)).round().astype(int)) if n else None
+    out: dict[str, list[Any]] = {}
+    for key, arr in arrays.items():
+        if idx is not None and arr.ndim >= 1 and arr.shape[0] == n:
+            arr = arr[idx]
+        out[key] = json_safe(np.atleast_1d(arr).tolist())
+    return {"id": result_id, "points": 0 if idx is None else len(idx), "arrays": out}
+
+
+def utc(value: datetime | None, field: str) -> datetime | None:
+    """A query datetime in UTC (naive values are taken as UTC)."""
+    if value is None:
+        return None
+    try:
+        return value.astimezone(UTC) if value.tzinfo else value.replace(tzinfo=UTC)
+    except (OverflowError, ValueError):
+        raise ApiError(422, f"{field} is out of range: {value!r}", field=field) from None

@@ -1,0 +1,71 @@
+"""Analyses: submit (202 + job), list, fetch the result and the human template."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, Response
+
+from app.api.deps import RunnerDep, SessionDep, WriteAccess
+from app.api.errors import ApiError
+from app.api.routes._common import (
+    PROBLEM_RESPONSES,
+    IdPath,
+    get_result_row,
+    job_of,
+    list_results,
+)
+from app.api.schemas import AnalysisOut, AnalysisRequest, Job, JobState, Page
+from app.db.models import RecordingSession
+
+router = APIRouter(prefix="/api/analyses", tags=["analyses"], responses=PROBLEM_RESPONSES)
+
+
+@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
+def submit_analysis(
+    body: AnalysisRequest, session: SessionDep, jobs: RunnerDep, response: Response
+) -> dict[str, Any]:
+    """Queue an analysis of a stored recording; poll the job or follow its events."""
+    if session.get(RecordingSession, body.recording_id) is None:
+        raise ApiError(422, f"recording {body.recording_id} does not exist", field="recording_id")
+    job = jobs.submit(
+        kind="analysis",
+        params=body.model_dump(mode="json"),
+        resource={"recording_id": body.recording_id},
+    )
+    response.headers["Location"] = job["result_url"]
+    return job
+
+
+@router.get("", response_model=Page[AnalysisOut])
+def list_analyses(
+    session: SessionDep,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    state: JobState | None = None,
+) -> dict[str, Any]:
+    items, total = list_results(session, "analysis", limit=limit, offset=offset, state=state)
+    return {"items": items, "total": total, "limit": limit, "offset": offset}
+
+
+@router.get("/{analysis_id}", response_model=AnalysisOut)
+def get_analysis(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
+    row = get_result_row(session, "analysis", analysis_id)
+    return {
+        "id": row.id,
+        "recording_id": row.recording_id,
+        "job": job_of(session, row.id),
+        "result": row.result,
+        "template": row.template,
+    }
+
+
+@router.get("/{analysis_id}/template", response_model=dict[str, Any])
+def get_template(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
+    """The HumanTemplate JSON (what ``bioplan analyze --out`` writes; ``plan --template``)."""
+    row = get_result_row(session, "analysis", analysis_id)
+    if row.template is None:
+        state = job_of(session, row.id)["state"]
+        raise ApiError(409, f"analysis {analysis_id} has no template yet (job state {state})")
+    template: dict[str, Any] = row.template
+    return template

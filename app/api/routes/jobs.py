@@ -1,0 +1,121 @@
+"""Jobs: status, progress as Server-Sent Events, cancel."""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, Request
+from fastapi.responses import StreamingResponse
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import RunnerDep, ServicesDep, SessionDep, WriteAccess
+from app.api.errors import ApiError
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
+from app.api.schemas import Job, JobKind, JobState, Page
+from app.db import crud
+from app.db.models import TERMINAL_STATES
+from app.jobs.service import job_to_dict
+
+router = APIRouter(prefix="/api/jobs", tags=["jobs"], responses=PROBLEM_RESPONSES)
+
+#: Seconds between database re-reads while waiting for updates (catches anything missed).
+RESYNC_SECONDS = 2.0
+#: Seconds between keep-alive comments on a quiet stream.
+KEEPALIVE_SECONDS = 15.0
+
+
+@router.get("", response_model=Page[Job])
+def list_jobs(
+    session: SessionDep,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    kind: JobKind | None = None,
+    state: JobState | None = None,
+) -> dict[str, Any]:
+    items, total = crud.list_jobs(
+        session=session, limit=limit, offset=offset, kind=kind, state=state
+    )
+    return {
+        "items": [job_to_dict(j) for j in items],
+        "total": total,
+        "limit": limit,
+        "offset": offset,
+    }
+
+
+@router.get("/{job_id}", response_model=Job)
+def get_job(session: SessionDep, job_id: IdPath) -> dict[str, Any]:
+    job = crud.get_job(session=session, job_id=job_id)
+    if job is None:
+        raise ApiError(404, f"job {job_id} does not exist")
+    return job_to_dict(job)
+
+
+@router.post("/{job_id}/cancel", response_model=Job, dependencies=[WriteAccess])
+def cancel_job(jobs: RunnerDep, job_id: IdPath) -> dict[str, Any]:
+    """Cancel a queued or running job (a running one is stopped); 409 when it already ended."""
+    before = jobs.get(job_id)
+    if before is None:
+        raise ApiError(404, f"job {job_id} does not exist")
+    if before["state"] in TERMINAL_STATES:
+        raise ApiError(409, f"job {job_id} already ended ({before['state']})")
+    after = jobs.cancel(job_id)
+    assert after is not None
+    return after
+
+
+def _sse(event: str, data: dict[str, Any]) -> str:
+    return f"event: {event}\ndata: {Job.model_validate(data).model_dump_json()}\n\n"
+
+
+@router.get(
+    "/{job_id}/events",
+    response_class=StreamingResponse,
+    responses={
+        200: {
+            "description": "`event: progress` with the job as JSON on every update, then one "
+            "`event: done` when it ends",
+            "content": {"text/event-stream": {}},
+        }
+    },
+)
+async def job_events(request: Request, services: ServicesDep, job_id: IdPath) -> StreamingResponse:
+    """Progress as Server-Sent Events until the job succeeds, fails or is cancelled."""
+    sub = services.broker.subscribe(job_id)  # before the snapshot, so no update is lost
+    snapshot = await run_in_threadpool(services.jobs.get, job_id)
+    if snapshot is None:
+        sub.close()
+        raise ApiError(404, f"job {job_id} does not exist")
+
+    async def stream() -> AsyncIterator[str]:
+        last = snapshot
+        quiet = 0.0
+        try:
+            yield _sse("progress", last)
+            while last["state"] not in TERMINAL_STATES:
+                update = await sub.get(RESYNC_SECONDS)
+                if update is None:
+                    if await request.is_disconnected():
+                        return
+                    update = await run_in_threadpool(services.jobs.get, job_id)
+                    if update is None:
+                        return
+                    if (update["state"], update["progress"]) == (last["state"], last["progress"]):
+                        quiet += RESYNC_SECONDS
+                        if quiet >= KEEPALIVE_SECONDS:
+                            quiet = 0.0
+                            yield ": keep-alive\n\n"
+                        continue
+                quiet = 0.0
+                last = update
+                yield _sse("progress", last)
+            yield _sse("done", last)
+        finally:
+            sub.close()
+
+    return StreamingResponse(
+        stream(),
+        media_type="text/event-stream",
+        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
+    )

@@ -1,0 +1,144 @@
+"""Plans: submit (202 + job), list, fetch results and arrays, compare two plans."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, Response
+from sqlalchemy.orm import Session
+
+from app.api.deps import RunnerDep, SessionDep, WriteAccess
+from app.api.errors import ApiError
+from app.api.routes._common import (
+    PROBLEM_RESPONSES,
+    IdPath,
+    arrays_out,
+    get_result_row,
+    job_of,
+    list_results,
+    result_out,
+)
+from app.api.schemas import ArraysOut, Job, JobState, Page, PlanComparison, PlanRequest, ResultOut
+from app.jobs.service import JobService, UnknownRobotError
+
+router = APIRouter(prefix="/api/plans", tags=["plans"], responses=PROBLEM_RESPONSES)
+
+
+def check_robot(jobs: JobService, session: Session, name: str) -> None:
+    """422 unless ``name`` is a built-in or uploaded robot."""
+    try:
+        jobs.robot_spec(session, name, files=False)
+    except UnknownRobotError as exc:
+        raise ApiError(422, str(exc), field="robot") from None
+
+
+@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
+def submit_plan(
+    body: PlanRequest, session: SessionDep, jobs: RunnerDep, response: Response
+) -> dict[str, Any]:
+    """Queue a plan (``bioplan plan``); the result is the CLI's ``--json`` output."""
+    from app.planning.human_template import HumanTemplate
+
+    check_robot(jobs, session, body.robot)
+    if body.template is not None and body.template_analysis_id is not None:
+        raise ApiError(422, "give template or template_analysis_id, not both", field="template")
+    if body.template is not None:
+        try:
+            HumanTemplate.from_dict(body.template)
+        except (ValueError, TypeError) as exc:
+            raise ApiError(422, f"not a HumanTemplate: {exc}", field="template") from None
+    if body.template_analysis_id is not None:
+        try:
+            jobs.analysis_template(session, body.template_analysis_id)
+        except LookupError as exc:
+            raise ApiError(422, str(exc.args[0]), field="template_analysis_id") from None
+    job = jobs.submit(
+        kind="plan", params=body.model_dump(mode="json"), resource={"robot": body.robot}
+    )
+    response.headers["Location"] = job["result_url"]
+    return job
+
+
+@router.get("", response_model=Page[ResultOut])
+def list_plans(
+    session: SessionDep,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    state: JobState | None = None,
+    robot: Annotated[str | None, Query(max_length=100)] = None,
+) -> dict[str, Any]:
+    items, total = list_results(
+        session, "plan", limit=limit, offset=offset, state=state, robot=robot
+    )
+    return {"items": items, "total": total, "limit": limit, "offset": offset}
+
+
+def _diff(a: Any, b: Any) -> dict[str, Any] | None:
+    def number(x: Any) -> bool:
+        return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+    def one(x: float, y: float) -> tuple[float, float | None]:
+        return y - x, (100.0 * (y - x) / abs(x) if x != 0 else None)
+
+    if number(a) and number(b):
+        d, pct = one(a, b)
+        return {"a": a, "b": b, "diff": d, "diff_pct": pct}
+    if (
+        isinstance(a, list)
+        and isinstance(b, list)
+        and len(a) == len(b)
+        and all(number(x) for x in a + b)
+    ):
+        pairs = [one(x, y) for x, y in zip(a, b, strict=True)]
+        return {"a": a, "b": b, "diff": [d for d, _ in pairs], "diff_pct": [p for _, p in pairs]}
+    return None
+
+
+def _compare_metrics(ma: dict[str, Any], mb: dict[str, Any]) -> dict[str, Any]:
+    out = {}
+    for key in ma:
+        if key in mb and (d := _diff(ma[key], mb[key])) is not None:
+            out[key] = d
+    return out
+
+
+@router.get("/compare", response_model=PlanComparison)
+def compare_plans(
+    session: SessionDep,
+    a: Annotated[int, Query(ge=1, le=2**31 - 1, description="first plan id")],
+    b: Annotated[int, Query(ge=1, le=2**31 - 1, description="second plan id")],
+) -> dict[str, Any]:
+    """Metric by metric, ``b - a`` and ``100 (b - a) / |a|`` for both trajectories."""
+    results = []
+    for pid in (a, b):
+        row = get_result_row(session, "plan", pid)
+        if row.result is None:
+            state = job_of(session, pid)["state"]
+            raise ApiError(409, f"plan {pid} has no result (job state {state})")
+        results.append(row.result)
+    ra, rb = results
+    return {
+        "a": a,
+        "b": b,
+        "conditions": {"a": ra.get("conditions", {}), "b": rb.get("conditions", {})},
+        "standard": _compare_metrics(ra.get("standard", {}), rb.get("standard", {})),
+        "optimized": _compare_metrics(ra.get("optimized", {}), rb.get("optimized", {})),
+        "improvement_pct": {"a": ra.get("improvement_pct", {}), "b": rb.get("improvement_pct", {})},
+    }
+
+
+@router.get("/{plan_id}", response_model=ResultOut)
+def get_plan(session: SessionDep, plan_id: IdPath) -> dict[str, Any]:
+    return result_out(session, "plan", plan_id)
+
+
+@router.get("/{plan_id}/arrays", response_model=ArraysOut)
+def get_plan_arrays(
+    session: SessionDep,
+    plan_id: IdPath,
+    points: Annotated[int, Query(ge=2, le=100000)] = 500,
+    name: Annotated[list[str] | None, Query(description="array names (default: all)")] = None,
+) -> dict[str, Any]:
+    """Time grid and, per trajectory, q, qd, qdd, tau [SI], power [W], energy [J]."""
+    return arrays_out(session, "plan", plan_id, points=points, names=name)

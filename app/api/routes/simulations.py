@@ -1,0 +1,62 @@
+"""Simulations: submit (202 + job), list, fetch results and arrays."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, Response
+
+from app.api.deps import RunnerDep, SessionDep, WriteAccess
+from app.api.routes._common import (
+    PROBLEM_RESPONSES,
+    IdPath,
+    arrays_out,
+    list_results,
+    result_out,
+)
+from app.api.routes.plans import check_robot
+from app.api.schemas import ArraysOut, Job, JobState, Page, ResultOut, SimulationRequest
+
+router = APIRouter(prefix="/api/simulations", tags=["simulations"], responses=PROBLEM_RESPONSES)
+
+
+@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
+def submit_simulation(
+    body: SimulationRequest, session: SessionDep, jobs: RunnerDep, response: Response
+) -> dict[str, Any]:
+    """Queue a simulation (``bioplan simulate``); the result is the CLI's ``--json`` output."""
+    check_robot(jobs, session, body.robot)
+    job = jobs.submit(
+        kind="simulation", params=body.model_dump(mode="json"), resource={"robot": body.robot}
+    )
+    response.headers["Location"] = job["result_url"]
+    return job
+
+
+@router.get("", response_model=Page[ResultOut])
+def list_simulations(
+    session: SessionDep,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    state: JobState | None = None,
+    robot: Annotated[str | None, Query(max_length=100)] = None,
+) -> dict[str, Any]:
+    items, total = list_results(
+        session, "simulation", limit=limit, offset=offset, state=state, robot=robot
+    )
+    return {"items": items, "total": total, "limit": limit, "offset": offset}
+
+
+@router.get("/{simulation_id}", response_model=ResultOut)
+def get_simulation(session: SessionDep, simulation_id: IdPath) -> dict[str, Any]:
+    return result_out(session, "simulation", simulation_id)
+
+
+@router.get("/{simulation_id}/arrays", response_model=ArraysOut)
+def get_simulation_arrays(
+    session: SessionDep,
+    simulation_id: IdPath,
+    points: Annotated[int, Query(ge=2, le=100000)] = 500,
+    name: Annotated[list[str] | None, Query(description="array names (default: all)")] = None,
+) -> dict[str, Any]:
+    return arrays_out(session, "simulation", simulation_id, points=points, names=name)

@@ -1,0 +1,325 @@
+"""Request and response bodies of the REST API.
+
+Field names follow the CLI (``robot``, ``duration``, ``payload``, ``objective``, ``seed``,
+``particles``, ``iterations``, ``peak_angle_deg``...), and results are the CLI's JSON, so a
+script can move between ``bioplan plan --json`` and ``POST /api/plans``. SI units inside;
+``*_deg`` fields are degrees.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Generic, Literal, TypeVar
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+#: Energy metrics a plan can minimise (``app.planning.energy.OBJECTIVES``).
+Objective = Literal["tau_sq", "abs_work", "pos_work", "electrical_energy", "peak_power"]
+Site = Literal["deltoid", "triceps", "biceps", "forearm"]
+JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+JobKind = Literal["analysis", "plan", "simulation", "sweep"]
+
+ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
+T = TypeVar("T")
+
+_strict = ConfigDict(extra="forbid")
+
+
+class Problem(BaseModel):
+    """An error (RFC 9457 ``application/problem+json``)."""
+
+    type: str = "about:blank"
+    title: str
+    status: int
+    detail: str | None = None
+    field: str | None = Field(default=None, description="the request field at fault")
+    file: str | None = Field(default=None, description="the uploaded file at fault")
+    errors: list[dict[str, Any]] | None = None
+
+
+class Page(BaseModel, Generic[T]):
+    """One page of a list, newest first."""
+
+    items: list[T]
+    total: int = Field(description="items matching the filters, on all pages")
+    limit: int
+    offset: int
+
+
+# ---------------------------------------------------------------------------------- service
+
+
+class Health(BaseModel):
+    status: Literal["ok", "degraded"]
+    database: str
+    executor: str
+    workers: int | None
+    running: int | None
+    queued: int | None
+    entry_points: dict[str, bool]
+    uptime_seconds: float
+
+
+class Version(BaseModel):
+    name: str = "bioplan"
+    version: str
+    api: str = "1"
+    database_revision: str | None
+    python: str
+
+
+class ViewerInfo(BaseModel):
+    """Where the 3-D viewer listens (filled in when the dashboard starts one)."""
+
+    enabled: bool
+    url: str | None = None
+    host: str | None = None
+    port: int | None = None
+
+
+# -------------------------------------------------------------------------------------- jobs
+
+
+class Job(BaseModel):
+    """A background job (analysis, plan, simulation or sweep)."""
+
+    id: int
+    kind: JobKind
+    state: JobState
+    progress: float = Field(ge=0, le=1, description="fraction done")
+    message: str
+    error: str | None = Field(description="why it failed (state 'failed')")
+    attempts: int = Field(description="how many times it was started")
+    params: dict[str, Any] = Field(description="the request, with the CLI's field names")
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+    queue_seconds: float | None = Field(description="time from submission to (last) start [s]")
+    run_seconds: float | None = Field(description="running time so far or in all [s]")
+    result_url: str
+    events_url: str
+
+
+# -------------------------------------------------------------------------------- recordings
+
+
+class ChannelInfo(BaseModel):
+    id: int
+    name: str
+    kind: str
+    unit: str
+    rate: float = Field(description="sampling rate [Hz]")
+    start: float = Field(description="time of the first sample [s]")
+    site: str | None
+    n_samples: int
+    dims: int = Field(description="1 for scalar signals, 3 for landmarks and markers")
+    duration: float = Field(description="[s]")
+
+
+class FileInfo(BaseModel):
+    id: int
+    original_name: str
+    format: str
+    size: int = Field(description="[bytes]")
+    sha256: str
+    metadata: dict[str, Any]
+    channels: list[ChannelInfo]
+
+
+class RecordingSummary(BaseModel):
+    id: int
+    subject: str | None
+    task: str | None
+    load_kg: float | None
+    notes: str | None
+    created_at: datetime
+    n_files: int
+    formats: list[str]
+    file_names: list[str]
+
+
+class RecordingDetail(RecordingSummary):
+    options: dict[str, Any] = Field(description="reader overrides used at upload")
+    files: list[FileInfo]
+
+
+class SignalSeries(BaseModel):
+    label: str
+    t: list[float] = Field(description="sample times [s]")
+    y: list[float | None] = Field(description="values (null where the sample is missing)")
+
+
+class Signal(BaseModel):
+    channel_id: int
+    name: str
+    file: str
+    kind: str
+    unit: str
+    n_samples: int = Field(description="samples in the stored channel")
+    n_points: int = Field(description="points returned per series")
+    series: list[SignalSeries]
+
+
+class Signals(BaseModel):
+    recording_id: int
+    points: int
+    channels: list[Signal]
+
+
+# -------------------------------------------------------------------------------- analyses
+
+
+class AnalysisRequest(BaseModel):
+    """Analyse the files of one recording (``bioplan analyze``)."""
+
+    model_config = _strict
+
+    recording_id: int = Field(ge=1)
+    emg_rate: float | None = Field(default=None, gt=0, le=1e6, description="override [Hz]")
+    muscle_map: dict[str, Site] | None = Field(
+        default=None, description="channel label -> EMG site; overrides the upload's"
+    )
+    phase_bounds_deg: tuple[float, float] = Field(
+        default=(40.0, 90.0), description="A/B and B/C elbow-flexion bounds [deg]"
+    )
+    body_mass: float = Field(default=75.0, gt=0, le=500, description="[kg]")
+    body_height: float = Field(default=1.75, gt=0.5, le=2.5, description="[m]")
+    load_mass: float | None = Field(
+        default=None, ge=0, le=500, description="[kg]; default: the recording's load_kg"
+    )
+
+    @field_validator("phase_bounds_deg")
+    @classmethod
+    def _ordered(cls, v: tuple[float, float]) -> tuple[float, float]:
+        if not 0 < v[0] < v[1] < 180:
+            raise ValueError("phase bounds must satisfy 0 < A/B < B/C < 180 deg")
+        return v
+
+
+class AnalysisOut(BaseModel):
+    id: int
+    recording_id: int | None
+    job: Job
+    result: dict[str, Any] | None = Field(description="the JSON of `bioplan analyze --json`")
+    template: dict[str, Any] | None = Field(description="the HumanTemplate (planner input)")
+
+
+# ----------------------------------------------------------------------------------- plans
+
+
+class _RobotTask(BaseModel):
+    model_config = _strict
+
+    robot: str = Field(
+        default="curtain_wall_6dof",
+        pattern=ROBOT_NAME,
+        description="built-in or uploaded robot name",
+    )
+    duration: float = Field(default=1.0, gt=0, le=600, description="motion time [s]")
+    payload: float | None = Field(
+        default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
+    )
+    objective: Objective = "abs_work"
+    seed: int = Field(default=0, ge=0, le=2**32 - 1)
+
+
+class PlanRequest(_RobotTask):
+    """Plan the standard and the bio-inspired trajectory (``bioplan plan``)."""
+
+    particles: int = Field(default=40, ge=2, le=1000)
+    iterations: int = Field(default=100, ge=1, le=10000)
+    n_samples: int = Field(default=100, ge=10, le=100000, description="optimiser grid points")
+    peak_angle_deg: float | None = Field(
+        default=None, gt=0, lt=180, description="elbow velocity-peak angle (default: template's)"
+    )
+    template: dict[str, Any] | None = Field(
+        default=None, description="a HumanTemplate (as written by `bioplan analyze --out`)"
+    )
+    template_analysis_id: int | None = Field(
+        default=None, ge=1, description="use the template of this finished analysis"
+    )
+
+
+class SimulationRequest(_RobotTask):
+    """Plan, then simulate both trajectories in MuJoCo (``bioplan simulate``)."""
+
+
+class SweepRequest(BaseModel):
+    """Savings over a grid (``bioplan sweep``)."""
+
+    model_config = _strict
+
+    robot: str = Field(default="curtain_wall_6dof", pattern=ROBOT_NAME)
+    durations: list[float] = Field(
+        default=[0.5, 0.75, 1.0, 1.5, 2.0], min_length=1, max_length=50, description="[s]"
+    )
+    payloads: list[float] = Field(
+        default=[0.0, 4.0, 8.0, 12.0, 20.0], min_length=1, max_length=50, description="[kg]"
+    )
+    objectives: list[Objective] = Field(default=["abs_work"], min_length=1, max_length=5)
+    seed: int = Field(default=0, ge=0, le=2**32 - 1)
+    workers: int = Field(default=1, ge=1, le=64, description="processes inside the job")
+
+    @field_validator("durations")
+    @classmethod
+    def _positive(cls, v: list[float]) -> list[float]:
+        if any(not 0 < d <= 600 for d in v):
+            raise ValueError("durations must lie in (0, 600] s")
+        return v
+
+    @field_validator("payloads")
+    @classmethod
+    def _non_negative(cls, v: list[float]) -> list[float]:
+        if any(not 0 <= p <= 10000 for p in v):
+            raise ValueError("payloads must lie in [0, 10000] kg")
+        return v
+
+
+class ResultOut(BaseModel):
+    """A plan, simulation or sweep: the job and, once it succeeded, the CLI's JSON."""
+
+    id: int
+    robot: str
+    job: Job
+    result: dict[str, Any] | None
+
+
+class ArraysOut(BaseModel):
+    """Arrays for plotting (SI units), downsampled to at most ``points`` samples."""
+
+    id: int
+    points: int
+    arrays: dict[str, list[Any]]
+
+
+class MetricDiff(BaseModel):
+    a: Any
+    b: Any
+    diff: Any = Field(description="b - a")
+    diff_pct: Any = Field(description="100 (b - a) / |a|")
+
+
+class PlanComparison(BaseModel):
+    a: int
+    b: int
+    conditions: dict[str, dict[str, Any]]
+    standard: dict[str, MetricDiff]
+    optimized: dict[str, MetricDiff]
+    improvement_pct: dict[str, dict[str, Any]]
+
+
+# ----------------------------------------------------------------------------------- robots
+
+
+class RobotInfo(BaseModel):
+    name: str
+    builtin: bool
+    joint_names: list[str]
+    q_min: list[float | None] = Field(description="[rad]; null = unbounded")
+    q_max: list[float | None] = Field(description="[rad]; null = unbounded")
+    qd_max: list[float | None] = Field(description="[rad/s]; null = unbounded")
+    tau_max: list[float | None] = Field(description="[Nm]; null = unbounded")
+    payload: float | None = Field(description="default payload [kg]")
+    has_mjcf: bool
+    urdf_name: str | None = None
+    mjcf_name: str | None = None

@@ -1,0 +1,140 @@
+"""Service settings: one ``Settings`` object read from ``BIOPLAN_*`` environment variables.
+
+The science packages never read these; only the service layer (``app.main``, ``app.api``,
+``app.db``, ``app.jobs``) and the ``serve``/``submit`` commands do.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import re
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, SecretStr, field_validator, model_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+_DASK_ADDRESS = re.compile(r"^(dask|tcp|tls)://[^\s/:]+:\d{1,5}$")
+
+
+def is_loopback(host: str) -> bool:
+    """True for ``localhost`` and loopback IP literals (127.0.0.0/8, ::1)."""
+    if host.strip().lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+class Settings(BaseSettings):
+    """Service configuration (environment variables ``BIOPLAN_<NAME>``).
+
+    Attributes:
+        data_dir: folder for the SQLite database and the content-addressed file store.
+        database_url: SQLAlchemy URL; defaults to SQLite ``<data_dir>/bioplan.db``. PostgreSQL
+            works with the same code: ``postgresql+psycopg://user:pass@host:5432/db``.
+        executor: ``"local"`` (a process per job, on this machine) or a Dask scheduler address
+            ``dask://HOST:PORT`` (``tcp://`` is accepted too).
+        max_workers: jobs that run at the same time on the local executor.
+        job_max_attempts: how many times a job may be started in all; a job found running after
+            a crash or restart is run again while it has attempts left, else marked failed.
+        api_token: when set, every write (POST, PUT, DELETE) needs
+            ``Authorization: Bearer <token>``.
+        host, port: where ``bioplan serve`` binds; a non-loopback host needs ``api_token``.
+        max_upload_mb: largest request body accepted [MB], enforced while it streams in.
+        cors_origins: origins allowed by CORS (none by default: CORS closed).
+        viewer_host, viewer_port: the 3-D viewer's address (filled in by the dashboard).
+    """
+
+    model_config = SettingsConfigDict(env_prefix="BIOPLAN_", extra="ignore")
+
+    data_dir: Path = Path("data")
+    database_url: str | None = None
+    executor: str = "local"
+    max_workers: int = Field(default=2, ge=1, le=256)
+    job_max_attempts: int = Field(default=2, ge=1, le=10)
+    api_token: SecretStr | None = None
+    host: str = "127.0.0.1"
+    port: int = Field(default=8000, ge=1, le=65535)
+    max_upload_mb: float = Field(default=200.0, gt=0)
+    cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    viewer_host: str = "127.0.0.1"
+    viewer_port: int | None = Field(default=None, ge=1, le=65535)
+    log_level: Literal["debug", "info", "warning", "error"] = "info"
+
+    @field_validator("cors_origins", mode="before")
+    @classmethod
+    def _split_origins(cls, value: Any) -> Any:
+        # Environment variables carry a comma-separated list; JSON lists are accepted too.
+        if isinstance(value, str):
+            text = value.strip()
+            if text.startswith("["):
+                import json
+
+                return json.loads(text)
+            return [v.strip() for v in text.split(",") if v.strip()]
+        return value
+
+    @field_validator("api_token", mode="before")
+    @classmethod
+    def _empty_token_is_none(cls, value: Any) -> Any:
+        if isinstance(value, str) and not value.strip():
+            return None
+        return value
+
+    @field_validator("executor")
+    @classmethod
+    def _check_executor(cls, value: str) -> str:
+        value = value.strip()
+        if value == "local" or _DASK_ADDRESS.match(value):
+            return value
+        raise ValueError(f"executor must be 'local' or 'dask://HOST:PORT', got {value!r}")
+
+    @field_validator("database_url")
+    @classmethod
+    def _check_url(cls, value: str | None) -> str | None:
+        if value is None or not value.strip():
+            return None
+        if "://" not in value:
+            raise ValueError(
+                "database_url must be an SQLAlchemy URL such as 'sqlite:///path/bioplan.db' or "
+                f"'postgresql+psycopg://user@host/db', got {value!r}"
+            )
+        return value.strip()
+
+    @model_validator(mode="after")
+    def _refuse_open_bind(self) -> Settings:
+        if not is_loopback(self.host) and self.api_token is None:
+            raise ValueError(
+                f"refusing to bind to non-loopback host {self.host!r} without an API token: "
+                "set BIOPLAN_API_TOKEN (or bind to 127.0.0.1)"
+            )
+        return self
+
+    @property
+    def db_url(self) -> str:
+        """The database URL in use (explicit, or SQLite in ``data_dir``)."""
+        if self.database_url:
+            return self.database_url
+        return f"sqlite:///{(self.data_dir / 'bioplan.db').resolve()}"
+
+    @property
+    def blob_dir(self) -> Path:
+        """Folder of uploaded files, stored by SHA-256 (never by the user's file name)."""
+        return self.data_dir / "blobs"
+
+    @property
+    def max_upload_bytes(self) -> int:
+        return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def dask_address(self) -> str | None:
+        """``tcp://HOST:PORT`` of the Dask scheduler, or None for the local executor."""
+        if self.executor == "local":
+            return None
+        return re.sub(r"^dask://", "tcp://", self.executor)
+
+    @property
+    def token(self) -> str | None:
+        return None if self.api_token is None else self.api_token.get_secret_value()

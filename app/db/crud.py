@@ -1,0 +1,454 @@
+"""Database functions (keyword-only arguments): recordings, robots, jobs and job results.
+
+Every function takes an open ``Session``; the ones that change data commit it themselves, so a
+caller never sees half of an operation: an upload is one transaction (session, files, channels),
+and a deletion removes the rows first and only then the blobs nobody refers to any more.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+from sqlalchemy import Select, func, or_, select, update
+from sqlalchemy.orm import Session, selectinload, undefer
+
+from app.db.arrays import encode_array, encode_arrays
+from app.db.blobs import BlobStore
+from app.db.models import (
+    RESULT_MODELS,
+    TERMINAL_STATES,
+    ChannelRecord,
+    JobRecord,
+    RecordingFile,
+    RecordingSession,
+    RobotRecord,
+    utcnow,
+)
+
+
+def json_safe(value: Any) -> Any:
+    """``value`` with NumPy scalars/arrays turned into Python ones and NaN/inf into None."""
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_safe(value.tolist())
+    if isinstance(value, np.generic):
+        return json_safe(value.item())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, str | int | bool):
+        return value
+    return str(value)
+
+
+# --------------------------------------------------------------------------------- recordings
+
+
+@dataclass
+class ParsedFile:
+    """One uploaded file after parsing (plain data from ``app.jobs.tasks.parse_recording``).
+
+    Attributes:
+        name: the user's file name (kept as metadata only; storage is by SHA-256).
+        data: the raw bytes.
+        format: detected format.
+        metadata: what the file states about itself (JSON-ready).
+        channels: one dict per channel: ``name, kind, unit, rate, start, site, data``
+            ((N,) or (N, 3) float64), ``confidence`` and ``time`` ((N,) or None).
+    """
+
+    name: str
+    data: bytes
+    format: str
+    metadata: dict[str, Any] = field(default_factory=dict)
+    channels: list[dict[str, Any]] = field(default_factory=list)
+
+
+def _channel_row(ch: dict[str, Any]) -> ChannelRecord:
+    data = np.asarray(ch["data"], dtype=np.float64)
+    conf = ch.get("confidence")
+    time = ch.get("time")
+    return ChannelRecord(
+        name=str(ch["name"])[:200],
+        kind=str(ch["kind"]),
+        unit=str(ch.get("unit", "")),
+        rate=float(ch["rate"]),
+        start=float(ch.get("start", 0.0)),
+        site=ch.get("site"),
+        n_samples=int(data.shape[0]),
+        dims=1 if data.ndim == 1 else int(data.shape[1]),
+        data=encode_array(data),
+        confidence=None if conf is None else encode_array(np.asarray(conf, np.float64)),
+        time=None if time is None else encode_array(np.asarray(time, np.float64)),
+    )
+
+
+def create_recording(
+    *,
+    session: Session,
+    blobs: BlobStore,
+    meta: dict[str, Any],
+    files: Sequence[ParsedFile],
+) -> RecordingSession:
+    """Store a recording session with its files and channels in one transaction.
+
+    The raw bytes go to the blob store first (atomic renames); the rows are committed after, so
+    a crash leaves either the whole recording or none of it (plus, at worst, an unreferenced blob
+    that :func:`collect_garbage` removes).
+
+    Args:
+        session: open database session.
+        blobs: the file store.
+        meta: ``subject, task, load_kg, notes, options`` of the session.
+        files: parsed files, at least one.
+    """
+    if not files:
+        raise ValueError("a recording needs at least one file")
+    # Encode outside the lock: it is the slow part and touches nothing shared.
+    rows = [[_channel_row(ch) for ch in f.channels] for f in files]
+    rec = RecordingSession(
+        subject=meta.get("subject"),
+        task=meta.get("task"),
+        load_kg=meta.get("load_kg"),
+        notes=meta.get("notes"),
+        options=json_safe(meta.get("options") or {}),
+        created_at=utcnow(),
+    )
+    with blobs.lock:
+        for f, channel_rows in zip(files, rows, strict=True):
+            sha = blobs.put(f.data)
+            rec.files.append(
+                RecordingFile(
+                    original_name=f.name[:255],
+                    format=f.format,
+                    size=len(f.data),
+                    sha256=sha,
+                    file_metadata=json_safe(f.metadata),
+                    channels=channel_rows,
+                )
+            )
+        session.add(rec)
+        try:
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+    return rec
+
+
+def _recording_filters(
+    stmt: Select[Any],
+    *,
+    subject: str | None,
+    task: str | None,
+    format: str | None,
+    q: str | None,
+    created_after: datetime | None,
+    created_before: datetime | None,
+) -> Select[Any]:
+    if subject is not None:
+        stmt = stmt.where(RecordingSession.subject == subject)
+    if task is not None:
+        stmt = stmt.where(RecordingSession.task == task)
+    if format is not None:
+        stmt = stmt.where(RecordingSession.files.any(RecordingFile.format == format))
+    if q:
+        like = f"%{q}%"
+        stmt = stmt.where(
+            or_(
+                RecordingSession.subject.ilike(like),
+                RecordingSession.task.ilike(like),
+                RecordingSession.notes.ilike(like),
+                RecordingSession.files.any(RecordingFile.original_name.ilike(like)),
+            )
+        )
+    if created_after is not None:
+        stmt = stmt.where(RecordingSession.created_at >= created_after)
+    if created_before is not None:
+        stmt = stmt.where(RecordingSession.created_at < created_before)
+    return stmt
+
+
+def list_recordings(
+    *,
+    session: Session,
+    limit: int = 50,
+    offset: int = 0,
+    subject: str | None = None,
+    task: str | None = None,
+    format: str | None = None,
+    q: str | None = None,
+    created_after: datetime | None = None,
+    created_before: datetime | None = None,
+) -> tuple[list[RecordingSession], int]:
+    """A page of recording sessions, newest first, and the total matching the filters."""
+
+    def filtered(stmt: Select[Any]) -> Select[Any]:
+        return _recording_filters(
+            stmt,
+            subject=subject,
+            task=task,
+            format=format,
+            q=q,
+            created_after=created_after,
+            created_before=created_before,
+        )
+
+    total = session.scalar(filtered(select(func.count(RecordingSession.id))))
+    stmt = filtered(select(RecordingSession))
+    stmt = (
+        stmt.options(selectinload(RecordingSession.files))
+        .order_by(RecordingSession.created_at.desc(), RecordingSession.id.desc())
+        .limit(limit)
+        .offset(offset)
+    )
+    return list(session.scalars(stmt)), int(total or 0)
+
+
+def get_recording(*, session: Session, recording_id: int) -> RecordingSession | None:
+    """A recording session with its files and channel metadata (samples not loaded)."""
+    stmt = (
+        select(RecordingSession)
+        .where(RecordingSession.id == recording_id)
+        .options(selectinload(RecordingSession.files).selectinload(RecordingFile.channels))
+    )
+    return session.scalars(stmt).first()
+
+
+def get_channels(
+    *, session: Session, recording_id: int, channel_ids: Iterable[int] | None = None
+) -> list[ChannelRecord]:
+    """Channels of a recording with their samples loaded, in file and channel order."""
+    stmt = (
+        select(ChannelRecord)
+        .join(RecordingFile)
+        .where(RecordingFile.session_id == recording_id)
+        .options(
+            undefer(ChannelRecord.data),
+            undefer(ChannelRecord.time),
+            selectinload(ChannelRecord.file),
+        )
+        .order_by(RecordingFile.id, ChannelRecord.id)
+    )
+    if channel_ids is not None:
+        stmt = stmt.where(ChannelRecord.id.in_(list(channel_ids)))
+    return list(session.scalars(stmt))
+
+
+def referenced_hashes(*, session: Session) -> set[str]:
+    """SHA-256 of every blob some row refers to."""
+    refs = set(session.scalars(select(RecordingFile.sha256)))
+    refs |= set(session.scalars(select(RobotRecord.urdf_sha256)))
+    refs |= {h for h in session.scalars(select(RobotRecord.mjcf_sha256)) if h}
+    return refs
+
+
+def collect_garbage(*, session: Session, blobs: BlobStore) -> int:
+    """Delete blobs no row refers to (left by a crash or a deletion); returns how many."""
+    with blobs.lock:
+        blobs.remove_temporaries()
+        refs = referenced_hashes(session=session)
+        n = 0
+        for sha in list(blobs.hashes()):
+            if sha not in refs:
+                blobs.delete(sha)
+                n += 1
+        return n
+
+
+def delete_recording(*, session: Session, blobs: BlobStore, recording_id: int) -> bool:
+    """Delete a recording session (files and channels cascade) and its unreferenced blobs."""
+    with blobs.lock:
+        rec = session.get(RecordingSession, recording_id)
+        if rec is None:
+            return False
+        hashes = {f.sha256 for f in rec.files}
+        session.delete(rec)
+        session.commit()
+        still = set(
+            session.scalars(select(RecordingFile.sha256).where(RecordingFile.sha256.in_(hashes)))
+        )
+        robots = referenced_hashes(session=session) if hashes - still else set()
+        for sha in hashes - still - robots:
+            blobs.delete(sha)
+    return True
+
+
+# ------------------------------------------------------------------------------------- robots
+
+
+def create_robot(
+    *,
+    session: Session,
+    blobs: BlobStore,
+    name: str,
+    urdf: tuple[str, bytes],
+    mjcf: tuple[str, bytes] | None,
+    payload: float | None,
+    description: dict[str, Any],
+) -> RobotRecord:
+    """Store an uploaded robot (files by hash, row in one transaction)."""
+    with blobs.lock:
+        row = RobotRecord(
+            name=name,
+            urdf_name=urdf[0][:255],
+            urdf_sha256=blobs.put(urdf[1]),
+            mjcf_name=None if mjcf is None else mjcf[0][:255],
+            mjcf_sha256=None if mjcf is None else blobs.put(mjcf[1]),
+            payload=payload,
+            description=json_safe(description),
+            created_at=utcnow(),
+        )
+        session.add(row)
+        try:
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+    return row
+
+
+def get_robot(*, session: Session, name: str) -> RobotRecord | None:
+    return session.scalars(select(RobotRecord).where(RobotRecord.name == name)).first()
+
+
+def list_robots(*, session: Session) -> list[RobotRecord]:
+    return list(session.scalars(select(RobotRecord).order_by(RobotRecord.name)))
+
+
+def delete_robot(*, session: Session, blobs: BlobStore, name: str) -> bool:
+    with blobs.lock:
+        row = get_robot(session=session, name=name)
+        if row is None:
+            return False
+        hashes = {row.urdf_sha256, *([row.mjcf_sha256] if row.mjcf_sha256 else [])}
+        session.delete(row)
+        session.commit()
+        refs = referenced_hashes(session=session)
+        for sha in hashes - refs:
+            blobs.delete(sha)
+    return True
+
+
+# --------------------------------------------------------------------------------------- jobs
+
+
+def create_job(
+    *, session: Session, kind: str, params: dict[str, Any], resource: dict[str, Any]
+) -> JobRecord:
+    """Create a queued job and its (empty) result row in one transaction.
+
+    Args:
+        kind: ``analysis``, ``plan``, ``simulation`` or ``sweep``.
+        params: the request (CLI field names), JSON-ready.
+        resource: columns of the result row (e.g. ``{"robot": "human_arm_2dof"}``).
+    """
+    model = RESULT_MODELS[kind]
+    now = utcnow()
+    job = JobRecord(
+        kind=kind,
+        state="queued",
+        progress=0.0,
+        message="queued",
+        params=json_safe(params),
+        attempts=0,
+        created_at=now,
+        updated_at=now,
+    )
+    session.add(job)
+    session.flush()
+    session.add(model(id=job.id, **resource))
+    session.commit()
+    return job
+
+
+def get_job(*, session: Session, job_id: int) -> JobRecord | None:
+    return session.get(JobRecord, job_id, populate_existing=True)
+
+
+def list_jobs(
+    *,
+    session: Session,
+    limit: int = 50,
+    offset: int = 0,
+    kind: str | None = None,
+    state: str | None = None,
+) -> tuple[list[JobRecord], int]:
+    """A page of jobs, newest first, and the total matching the filters."""
+    stmt = select(JobRecord)
+    count = select(func.count(JobRecord.id))
+    if kind is not None:
+        stmt, count = stmt.where(JobRecord.kind == kind), count.where(JobRecord.kind == kind)
+    if state is not None:
+        stmt, count = stmt.where(JobRecord.state == state), count.where(JobRecord.state == state)
+    stmt = stmt.order_by(JobRecord.id.desc()).limit(limit).offset(offset)
+    return list(session.scalars(stmt)), int(session.scalar(count) or 0)
+
+
+def update_job(
+    *, session: Session, job_id: int, only_if_active: bool = True, **values: Any
+) -> bool:
+    """Set columns of a job; with ``only_if_active`` a finished job is left as it is.
+
+    Returns:
+        True when a row changed.
+    """
+    stmt = update(JobRecord).where(JobRecord.id == job_id)
+    if only_if_active:
+        stmt = stmt.where(JobRecord.state.not_in(TERMINAL_STATES))
+    values.setdefault("updated_at", utcnow())
+    result = session.execute(stmt.values(**values))
+    session.commit()
+    return bool(getattr(result, "rowcount", 0))
+
+
+def store_result(
+    *,
+    session: Session,
+    job_id: int,
+    kind: str,
+    result: dict[str, Any],
+    arrays: dict[str, Any] | None = None,
+    template: dict[str, Any] | None = None,
+    message: str = "done",
+) -> bool:
+    """Store a job's result and mark it succeeded, in one transaction.
+
+    A job that was cancelled (or failed) meanwhile keeps its state and gets no result.
+    """
+    now = utcnow()
+    job = session.get(JobRecord, job_id, with_for_update=True, populate_existing=True)
+    if job is None or job.state in TERMINAL_STATES:
+        session.rollback()
+        return False
+    row: Any = session.get(RESULT_MODELS[kind], job_id)
+    if row is None:
+        session.rollback()
+        return False
+    row.result = json_safe(result)
+    if arrays is not None and hasattr(row, "arrays"):
+        row.arrays = encode_arrays(arrays)
+    if template is not None and hasattr(row, "template"):
+        row.template = json_safe(template)
+    job.state = "succeeded"
+    job.progress = 1.0
+    job.message = message
+    job.finished_at = now
+    job.updated_at = now
+    session.commit()
+    return True
+
+
+def active_jobs(*, session: Session) -> list[JobRecord]:
+    """Jobs queued or running, oldest first."""
+    stmt = (
+        select(JobRecord).where(JobRecord.state.in_(("queued", "running"))).order_by(JobRecord.id)
+    )
+    return list(session.scalars(stmt))

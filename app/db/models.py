@@ -1,0 +1,218 @@
+"""SQLAlchemy 2 models of the service's database.
+
+Entities: recording sessions, their uploaded files (raw bytes in the blob store, by SHA-256) and
+parsed channels (arrays as compressed ``.npy`` bytes), jobs, and one result table per job kind
+(analyses with their human template, plans, simulations, sweeps) whose primary key is the job's
+id, so ``/api/plans/7`` is the result of job 7. Uploaded robots (URDF + optional MJCF) have their
+own table; built-in robots come from the planning package and are not stored.
+
+The schema is owned by the Alembic migrations in ``migrations/``; keep them in step.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Any, ClassVar
+
+from sqlalchemy import (
+    JSON,
+    BigInteger,
+    DateTime,
+    Float,
+    ForeignKey,
+    Integer,
+    LargeBinary,
+    MetaData,
+    String,
+    Text,
+)
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+
+# Named constraints so migrations (and SQLite batch mode) can refer to them.
+NAMING_CONVENTION = {
+    "ix": "ix_%(column_0_label)s",
+    "uq": "uq_%(table_name)s_%(column_0_name)s",
+    "ck": "ck_%(table_name)s_%(constraint_name)s",
+    "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
+    "pk": "pk_%(table_name)s",
+}
+
+JOB_STATES = ("queued", "running", "succeeded", "failed", "cancelled")
+TERMINAL_STATES = frozenset({"succeeded", "failed", "cancelled"})
+JOB_KINDS = ("analysis", "plan", "simulation", "sweep")
+
+
+def utcnow() -> datetime:
+    return datetime.now(UTC)
+
+
+class Base(DeclarativeBase):
+    metadata = MetaData(naming_convention=NAMING_CONVENTION)
+    type_annotation_map: ClassVar[dict[Any, Any]] = {
+        dict[str, Any]: JSON,
+        datetime: DateTime(timezone=True),
+    }
+
+
+class RecordingSession(Base):
+    """One recording session: metadata and the files uploaded together."""
+
+    __tablename__ = "recording_sessions"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    subject: Mapped[str | None] = mapped_column(String(200), index=True)
+    task: Mapped[str | None] = mapped_column(String(200), index=True)
+    load_kg: Mapped[float | None] = mapped_column(Float)
+    notes: Mapped[str | None] = mapped_column(Text)
+    #: reader options used at upload (rate overrides, muscle map, image size, frame rate), so an
+    #: analysis rereads the raw bytes the same way.
+    options: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
+
+    files: Mapped[list[RecordingFile]] = relationship(
+        back_populates="session",
+        cascade="all, delete-orphan",
+        passive_deletes=True,
+        order_by="RecordingFile.id",
+    )
+
+
+class RecordingFile(Base):
+    """One uploaded file: its bytes live in the blob store under ``sha256``."""
+
+    __tablename__ = "recording_files"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    session_id: Mapped[int] = mapped_column(
+        ForeignKey("recording_sessions.id", ondelete="CASCADE"), index=True
+    )
+    original_name: Mapped[str] = mapped_column(String(255))
+    format: Mapped[str] = mapped_column(String(64), index=True)
+    size: Mapped[int] = mapped_column(BigInteger)
+    sha256: Mapped[str] = mapped_column(String(64), index=True)
+    file_metadata: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+
+    session: Mapped[RecordingSession] = relationship(back_populates="files")
+    channels: Mapped[list[ChannelRecord]] = relationship(
+        back_populates="file",
+        cascade="all, delete-orphan",
+        passive_deletes=True,
+        order_by="ChannelRecord.id",
+    )
+
+
+class ChannelRecord(Base):
+    """One parsed channel; samples as compressed ``.npy`` bytes (``app.db.arrays``)."""
+
+    __tablename__ = "channels"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    file_id: Mapped[int] = mapped_column(
+        ForeignKey("recording_files.id", ondelete="CASCADE"), index=True
+    )
+    name: Mapped[str] = mapped_column(String(200))
+    kind: Mapped[str] = mapped_column(String(16))
+    unit: Mapped[str] = mapped_column(String(32))
+    rate: Mapped[float] = mapped_column(Float)
+    start: Mapped[float] = mapped_column(Float, default=0.0)
+    site: Mapped[str | None] = mapped_column(String(16))
+    n_samples: Mapped[int] = mapped_column(Integer)
+    dims: Mapped[int] = mapped_column(Integer, default=1)
+    # Deferred: listing a recording never loads its samples.
+    data: Mapped[bytes] = mapped_column(LargeBinary, deferred=True)
+    confidence: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
+    time: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
+
+    file: Mapped[RecordingFile] = relationship(back_populates="channels")
+
+
+class RobotRecord(Base):
+    """An uploaded robot model (URDF, optional MJCF), files in the blob store."""
+
+    __tablename__ = "robots"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    urdf_sha256: Mapped[str] = mapped_column(String(64))
+    urdf_name: Mapped[str] = mapped_column(String(255))
+    mjcf_sha256: Mapped[str | None] = mapped_column(String(64))
+    mjcf_name: Mapped[str | None] = mapped_column(String(255))
+    payload: Mapped[float | None] = mapped_column(Float)
+    #: joint names and limits as read by the planning package (JSON-ready).
+    description: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class JobRecord(Base):
+    """A background job. Only the API process writes these rows."""
+
+    __tablename__ = "jobs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    kind: Mapped[str] = mapped_column(String(16), index=True)
+    state: Mapped[str] = mapped_column(String(16), index=True, default="queued")
+    progress: Mapped[float] = mapped_column(Float, default=0.0)
+    message: Mapped[str] = mapped_column(Text, default="")
+    error: Mapped[str | None] = mapped_column(Text)
+    #: the request, with the CLI's field names.
+    params: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
+    started_at: Mapped[datetime | None] = mapped_column()
+    finished_at: Mapped[datetime | None] = mapped_column()
+    updated_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class _ResultMixin:
+    """Result row of a job: same id as the job, JSON result in the CLI's shape."""
+
+    result: Mapped[dict[str, Any] | None] = mapped_column(JSON)
+
+
+class Analysis(_ResultMixin, Base):
+    __tablename__ = "analyses"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    recording_id: Mapped[int | None] = mapped_column(
+        ForeignKey("recording_sessions.id", ondelete="SET NULL"), index=True
+    )
+    template: Mapped[dict[str, Any] | None] = mapped_column(JSON)
+
+    job: Mapped[JobRecord] = relationship()
+
+
+class Plan(_ResultMixin, Base):
+    __tablename__ = "plans"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+    arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
+
+    job: Mapped[JobRecord] = relationship()
+
+
+class Simulation(_ResultMixin, Base):
+    __tablename__ = "simulations"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+    arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
+
+    job: Mapped[JobRecord] = relationship()
+
+
+class Sweep(_ResultMixin, Base):
+    __tablename__ = "sweeps"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+
+    job: Mapped[JobRecord] = relationship()
+
+
+RESULT_MODELS: dict[str, type[Analysis] | type[Plan] | type[Simulation] | type[Sweep]] = {
+    "analysis": Analysis,
+    "plan": Plan,
+    "simulation": Simulation,
+    "sweep": Sweep,
+}

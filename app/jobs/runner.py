@@ -1,0 +1,593 @@
+"""Job runners: where job functions execute. Two implementations of one interface.
+
+``LocalRunner`` (default, embedded): each job runs in its own process, forked from a fork server
+that has already imported the science packages; at most ``max_workers`` at a time, the rest wait
+in a FIFO queue. Progress flows back through a pipe per job to one monitor thread.
+
+``DaskRunner``: jobs are Dask tasks on a ``distributed`` cluster (``BIOPLAN_EXECUTOR=
+dask://HOST:PORT``); progress flows back as structured events (``Worker.log_event`` ->
+``Client.subscribe_topic``).
+
+Both report to an ``EventSink`` callable in the API process: ``started``, ``progress``, then
+exactly one of ``succeeded`` (with the plain-data result), ``failed`` (with a one-line error) or
+``cancelled``. Workers never touch the database.
+
+Cancellation semantics:
+- queued job: removed from the queue at once (both runners).
+- running job, local runner: its process group is terminated (SIGTERM) at once; any result it
+  had not yet sent is discarded.
+- running job, Dask: a distributed ``Event`` is set and the future cancelled; the job function
+  stops at its next progress report (the progress callback raises ``JobCancelled``), since Dask
+  cannot interrupt a running task.
+A job that finishes before the cancel request is handled keeps its result.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import signal
+import threading
+import time
+import traceback
+import uuid
+from abc import ABC, abstractmethod
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+logger = logging.getLogger(__name__)
+
+EventType = Literal["started", "progress", "succeeded", "failed", "cancelled"]
+Progress = Callable[[float, str], None]
+Target = Callable[[str, dict[str, Any], Progress], dict[str, Any]]
+
+
+class JobCancelled(Exception):
+    """Raised inside a job (from its progress callback) when it was cancelled."""
+
+
+class JobFailed(Exception):
+    """A job function raised; the message is the job's one-line ``error``."""
+
+
+@dataclass(frozen=True)
+class JobEvent:
+    """Something that happened to a job, reported by a runner.
+
+    Attributes:
+        job_id: the job.
+        type: what happened.
+        progress: fraction done in [0, 1] (``progress`` events).
+        message: human-readable status.
+        result: the job function's return value (``succeeded``).
+        error: one-line error message (``failed``).
+    """
+
+    job_id: int
+    type: EventType
+    progress: float | None = None
+    message: str = ""
+    result: dict[str, Any] | None = None
+    error: str | None = None
+
+
+EventSink = Callable[[JobEvent], None]
+
+
+def describe_error(exc: BaseException | None) -> str:
+    """One line for a job's ``error`` field: bad input as is, anything else with its type."""
+    if exc is None:
+        return "unknown error"
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    if isinstance(exc, ValueError | JobFailed) and text:
+        return text
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _default_target() -> Target:
+    from app.jobs.tasks import run_task
+
+    return run_task
+
+
+class JobRunner(ABC):
+    """Runs jobs somewhere and reports their events to a sink in this process."""
+
+    executor: str
+
+    @abstractmethod
+    def start(self, sink: EventSink) -> None:
+        """Start reporting events to ``sink`` (called once, before ``submit``)."""
+
+    @abstractmethod
+    def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
+        """Queue a job; returns at once."""
+
+    @abstractmethod
+    def cancel(self, job_id: int) -> bool:
+        """Cancel a queued or running job; False when this runner does not know it."""
+
+    @abstractmethod
+    def shutdown(self) -> None:
+        """Stop every job and release resources; no events are reported afterwards."""
+
+    @abstractmethod
+    def info(self) -> dict[str, Any]:
+        """``executor``, ``workers``, ``running``, ``queued`` for the health endpoint."""
+
+
+# ------------------------------------------------------------------------------------ local
+
+
+def _watch_parent(original_ppid: int) -> None:
+    # The job process is a child of the fork server, which exits when the API process dies;
+    # then this process is re-parented. Kill the whole process group (the job and anything it
+    # started) instead of computing for nobody.
+    while True:
+        time.sleep(0.5)
+        if os.getppid() != original_ppid:
+            os.killpg(0, signal.SIGKILL)
+
+
+def _child_main(target: Target, job_id: int, kind: str, payload: dict[str, Any], conn: Any) -> None:
+    """Body of a local job process: run the target, send progress and the outcome."""
+    os.setsid()  # own process group, so cancel can stop helpers the job starts (sweep pools)
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+    last = [0.0]
+
+    def progress(fraction: float, message: str) -> None:
+        now = time.monotonic()
+        # The API throttles further; this only keeps a tight loop from flooding the pipe.
+        if fraction < 1.0 and now - last[0] < 0.02:
+            return
+        last[0] = now
+        conn.send(("progress", min(max(float(fraction), 0.0), 1.0), str(message)))
+
+    try:
+        result = target(kind, payload, progress)
+        conn.send(("result", result))
+    except BaseException as exc:
+        logger.error("job %d (%s) failed:\n%s", job_id, kind, traceback.format_exc())
+        conn.send(("error", describe_error(exc)))
+    finally:
+        conn.close()
+
+
+@dataclass
+class _Running:
+    job_id: int
+    process: Any
+    conn: Any
+    result: dict[str, Any] | None = None
+    error: str | None = None
+    has_outcome: bool = False
+    cancel_requested: bool = False
+    conn_open: bool = True
+
+
+@dataclass
+class _Pending:
+    job_id: int
+    kind: str
+    payload: dict[str, Any] = field(repr=False)
+
+
+class LocalRunner(JobRunner):
+    """A process per job on this machine, at most ``max_workers`` at a time.
+
+    Args:
+        max_workers: jobs running at the same time.
+        target: job entry point ``fn(kind, payload, progress) -> dict``; a top-level function
+            (it is pickled by reference). Defaults to ``app.jobs.tasks.run_task``.
+        preload: modules the fork server imports once, so forked jobs start warm.
+    """
+
+    executor = "local"
+
+    def __init__(
+        self,
+        max_workers: int = 2,
+        *,
+        target: Target | None = None,
+        preload: tuple[str, ...] = ("app.jobs._preload",),
+    ) -> None:
+        import multiprocessing as mp
+
+        if max_workers < 1:
+            raise ValueError(f"max_workers must be >= 1, got {max_workers}")
+        self.max_workers = max_workers
+        self._target = target or _default_target()
+        self._ctx = mp.get_context("forkserver")
+        self._preload = list(preload)
+        self._pending: deque[_Pending] = deque()
+        self._running: dict[int, _Running] = {}
+        self._starting: dict[int, bool] = {}  # job id -> cancel requested while starting
+        self._lock = threading.Lock()
+        self._sink: EventSink | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._wake_r, self._wake_w = self._ctx.Pipe(duplex=False)
+
+    # public API ---------------------------------------------------------------------------
+
+    def start(self, sink: EventSink) -> None:
+        self._sink = sink
+        self._ctx.set_forkserver_preload(self._preload)
+        self._thread = threading.Thread(target=self._monitor, name="bioplan-jobs", daemon=True)
+        self._thread.start()
+
+    def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
+        with self._lock:
+            self._pending.append(_Pending(job_id, kind, payload))
+        self._wake()
+
+    def cancel(self, job_id: int) -> bool:
+        with self._lock:
+            for p in self._pending:
+                if p.job_id == job_id:
+                    self._pending.remove(p)
+                    self._emit(JobEvent(job_id, "cancelled", message="cancelled while queued"))
+                    return True
+            if job_id in self._starting:
+                self._starting[job_id] = True
+                return True
+            run = self._running.get(job_id)
+            if run is None:
+                return False
+            run.cancel_requested = True
+            self._kill(run, signal.SIGTERM)
+        self._wake()
+        return True
+
+    def shutdown(self) -> None:
+        self._stop.set()
+        self._wake()
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+        with self._lock:
+            self._pending.clear()
+            runs = list(self._running.values())
+            self._running.clear()
+        for run in runs:
+            self._kill(run, signal.SIGKILL)
+            run.process.join(timeout=5)
+            run.conn.close()
+        self._sink = None
+
+    def info(self) -> dict[str, Any]:
+        with self._lock:
+            return {
+                "executor": self.executor,
+                "workers": self.max_workers,
+                "running": len(self._running),
+                "queued": len(self._pending),
+            }
+
+    # internals ----------------------------------------------------------------------------
+
+    def _emit(self, event: JobEvent) -> None:
+        sink = self._sink
+        if sink is not None:
+            sink(event)
+
+    def _wake(self) -> None:
+        with contextlib.suppress(OSError):  # closed during shutdown
+            self._wake_w.send_bytes(b"x")
+
+    @staticmethod
+    def _kill(run: _Running, sig: int) -> None:
+        pid = run.process.pid
+        if pid is None:
+            return
+        try:
+            os.killpg(pid, sig)  # the job called setsid(): its pid is its group id
+        except (ProcessLookupError, PermissionError):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, sig)
+
+    def _launch_pending(self) -> None:
+        while not self._stop.is_set():
+            with self._lock:
+                if len(self._running) + len(self._starting) >= self.max_workers:
+                    return
+                if not self._pending:
+                    return
+                job = self._pending.popleft()
+                self._starting[job.job_id] = False
+            reader, writer = self._ctx.Pipe(duplex=False)
+            proc = self._ctx.Process(
+                target=_child_main,
+                args=(self._target, job.job_id, job.kind, job.payload, writer),
+                name=f"bioplan-job-{job.job_id}",
+                daemon=False,  # a sweep may start its own worker pool
+            )
+            try:
+                # Outside the lock: the first start waits for the fork server to import.
+                proc.start()
+            except Exception as exc:
+                logger.exception("cannot start job %d", job.job_id)
+                reader.close()
+                writer.close()
+                with self._lock:
+                    self._starting.pop(job.job_id, None)
+                self._emit(JobEvent(job.job_id, "failed", error=f"cannot start job process: {exc}"))
+                continue
+            writer.close()
+            run = _Running(job.job_id, proc, reader)
+            with self._lock:
+                run.cancel_requested = self._starting.pop(job.job_id, False)
+                self._running[job.job_id] = run
+            if run.cancel_requested:
+                self._kill(run, signal.SIGTERM)
+            else:
+                self._emit(JobEvent(job.job_id, "started", progress=0.0, message="running"))
+
+    def _read(self, run: _Running) -> None:
+        try:
+            msg = run.conn.recv()
+        except (EOFError, OSError):
+            run.conn_open = False
+            return
+        tag = msg[0]
+        if tag == "progress":
+            if not run.cancel_requested:
+                self._emit(JobEvent(run.job_id, "progress", progress=msg[1], message=msg[2]))
+        elif tag == "result":
+            run.result, run.has_outcome = msg[1], True
+        elif tag == "error":
+            run.error, run.has_outcome = msg[1], True
+
+    def _finish(self, run: _Running) -> None:
+        while run.conn_open and run.conn.poll():
+            self._read(run)
+        run.process.join(timeout=5)
+        code = run.process.exitcode
+        run.conn.close()
+        with self._lock:
+            self._running.pop(run.job_id, None)
+        if run.cancel_requested and run.result is None:
+            self._emit(JobEvent(run.job_id, "cancelled", message="cancelled while running"))
+        elif run.result is not None:
+            self._emit(JobEvent(run.job_id, "succeeded", progress=1.0, result=run.result))
+        elif run.error is not None:
+            self._emit(JobEvent(run.job_id, "failed", error=run.error))
+        else:
+            self._emit(
+                JobEvent(
+                    run.job_id,
+                    "failed",
+                    error=f"job process exited with code {code} before reporting a result",
+                )
+            )
+        with contextlib.suppress(ValueError):  # still running after the join timeout
+            run.process.close()
+
+    def _monitor(self) -> None:
+        from multiprocessing import forkserver
+        from multiprocessing.connection import wait
+
+        try:
+            forkserver.ensure_running()  # import the science packages once, now
+        except Exception:  # pragma: no cover - reported when a job starts
+            logger.exception("cannot start the fork server")
+        while not self._stop.is_set():
+            try:
+                self._launch_pending()
+                with self._lock:
+                    runs = list(self._running.values())
+                handles: dict[Any, tuple[str, _Running | None]] = {self._wake_r: ("wake", None)}
+                for run in runs:
+                    if run.conn_open:
+                        handles[run.conn] = ("conn", run)
+                    handles[run.process.sentinel] = ("exit", run)
+                for ready in wait(list(handles), timeout=1.0):
+                    what, which = handles[ready]
+                    if what == "wake":
+                        while self._wake_r.poll():
+                            self._wake_r.recv_bytes()
+                    elif what == "conn" and which is not None:
+                        self._read(which)
+                for ready in wait([h for h, (w, _) in handles.items() if w == "exit"], timeout=0):
+                    _, which = handles[ready]
+                    if which is not None:
+                        self._finish(which)
+            except Exception:  # pragma: no cover - keep the monitor alive whatever happens
+                logger.exception("job monitor error")
+                time.sleep(0.5)
+
+
+# ------------------------------------------------------------------------------------- dask
+
+
+def _distributed() -> Any:
+    """The ``distributed`` module, imported on first use (untyped, hence ``Any``)."""
+    import importlib
+
+    return importlib.import_module("distributed")
+
+
+def _dask_entry(
+    target: Target,
+    job_id: int,
+    kind: str,
+    payload: dict[str, Any],
+    topic: str,
+    cancel_name: str,
+) -> dict[str, Any]:
+    """Body of a Dask task: report through worker events, stop when the cancel event is set."""
+    distributed = _distributed()
+    worker = distributed.get_worker()
+    worker.log_event(topic, {"job": job_id, "type": "started"})
+    cancel = distributed.Event(cancel_name)
+    last = [0.0]
+
+    def progress(fraction: float, message: str) -> None:
+        now = time.monotonic()
+        if fraction < 1.0 and now - last[0] < 0.2:
+            return
+        last[0] = now
+        if cancel.is_set():
+            raise JobCancelled(f"job {job_id} cancelled")
+        frac = min(max(float(fraction), 0.0), 1.0)
+        worker.log_event(
+            topic, {"job": job_id, "type": "progress", "progress": frac, "message": str(message)}
+        )
+
+    try:
+        return target(kind, payload, progress)
+    except JobCancelled:
+        raise
+    except BaseException as exc:
+        # Exceptions of the science packages may not unpickle on the client; send a string.
+        raise JobFailed(describe_error(exc)) from None
+
+
+@dataclass
+class _DaskJob:
+    job_id: int
+    future: Any
+    cancel_name: str
+    cancel_requested: bool = False
+
+
+class DaskRunner(JobRunner):
+    """Jobs as tasks on a Dask ``distributed`` cluster.
+
+    Args:
+        address: scheduler address, ``tcp://HOST:PORT``.
+        target: job entry point, importable on the workers (default
+            ``app.jobs.tasks.run_task``).
+        timeout: seconds to wait for the scheduler at start.
+    """
+
+    def __init__(self, address: str, *, target: Target | None = None, timeout: float = 10.0):
+        self.address = address
+        self.executor = f"dask://{address.split('://', 1)[-1]}"
+        self._target = target or _default_target()
+        self._timeout = timeout
+        self._client: Any = None
+        self._sink: EventSink | None = None
+        self._jobs: dict[int, _DaskJob] = {}
+        self._lock = threading.Lock()
+        self._topic = f"bioplan-jobs-{uuid.uuid4().hex}"
+        self._closing = False
+
+    def start(self, sink: EventSink) -> None:
+        self._sink = sink
+        self._client = _distributed().Client(
+            self.address, timeout=self._timeout, set_as_default=False
+        )
+        self._client.subscribe_topic(self._topic, self._on_event)
+
+    def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
+        key = f"bioplan-job-{job_id}-{uuid.uuid4().hex[:8]}"
+        # Large inputs (raw recordings) go to the cluster once, not inside the task graph.
+        [data] = self._client.scatter([payload], hash=False)
+        future = self._client.submit(
+            _dask_entry,
+            self._target,
+            job_id,
+            kind,
+            data,
+            self._topic,
+            f"{key}-cancel",
+            key=key,
+            pure=False,
+        )
+        with self._lock:
+            self._jobs[job_id] = _DaskJob(job_id, future, f"{key}-cancel")
+        future.add_done_callback(self._on_done)
+
+    def cancel(self, job_id: int) -> bool:
+        with self._lock:
+            job = self._jobs.get(job_id)
+            if job is None:
+                return False
+            job.cancel_requested = True
+        self._cancel_on_cluster(job)
+        return True
+
+    def shutdown(self) -> None:
+        self._closing = True
+        with self._lock:
+            jobs = list(self._jobs.values())
+            self._jobs.clear()
+        for job in jobs:
+            try:
+                self._cancel_on_cluster(job)
+            except Exception:  # pragma: no cover - the scheduler may be gone
+                logger.warning("could not cancel job %d on the cluster", job.job_id)
+        if self._client is not None:
+            with contextlib.suppress(ValueError):
+                self._client.unsubscribe_topic(self._topic)
+            self._client.close()
+        self._sink = None
+
+    def _cancel_on_cluster(self, job: _DaskJob) -> None:
+        _distributed().Event(job.cancel_name, client=self._client).set()
+        job.future.cancel()
+
+    def info(self) -> dict[str, Any]:
+        workers = None
+        try:
+            workers = len(self._client.scheduler_info(n_workers=-1)["workers"])
+        except Exception:  # pragma: no cover - scheduler unreachable
+            workers = None
+        with self._lock:
+            return {
+                "executor": self.executor,
+                "workers": workers,
+                "running": len(self._jobs),
+                "queued": None,
+            }
+
+    # callbacks ------------------------------------------------------------------------------
+
+    def _emit(self, event: JobEvent) -> None:
+        sink = self._sink
+        if sink is not None and not self._closing:
+            sink(event)
+
+    def _on_event(self, event: tuple[float, dict[str, Any]]) -> None:
+        _, msg = event
+        job_id = int(msg["job"])
+        with self._lock:
+            job = self._jobs.get(job_id)
+        if job is None or job.cancel_requested:
+            return
+        if msg["type"] == "started":
+            self._emit(JobEvent(job_id, "started", progress=0.0, message="running"))
+        elif msg["type"] == "progress":
+            self._emit(
+                JobEvent(job_id, "progress", progress=msg["progress"], message=msg["message"])
+            )
+
+    def _on_done(self, future: Any) -> None:
+        with self._lock:
+            match = [j for j in self._jobs.values() if j.future.key == future.key]
+            if not match:
+                return
+            job = match[0]
+            del self._jobs[job.job_id]
+        if future.status == "finished":
+            self._emit(JobEvent(job.job_id, "succeeded", progress=1.0, result=future.result()))
+            return
+        if job.cancel_requested or future.status == "cancelled":
+            self._emit(JobEvent(job.job_id, "cancelled", message="cancelled"))
+            return
+        exc = future.exception()
+        if isinstance(exc, JobCancelled):
+            self._emit(JobEvent(job.job_id, "cancelled", message="cancelled"))
+        else:
+            self._emit(JobEvent(job.job_id, "failed", error=describe_error(exc)))
+
+
+def make_runner(executor: str, *, max_workers: int = 2) -> JobRunner:
+    """The runner for a ``Settings.executor`` value (``local`` or ``dask://HOST:PORT``)."""
+    if executor == "local":
+        return LocalRunner(max_workers)
+    address = executor.replace("dask://", "tcp://", 1)
+    return DaskRunner(address)

@@ -1,0 +1,297 @@
+"""Job functions: plain data in, plain data out, no database, no web framework.
+
+These are the only places where the service layer calls the science packages, and they import
+them inside the functions, so the API process starts without loading NumPy-heavy code and a Dask
+worker only needs ``app`` on its path. Every job function has the signature
+``fn(payload: dict, progress: Callable[[float, str], None]) -> dict``; ``progress`` takes a
+fraction in [0, 1] and a message and may raise to stop the job (cancellation on Dask).
+
+Robot specs in payloads are ``{"name": str}`` for a built-in robot, or ``{"name", "urdf",
+"urdf_name", "mjcf", "mjcf_name", "payload"}`` for an uploaded one (file contents as bytes).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+Progress = Callable[[float, str], None]
+TaskFn = Callable[[dict[str, Any], Progress], dict[str, Any]]
+
+
+def _entry(module: str, name: str) -> Any:
+    """``module.name``, imported now (the science packages are imported only when needed)."""
+    import importlib
+
+    return getattr(importlib.import_module(module), name)
+
+
+def _no_progress(fraction: float, message: str) -> None:
+    del fraction, message
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _json_safe(value.tolist())
+    if isinstance(value, np.generic):
+        return _json_safe(value.item())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, str | int | bool):
+        return value
+    return str(value)
+
+
+def preload() -> None:
+    """Import the science packages (used by the local runner's fork server and Dask workers).
+
+    Job processes are forked from a server that already ran this, so a job starts in
+    milliseconds instead of importing NumPy, SciPy and Pinocchio each time.
+    """
+    import importlib
+
+    for name in ("app.recordings", "app.analysis", "app.planning", "app.simulation"):
+        with contextlib.suppress(ImportError):  # a package not written yet
+            importlib.import_module(name)
+
+
+# ------------------------------------------------------------------------------ recordings
+
+
+def parse_recording(data: bytes, filename: str, options: dict[str, Any]) -> dict[str, Any]:
+    """Read one uploaded file into plain data (run inline by the upload route).
+
+    Args:
+        data: the file's bytes.
+        filename: the user's file name (used for format detection and error messages).
+        options: reader overrides ``rate, emg_rate, muscle_map, image_size, frame_rate``.
+
+    Returns:
+        ``{"format", "metadata", "channels": [{"name", "kind", "unit", "rate", "start",
+        "site", "data" ((N,) or (N, 3) float64), "confidence", "time"}]}``.
+
+    Raises:
+        app.recordings.types.RecordingError: the file cannot be read (message names the file).
+    """
+    read_bytes = _entry("app.recordings", "read_bytes")
+    kwargs = {k: v for k, v in options.items() if v is not None}
+    rec = read_bytes(data, filename, **kwargs)
+    channels = []
+    for ch in rec.channels.values():
+        channels.append(
+            {
+                "name": ch.name,
+                "kind": ch.kind,
+                "unit": ch.unit,
+                "rate": float(ch.rate),
+                "start": float(ch.start),
+                "site": ch.site,
+                "data": np.asarray(ch.data, dtype=np.float64),
+                "confidence": None if ch.confidence is None else np.asarray(ch.confidence),
+                "time": None if ch.time is None else np.asarray(ch.time),
+            }
+        )
+    return {"format": rec.format, "metadata": _json_safe(rec.metadata), "channels": channels}
+
+
+def analyse(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+    """Analyse the files of one recording session.
+
+    Payload: ``files`` [{"name", "data": bytes}], ``read_options`` (reader overrides), and the
+    options of ``analyze_recordings``: ``emg_rate, muscle_map, phase_bounds_deg, body_mass,
+    body_height, load_mass``.
+
+    Returns:
+        ``{"result": AnalysisResult.to_dict(), "template": HumanTemplate.to_dict()}``.
+    """
+    analyze_recordings = _entry("app.analysis", "analyze_recordings")
+    read_bytes = _entry("app.recordings", "read_bytes")
+
+    files = payload["files"]
+    read_options = {k: v for k, v in payload.get("read_options", {}).items() if v is not None}
+    recordings = []
+    for i, f in enumerate(files):
+        progress(0.4 * i / max(len(files), 1), f"reading {f['name']}")
+        recordings.append(read_bytes(f["data"], f["name"], **read_options))
+    progress(0.4, "analysing")
+    options = {k: v for k, v in payload.get("options", {}).items() if v is not None}
+    if "phase_bounds_deg" in options:
+        options["phase_bounds_deg"] = tuple(options["phase_bounds_deg"])
+    result = analyze_recordings(recordings, **options)
+    progress(1.0, "analysed")
+    return {"result": _json_safe(result.to_dict()), "template": result.template.to_dict()}
+
+
+# ----------------------------------------------------------------------------------- robots
+
+
+@contextmanager
+def _robot(spec: dict[str, Any], payload_kg: float | None = None) -> Iterator[Any]:
+    """Load the robot of a spec; uploaded files are written to a temporary folder."""
+    load_robot = _entry("app.planning.robots", "load_robot")
+    payload = payload_kg if payload_kg is not None else spec.get("payload")
+    if spec.get("urdf") is None:
+        yield load_robot(spec["name"], payload=payload)
+        return
+    with tempfile.TemporaryDirectory(prefix="bioplan-robot-") as tmp:
+        # Fixed names: the user's file names are never used as paths.
+        urdf = Path(tmp) / "robot.urdf"
+        urdf.write_bytes(spec["urdf"])
+        mjcf = None
+        if spec.get("mjcf") is not None:
+            mjcf = Path(tmp) / "robot.xml"
+            mjcf.write_bytes(spec["mjcf"])
+        yield load_robot(str(urdf), payload=payload, mjcf=None if mjcf is None else str(mjcf))
+
+
+def builtin_robots() -> list[str]:
+    """Names of the built-in robots."""
+    return sorted(_entry("app.planning.robots", "BUILTIN_ROBOTS"))
+
+
+def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
+    """Joints and limits of a robot (SI units: rad, rad/s, Nm; payload in kg).
+
+    Raises:
+        ValueError (``RobotError``): the model cannot be loaded; one-line message.
+    """
+    with _robot(spec) as robot:
+        described: dict[str, Any] = _json_safe(
+            {
+                "name": spec["name"],
+                "joint_names": list(robot.joint_names),
+                "q_min": np.asarray(robot.q_min, float),
+                "q_max": np.asarray(robot.q_max, float),
+                "qd_max": np.asarray(robot.qd_max, float),
+                "tau_max": np.asarray(robot.tau_max, float),
+                "payload": float(getattr(robot.payload, "mass", robot.payload) or 0.0),
+                "has_mjcf": robot.mjcf_path is not None,
+            }
+        )
+    return described
+
+
+# ---------------------------------------------------------------------------------- planning
+
+
+def plan(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+    """Plan standard and bio-inspired trajectories (``bioplan plan``).
+
+    Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
+    ``seed``, ``particles``, ``iterations``, ``n_samples``, ``peak_angle_deg``, ``template``
+    (HumanTemplate dict or None).
+
+    Returns:
+        ``{"result": PlanResult.to_dict(), "arrays": PlanResult.arrays()}``.
+    """
+    from app.planning.human_template import HumanTemplate
+
+    run_plan = _entry("app.planning", "plan")
+    template = payload.get("template")
+    with _robot(payload["robot"], payload.get("payload")) as robot:
+        kwargs: dict[str, Any] = {
+            "duration": float(payload["duration"]),
+            "objective": payload.get("objective", "abs_work"),
+            "seed": int(payload.get("seed", 0)),
+            "particles": int(payload.get("particles", 40)),
+            "iterations": int(payload.get("iterations", 100)),
+            "n_samples": int(payload.get("n_samples", 100)),
+            "peak_angle_deg": payload.get("peak_angle_deg"),
+            "template": None if template is None else HumanTemplate.from_dict(template),
+            "progress": progress,
+        }
+        result = run_plan(robot, **kwargs)
+    arrays = {k: np.asarray(v, dtype=np.float64) for k, v in result.arrays().items()}
+    return {"result": _json_safe(result.to_dict()), "arrays": arrays}
+
+
+def _arrays_of(result: Any) -> dict[str, Any] | None:
+    arrays = getattr(result, "arrays", None)
+    if not callable(arrays):
+        return None
+    return {k: np.asarray(v, dtype=np.float64) for k, v in arrays().items()}
+
+
+def simulate(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+    """Simulate standard and optimised trajectories (``bioplan simulate``).
+
+    Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
+    ``seed``.
+    """
+    simulate_comparison = _entry("app.simulation", "simulate_comparison")
+    with _robot(payload["robot"], payload.get("payload")) as robot:
+        result = simulate_comparison(
+            robot,
+            duration=float(payload["duration"]),
+            objective=payload.get("objective", "abs_work"),
+            seed=int(payload.get("seed", 0)),
+            progress=progress,
+        )
+    return {"result": _json_safe(result.to_dict()), "arrays": _arrays_of(result)}
+
+
+def sweep(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+    """Savings over a grid of durations, payloads and objectives (``bioplan sweep``).
+
+    Payload: ``robot`` (spec), ``durations`` [s], ``payloads`` [kg], ``objectives``, ``seed``,
+    ``workers`` (processes inside the job; 1 on Dask, whose workers cannot fork).
+    """
+    run_sweep = _entry("app.simulation", "run_sweep")
+    with _robot(payload["robot"]) as robot:
+        result = run_sweep(
+            robot=robot,
+            durations=[float(d) for d in payload["durations"]],
+            payloads=[float(p) for p in payload["payloads"]],
+            objectives=list(payload["objectives"]),
+            seed=int(payload.get("seed", 0)),
+            progress=progress,
+            workers=payload.get("workers"),
+        )
+    return {"result": _json_safe(result.to_dict())}
+
+
+TASKS: dict[str, TaskFn] = {
+    "analysis": analyse,
+    "plan": plan,
+    "simulation": simulate,
+    "sweep": sweep,
+}
+
+
+def run_task(kind: str, payload: dict[str, Any], progress: Progress) -> dict[str, Any]:
+    """Run the job function of ``kind`` (the runners' single entry point)."""
+    try:
+        fn = TASKS[kind]
+    except KeyError:
+        raise ValueError(f"unknown job kind {kind!r} (expected one of {sorted(TASKS)})") from None
+    return fn(payload, progress)
+
+
+def entry_points() -> dict[str, bool]:
+    """Which science entry points exist in this installation (for health and tests)."""
+    import importlib
+
+    def has(module: str, name: str) -> bool:
+        try:
+            return hasattr(importlib.import_module(module), name)
+        except ImportError:
+            return False
+
+    return {
+        "parse": has("app.recordings", "read_bytes"),
+        "analysis": has("app.analysis", "analyze_recordings"),
+        "plan": has("app.planning", "plan") and has("app.planning.robots", "load_robot"),
+        "simulation": has("app.simulation", "simulate_comparison"),
+        "sweep": has("app.simulation", "run_sweep"),
+    }

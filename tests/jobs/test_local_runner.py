@@ -1,0 +1,132 @@
+"""LocalRunner: a process per job, events back to the API process, bounded concurrency, cancel."""
+
+from __future__ import annotations
+
+import os
+import queue
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from app.jobs.runner import JobEvent, LocalRunner
+from tests.jobs.targets import target
+
+TERMINAL = {"succeeded", "failed", "cancelled"}
+
+
+class Collector:
+    """An event sink that lets a test wait for events."""
+
+    def __init__(self) -> None:
+        self.events: queue.Queue[JobEvent] = queue.Queue()
+        self.seen: list[JobEvent] = []
+
+    def __call__(self, event: JobEvent) -> None:
+        self.events.put(event)
+
+    def wait_for(self, job_id: int, types: set[str], timeout: float = 30.0) -> JobEvent:
+        deadline = time.monotonic() + timeout
+        for ev in self.seen:
+            if ev.job_id == job_id and ev.type in types:
+                return ev
+        while time.monotonic() < deadline:
+            try:
+                ev = self.events.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            self.seen.append(ev)
+            if ev.job_id == job_id and ev.type in types:
+                return ev
+        raise AssertionError(f"job {job_id}: no {types} event within {timeout} s")
+
+    def of(self, job_id: int) -> list[JobEvent]:
+        return [e for e in self.seen if e.job_id == job_id]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # A zombie still answers kill(0); it has stopped running though.
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().split()[2] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.fixture(scope="module")
+def runner() -> Iterator[tuple[LocalRunner, Collector]]:
+    sink = Collector()
+    r = LocalRunner(2, target=target, preload=())
+    r.start(sink)
+    yield r, sink
+    r.shutdown()
+
+
+def test_result_comes_back_from_another_process(runner: tuple[LocalRunner, Collector]) -> None:
+    r, sink = runner
+    r.submit(1, "echo", {"x": [1, 2, 3]})
+    assert sink.wait_for(1, {"started"}).type == "started"
+    done = sink.wait_for(1, TERMINAL)
+    assert done.type == "succeeded"
+    assert done.result is not None
+    assert done.result["result"]["echo"] == {"x": [1, 2, 3]}
+    assert done.result["result"]["pid"] != os.getpid()
+
+
+def test_progress_is_reported_in_order(runner: tuple[LocalRunner, Collector]) -> None:
+    r, sink = runner
+    r.submit(2, "count", {"n": 5, "dt": 0.05})
+    assert sink.wait_for(2, TERMINAL).type == "succeeded"
+    fractions = [e.progress for e in sink.of(2) if e.type == "progress"]
+    assert fractions, "no progress events"
+    assert fractions == sorted(fractions)
+    assert fractions[-1] == pytest.approx(1.0)
+
+
+def test_failure_and_crash_are_reported(runner: tuple[LocalRunner, Collector]) -> None:
+    r, sink = runner
+    r.submit(3, "fail", {"why": "duration is negative"})
+    r.submit(4, "crash", {})
+    failed = sink.wait_for(3, TERMINAL)
+    assert failed.type == "failed"
+    assert failed.error == "bad input: duration is negative"
+    crashed = sink.wait_for(4, TERMINAL)
+    assert crashed.type == "failed"
+    assert crashed.error is not None and "code 7" in crashed.error
+
+
+def test_cancel_running_job_stops_its_process(runner: tuple[LocalRunner, Collector]) -> None:
+    r, sink = runner
+    r.submit(5, "sleep", {"seconds": 60})
+    first = sink.wait_for(5, {"progress"})
+    pid = int(first.message.split()[-1])
+    assert _alive(pid)
+    t0 = time.monotonic()
+    assert r.cancel(5)
+    assert sink.wait_for(5, TERMINAL).type == "cancelled"
+    assert time.monotonic() - t0 < 5
+    deadline = time.monotonic() + 5
+    while _alive(pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not _alive(pid)
+    assert not r.cancel(5)  # no longer known
+
+
+def test_concurrency_is_bounded_and_queued_jobs_cancel(
+    runner: tuple[LocalRunner, Collector],
+) -> None:
+    r, sink = runner
+    for job_id in (10, 11, 12):
+        r.submit(job_id, "sleep", {"seconds": 0.8})
+    time.sleep(0.4)
+    info = r.info()
+    assert info["running"] == 2 and info["queued"] == 1
+    assert r.cancel(12)
+    assert sink.wait_for(12, TERMINAL).type == "cancelled"
+    assert all(e.type != "started" for e in sink.of(12))
+    for job_id in (10, 11):
+        assert sink.wait_for(job_id, TERMINAL).type == "succeeded"
