@@ -1,0 +1,257 @@
+"""Particle swarm optimisation with batched evaluation and feasibility rules.
+
+A global-best PSO (Kennedy & Eberhart 1995) with a linearly decreasing inertia weight
+(Shi & Eberhart 1998). The whole swarm is evaluated in one call per iteration, so the cost
+function can vectorise over particles (the planner evaluates 40 trajectories' dynamics at once).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+CostFunction = Callable[[FloatArray], FloatArray | tuple[FloatArray, FloatArray]]
+
+
+@dataclass(frozen=True, eq=False)
+class PSOResult:
+    """The outcome of :func:`pso_minimize`.
+
+    Attributes:
+        best_position: (D,) the best particle position found.
+        best_cost: its cost.
+        best_violation: its constraint violation (0 = feasible).
+        history: (iterations,) the incumbent's cost after each iteration.
+        iterations: iterations run (swarm evaluations), at most the requested number.
+        evaluations: cost evaluations, particles x iterations.
+        seconds: wall time [s].
+        seed: the seed used.
+        stopped_early: True when stagnation stopped the run before its last iteration.
+    """
+
+    best_position: FloatArray
+    best_cost: float
+    best_violation: float
+    history: FloatArray
+    iterations: int
+    evaluations: int
+    seconds: float
+    seed: int
+    stopped_early: bool
+
+    @property
+    def feasible(self) -> bool:
+        return self.best_violation == 0.0
+
+
+def _evaluate(fn: CostFunction, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Call the cost on the whole swarm; non-finite costs become infeasible (violation inf)."""
+    n = x.shape[0]
+    out = fn(x.copy())  # a copy: the cost function must not be able to move the swarm
+    if isinstance(out, tuple):
+        if len(out) != 2:
+            raise ValueError(
+                f"the cost function must return cost (P,) or (cost (P,), violation (P,)); "
+                f"got a tuple of {len(out)}"
+            )
+        cost = np.asarray(out[0], dtype=np.float64)
+        viol = np.asarray(out[1], dtype=np.float64)
+    else:
+        cost = np.asarray(out, dtype=np.float64)
+        viol = np.zeros(n)
+    if cost.shape != (n,) or viol.shape != (n,):
+        raise ValueError(
+            f"the cost function must return arrays of shape ({n},) for {n} particles, got cost "
+            f"{cost.shape} and violation {viol.shape}"
+        )
+    if np.any(viol < 0.0):
+        raise ValueError(
+            f"constraint violations must be >= 0 (0 = feasible), got min {viol.min():.6g}"
+        )
+    bad = ~np.isfinite(cost) | np.isnan(viol)
+    if np.any(bad):
+        cost = np.where(bad, np.inf, cost)
+        viol = np.where(bad, np.inf, viol)
+    return cost, viol
+
+
+def _better(c1: FloatArray, v1: FloatArray, c2: FloatArray, v2: FloatArray) -> NDArray[np.bool_]:
+    """Deb's feasibility rules as a lexicographic order on (violation, cost): strictly better."""
+    result: NDArray[np.bool_] = (v1 < v2) | ((v1 == v2) & (c1 < c2))
+    return result
+
+
+def _check_vector(label: str, value: ArrayLike) -> FloatArray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim != 1 or arr.size == 0 or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{label} must be a finite 1-D array (D,), got shape {arr.shape}")
+    return arr
+
+
+def pso_minimize(
+    fn: CostFunction,
+    lower: ArrayLike,
+    upper: ArrayLike,
+    *,
+    particles: int = 40,
+    iterations: int = 100,
+    seed: int = 0,
+    inertia: tuple[float, float] = (0.9, 0.4),
+    cognitive: float = 1.5,
+    social: float = 1.5,
+    velocity_clamp: float = 0.2,
+    stagnation_iterations: int | None = 20,
+    stagnation_tol: float = 1e-9,
+    callback: Callable[[int, float], None] | None = None,
+    initial: ArrayLike | None = None,
+) -> PSOResult:
+    """Minimise ``fn`` over the box [lower, upper] with a global-best particle swarm.
+
+    Each iteration evaluates the whole swarm in one call, ``fn(X)`` with X (P, D), which returns
+    the costs (P,) or ``(cost (P,), violation (P,))`` with violation >= 0 and 0 meaning feasible.
+    Iteration 1 evaluates the initial swarm (uniform in the box; particle 0 at ``initial`` when
+    given); each later iteration first moves the swarm, then evaluates it, so exactly
+    ``particles * iterations`` evaluations are made (as pyswarms counts them).
+
+    Constraints are handled by Deb's feasibility rules, no penalty weights: a feasible point
+    beats an infeasible one, two feasible points compare by cost, two infeasible ones by
+    violation (then by cost). Non-finite costs (and NaN violations) count as infeasible with
+    infinite violation. ``history`` records the incumbent's cost, which never increases once a
+    feasible point exists (before that it follows the least-violating point).
+
+    Motion: v <- w v + c1 r1 (p_best - x) + c2 r2 (g_best - x) with r1, r2 ~ U(0, 1) per
+    component; w falls linearly from ``inertia[0]`` at the first move to ``inertia[1]`` at the
+    last; each velocity component is clamped to ±velocity_clamp (upper - lower). Positions are
+    clipped to the box and the velocity components that hit a wall are set to zero
+    (absorbing walls), so particles never leave the box.
+
+    Stops early when, for ``stagnation_iterations`` consecutive iterations, the incumbent
+    neither lowers its violation nor improves its cost by more than
+    ``stagnation_tol * |cost|`` (relative). Random numbers come from
+    ``np.random.default_rng(seed)`` only: the same inputs and seed give the same result bit for
+    bit (except ``seconds``).
+
+    Args:
+        fn: the batched cost, (P, D) -> (P,) or ((P,), (P,)); it receives a copy of the swarm.
+        lower: (D,) lower bounds.
+        upper: (D,) upper bounds, > lower.
+        particles: swarm size P >= 1.
+        iterations: maximum number of iterations (swarm evaluations) >= 1.
+        seed: random seed.
+        inertia: (start, end) inertia weights.
+        cognitive: c1, attraction to the particle's own best, >= 0.
+        social: c2, attraction to the swarm's best, >= 0.
+        velocity_clamp: maximum speed per component per iteration as a fraction of the box
+            width, > 0.
+        stagnation_iterations: iterations without significant improvement before stopping;
+            None disables early stopping.
+        stagnation_tol: relative improvement regarded as significant, >= 0.
+        callback: called after every iteration with (iterations done so far, incumbent cost),
+            e.g. for a progress bar.
+        initial: (D,) a known solution (e.g. the standard trajectory's parameters) placed as
+            particle 0; clipped to the box.
+
+    Returns:
+        The best point found with its cost, violation and the convergence history.
+
+    Raises:
+        ValueError: bad bounds or options, or a cost function that returns the wrong shapes or
+            negative violations.
+    """
+    lo = _check_vector("lower", lower)
+    hi = _check_vector("upper", upper)
+    if lo.shape != hi.shape or not np.all(hi > lo):
+        raise ValueError(
+            f"lower and upper must have the same shape (D,) with upper > lower, got "
+            f"{lo.tolist()} and {hi.tolist()}"
+        )
+    if particles < 1 or iterations < 1:
+        raise ValueError(f"particles and iterations must be >= 1, got {particles}, {iterations}")
+    w_start, w_end = (float(w) for w in inertia)
+    if cognitive < 0 or social < 0 or not velocity_clamp > 0:
+        raise ValueError(
+            "cognitive and social must be >= 0 and velocity_clamp > 0, got "
+            f"{cognitive}, {social}, {velocity_clamp}"
+        )
+    if stagnation_iterations is not None and stagnation_iterations < 1:
+        raise ValueError(f"stagnation_iterations must be >= 1 or None, got {stagnation_iterations}")
+    if not stagnation_tol >= 0:
+        raise ValueError(f"stagnation_tol must be >= 0, got {stagnation_tol}")
+
+    started = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    n_dim = lo.size
+    span = hi - lo
+    v_max = velocity_clamp * span
+    x = lo + rng.random((particles, n_dim)) * span
+    if initial is not None:
+        x0 = _check_vector("initial", initial)
+        if x0.shape != lo.shape:
+            raise ValueError(f"initial must have shape {lo.shape}, got {x0.shape}")
+        x[0] = np.clip(x0, lo, hi)
+    v = (2.0 * rng.random((particles, n_dim)) - 1.0) * v_max
+
+    cost, viol = _evaluate(fn, x)
+    p_x, p_cost, p_viol = x.copy(), cost, viol
+    g = int(np.lexsort((p_cost, p_viol))[0])
+    g_x, g_cost, g_viol = p_x[g].copy(), float(p_cost[g]), float(p_viol[g])
+    history = np.empty(iterations)
+    history[0] = g_cost
+    if callback is not None:
+        callback(1, g_cost)
+
+    stall = 0
+    stopped_early = False
+    done = 1
+    n_moves = iterations - 1
+    for it in range(1, iterations):
+        w = w_start if n_moves <= 1 else w_start + (w_end - w_start) * (it - 1) / (n_moves - 1)
+        r1 = rng.random((particles, n_dim))
+        r2 = rng.random((particles, n_dim))
+        v = w * v + cognitive * r1 * (p_x - x) + social * r2 * (g_x - x)
+        np.clip(v, -v_max, v_max, out=v)
+        x = x + v
+        hit = (x < lo) | (x > hi)
+        np.clip(x, lo, hi, out=x)
+        v[hit] = 0.0
+
+        cost, viol = _evaluate(fn, x)
+        improved = _better(cost, viol, p_cost, p_viol)
+        p_x[improved] = x[improved]
+        p_cost = np.where(improved, cost, p_cost)
+        p_viol = np.where(improved, viol, p_viol)
+        g = int(np.lexsort((p_cost, p_viol))[0])
+        new_cost, new_viol = float(p_cost[g]), float(p_viol[g])
+        gain = g_cost - new_cost
+        significant = new_viol < g_viol or (
+            new_viol == g_viol
+            and gain > 0.0
+            and (not np.isfinite(g_cost) or gain > stagnation_tol * abs(g_cost))
+        )
+        if new_viol < g_viol or (new_viol == g_viol and new_cost < g_cost):
+            g_x, g_cost, g_viol = p_x[g].copy(), new_cost, new_viol
+        done = it + 1
+        history[it] = g_cost
+        if callback is not None:
+            callback(done, g_cost)
+        stall = 0 if significant else stall + 1
+        if stagnation_iterations is not None and stall >= stagnation_iterations:
+            stopped_early = done < iterations
+            break
+
+    return PSOResult(
+        best_position=g_x,
+        best_cost=g_cost,
+        best_violation=g_viol,
+        history=history[:done].copy(),
+        iterations=done,
+        evaluations=done * particles,
+        seconds=time.perf_counter() - started,
+        seed=seed,
+        stopped_early=stopped_early,
+    )
