@@ -1,0 +1,24 @@
+"""Robot models: built-in arms (URDF + MJCF + parameter tables) and user URDFs.
+
+``load_robot("human_arm_2dof")`` (de Leva 1996 segments, 12 kg dumbbell),
+``load_robot("curtain_wall_6dof")`` (6-axis installation robot, 4 kg panel) or
+``load_robot("my_arm.urdf", mjcf="my_arm.xml")``.
+"""
+
+from app.planning.robots._human import HumanArmSegments, human_arm_segments, segment_masses
+from app.planning.robots._loader import BUILTIN_ROBOTS, builtin_files, cache_dir, load_robot
+from app.planning.robots._types import IDEAL_ACTUATOR, Payload, Robot, RobotError
+
+__all__ = [
+    "BUILTIN_ROBOTS",
+    "IDEAL_ACTUATOR",
+    "HumanArmSegments",
+    "Payload",
+    "Robot",
+    "RobotError",
+    "builtin_files",
+    "cache_dir",
+    "human_arm_segments",
+    "load_robot",
+    "segment_masses",
+]

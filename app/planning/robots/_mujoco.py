@@ -1,0 +1,140 @@
+"""Compile a robot's MJCF with the payload, armature and (optionally) friction applied in code."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.planning.energy import MotorModel
+from app.planning.robots._types import Payload, RobotError
+
+if TYPE_CHECKING:
+    import mujoco
+
+__all__ = ["build_mujoco_model", "combine_inertia"]
+
+
+def combine_inertia(
+    mass_a: float,
+    com_a: NDArray[np.float64],
+    inertia_a: NDArray[np.float64],
+    mass_b: float,
+    com_b: NDArray[np.float64],
+    inertia_b: NDArray[np.float64],
+) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+    """Two rigid bodies in one frame as one (parallel-axis theorem).
+
+    Args:
+        mass_a, mass_b: masses [kg].
+        com_a, com_b: (3,) centres of mass [m].
+        inertia_a, inertia_b: (3, 3) inertias about their own centres of mass [kg m^2].
+
+    Returns:
+        (mass, (3,) com, (3, 3) inertia about the combined com).
+    """
+    mass = mass_a + mass_b
+    if mass <= 0.0:
+        return 0.0, np.zeros(3), np.zeros((3, 3))
+    com = (mass_a * com_a + mass_b * com_b) / mass
+    inertia = inertia_a + inertia_b
+    for m, c in ((mass_a, com_a), (mass_b, com_b)):
+        d = c - com
+        inertia = inertia + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return mass, com, inertia
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def build_mujoco_model(
+    mjcf_path: Path,
+    *,
+    joint_names: Sequence[str],
+    payload: Payload,
+    payload_body: str,
+    armature: NDArray[np.float64] | None,
+    motors: Sequence[MotorModel] | None,
+) -> mujoco.MjModel:
+    """Load ``mjcf_path`` through MjSpec, apply payload/armature/friction, compile.
+
+    Args:
+        mjcf_path: the MJCF file.
+        joint_names: (n,) joints that receive armature / friction.
+        payload: merged into ``payload_body``'s inertial (parallel-axis theorem).
+        payload_body: MJCF body carrying the payload.
+        armature: (n,) joint armature [kg m^2], or None to leave the file's values.
+        motors: (n,) motor models whose viscous / Coulomb friction become ``damping`` /
+            ``frictionloss``, or None for no friction.
+
+    Returns:
+        The compiled model.
+    """
+    import mujoco
+
+    name = mjcf_path.name
+    try:
+        spec = mujoco.MjSpec.from_file(str(mjcf_path))
+        base_model = spec.compile()
+    except Exception as exc:  # mujoco reports parse and compile errors as ValueError
+        raise RobotError(f"{name}: {_one_line(exc)}: expected a valid MJCF model") from exc
+
+    joints = []
+    for joint_name in joint_names:
+        joint = spec.joint(joint_name)
+        if joint is None:
+            raise RobotError(f"{name}: no joint '{joint_name}': expected the URDF's joints")
+        joints.append(joint)
+
+    if payload.mass > 0.0:
+        body = spec.body(payload_body)
+        if body is None:
+            raise RobotError(f"{name}: no body '{payload_body}': expected the payload body")
+        # Read the body's inertial as compiled (whatever form the file used: diaginertia + quat,
+        # fullinertia or inertia from geoms), then write the combined one back explicitly.
+        body_id = mujoco.mj_name2id(base_model, mujoco.mjtObj.mjOBJ_BODY, payload_body)
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, base_model.body_iquat[body_id])
+        rot_m = rot.reshape(3, 3)
+        inertia_body = rot_m @ np.diag(base_model.body_inertia[body_id]) @ rot_m.T
+        mass, com, inertia = combine_inertia(
+            float(base_model.body_mass[body_id]),
+            np.array(base_model.body_ipos[body_id]),
+            inertia_body,
+            payload.mass,
+            payload.com,
+            payload.inertia,
+        )
+        principal, axes = np.linalg.eigh((inertia + inertia.T) / 2)
+        if np.linalg.det(axes) < 0.0:
+            axes[:, 0] *= -1.0
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, axes.flatten())
+        body.mass = mass
+        body.ipos = com
+        body.iquat = quat
+        body.inertia = principal
+        body.fullinertia = [np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]
+        body.explicitinertial = True
+
+    if armature is not None:
+        for joint, value in zip(joints, armature, strict=True):
+            joint.armature = float(value)
+    if motors is not None:
+        for joint, motor in zip(joints, motors, strict=True):
+            try:
+                joint.damping = float(motor.viscous_friction)  # MuJoCo 3: one coefficient
+            except TypeError:
+                # MuJoCo 4 holds polynomial damping coefficients; the first is the linear one.
+                joint.damping = [float(motor.viscous_friction), 0.0, 0.0]
+            joint.frictionloss = float(motor.coulomb_friction)
+
+    try:
+        return spec.compile()
+    except Exception as exc:
+        raise RobotError(f"{name}: {_one_line(exc)}: expected a valid MJCF model") from exc

@@ -1,0 +1,243 @@
+"""Robot, Payload and RobotError: what the planner and the simulator know about an arm."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from app.planning.energy import MotorModel
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from app.planning.dynamics import Dynamics
+
+__all__ = ["IDEAL_ACTUATOR", "Payload", "Robot", "RobotError"]
+
+# "Ideal actuator": the joint torque is produced without loss, reflected inertia or recovery.
+# Used for the human arm (muscles are not motors) and as the default for user URDFs.
+IDEAL_ACTUATOR = MotorModel(
+    gear_ratio=1.0,
+    torque_constant=1.0,
+    winding_resistance=0.0,
+    rotor_inertia=0.0,
+    viscous_friction=0.0,
+    coulomb_friction=0.0,
+    regen_efficiency=0.0,
+)
+
+
+class RobotError(ValueError):
+    """A robot cannot be loaded or used; one-line message: what, which file, what was expected."""
+
+
+def _frozen(values: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
+    array = np.array(values, dtype=np.float64)
+    if array.shape != shape:
+        raise RobotError(f"{what} has shape {array.shape}: expected {shape}")
+    if not np.all(np.isfinite(array)):
+        raise RobotError(f"{what} contains NaN or inf: expected finite values")
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Payload:
+    """A rigid payload fixed to the payload body (a dumbbell in the hand, a panel at the flange).
+
+    Attributes:
+        mass: payload mass [kg] (>= 0).
+        com: (3,) centre of mass in the payload body's frame [m].
+        inertia: (3, 3) inertia about the centre of mass, payload body's axes [kg m^2]
+            (zeros for a point mass).
+        size: (3,) box extents for display [m] (zeros for a point mass).
+    """
+
+    mass: float
+    com: NDArray[np.float64]
+    inertia: NDArray[np.float64]
+    size: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        mass = float(self.mass)
+        if not np.isfinite(mass) or mass < 0.0:
+            raise RobotError(f"payload mass is {self.mass}: expected a finite mass >= 0 kg")
+        object.__setattr__(self, "mass", mass)
+        object.__setattr__(self, "com", _frozen(self.com, (3,), "payload com"))
+        inertia = _frozen(self.inertia, (3, 3), "payload inertia")
+        if not np.allclose(
+            inertia, inertia.T, rtol=0.0, atol=1e-12 * (1.0 + np.abs(inertia).max())
+        ):
+            raise RobotError("payload inertia is not symmetric: expected a symmetric 3x3 tensor")
+        if np.linalg.eigvalsh(inertia).min() < -1e-12 * (1.0 + np.abs(inertia).max()):
+            raise RobotError("payload inertia is not positive semi-definite: expected I >= 0")
+        object.__setattr__(self, "inertia", inertia)
+        size = _frozen(self.size, (3,), "payload size")
+        if np.any(size < 0.0):
+            raise RobotError(f"payload size is {size.tolist()}: expected extents >= 0 m")
+        object.__setattr__(self, "size", size)
+
+    @classmethod
+    def point(cls, mass: float, com: ArrayLike = (0.0, 0.0, 0.0)) -> Payload:
+        """A point mass at ``com`` (body frame) [kg, m]."""
+        return cls(
+            mass=mass, com=np.asarray(com, float), inertia=np.zeros((3, 3)), size=np.zeros(3)
+        )
+
+    @classmethod
+    def box(cls, mass: float, size: ArrayLike, com: ArrayLike = (0.0, 0.0, 0.0)) -> Payload:
+        """A uniform box of extents ``size`` (x, y, z) [m] along the body's axes, centred at com."""
+        a, b, c = np.asarray(size, dtype=np.float64)
+        inertia = float(mass) / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+        return cls(mass=mass, com=np.asarray(com, float), inertia=inertia, size=np.array([a, b, c]))
+
+    def with_mass(self, mass: float) -> Payload:
+        """The same payload shape with another mass; the inertia scales with the mass."""
+        if not np.isfinite(mass) or mass < 0.0:
+            raise RobotError(f"payload mass is {mass}: expected a finite mass >= 0 kg")
+        if np.all(self.size > 0.0):
+            return Payload.box(mass, self.size, self.com)
+        inertia = self.inertia * (float(mass) / self.mass) if self.mass > 0.0 else np.zeros((3, 3))
+        return Payload(mass=mass, com=self.com, inertia=inertia, size=self.size)
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A robot arm: its model files, limits, motors, payload and default curl task.
+
+    Attributes:
+        name: robot name (a built-in name, or the URDF's robot name).
+        joint_names: (n,) joint names, root to tip (URDF joint == MJCF joint).
+        urdf_path: the URDF file (a real file: viewers and users read it).
+        mjcf_path: the matching MJCF file, or None.
+        q_min, q_max: (n,) position limits [rad] (+-inf for continuous joints).
+        qd_max: (n,) speed limits [rad/s].
+        tau_max: (n,) torque limits [Nm].
+        motors: one MotorModel per joint.
+        payload: the payload carried by ``payload_body``.
+        payload_body: URDF link == MJCF body that carries the payload.
+        default_start, default_goal: (n,) the default curl task [rad].
+        shoulder_joint, elbow_joint: indices that human shoulder / elbow flexion map to.
+        parameters: the parameter table, rows with keys name, value, unit, source.
+    """
+
+    name: str
+    joint_names: tuple[str, ...]
+    urdf_path: Path
+    mjcf_path: Path | None
+    q_min: NDArray[np.float64]
+    q_max: NDArray[np.float64]
+    qd_max: NDArray[np.float64]
+    tau_max: NDArray[np.float64]
+    motors: tuple[MotorModel, ...]
+    payload: Payload
+    payload_body: str
+    default_start: NDArray[np.float64]
+    default_goal: NDArray[np.float64]
+    shoulder_joint: int
+    elbow_joint: int
+    parameters: tuple[dict[str, object], ...] = ()
+    _cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        n = len(self.joint_names)
+        if n == 0:
+            raise RobotError(f"robot '{self.name}' has no joints: expected at least one")
+        if len(self.motors) != n:
+            raise RobotError(
+                f"robot '{self.name}' has {len(self.motors)} motors: expected one per joint ({n})"
+            )
+        for attr in ("q_min", "q_max", "qd_max", "tau_max", "default_start", "default_goal"):
+            array = np.array(getattr(self, attr), dtype=np.float64)
+            if array.shape != (n,):
+                raise RobotError(
+                    f"robot '{self.name}' {attr} has shape {array.shape}: expected ({n},)"
+                )
+            array.setflags(write=False)
+            object.__setattr__(self, attr, array)
+        for attr in ("shoulder_joint", "elbow_joint"):
+            index = getattr(self, attr)
+            if not 0 <= index < n:
+                raise RobotError(f"robot '{self.name}' {attr}={index}: expected 0 <= index < {n}")
+        object.__setattr__(self, "urdf_path", Path(self.urdf_path))
+        if self.mjcf_path is not None:
+            object.__setattr__(self, "mjcf_path", Path(self.mjcf_path))
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def armature(self) -> NDArray[np.float64]:
+        """(n,) reflected rotor inertia N^2 J_m per joint [kg m^2]."""
+        return np.array([motor.armature for motor in self.motors], dtype=np.float64)
+
+    def parameter(self, name: str) -> object:
+        """The value of the parameter-table row called ``name``."""
+        for row in self.parameters:
+            if row.get("name") == name:
+                return row.get("value")
+        raise RobotError(f"robot '{self.name}' has no parameter '{name}'")
+
+    def dynamics(self, *, armature: bool = True) -> Dynamics:
+        """Rigid-body dynamics with the payload (and the motors' armature), cached per instance.
+
+        Args:
+            armature: add each motor's reflected rotor inertia N^2 J_m to the joint's diagonal.
+
+        Returns:
+            A ``PinocchioDynamics`` built from ``urdf_path``.
+        """
+        key = ("dynamics", bool(armature))
+        if key not in self._cache:
+            from app.planning.dynamics import PinocchioDynamics
+
+            self._cache[key] = PinocchioDynamics(
+                self.urdf_path,
+                payload=self.payload,
+                payload_body=self.payload_body,
+                armature=self.armature if armature else None,
+            )
+        result: Dynamics = self._cache[key]
+        return result
+
+    def with_payload(self, mass: float) -> Robot:
+        """The same robot carrying a payload of the same shape with ``mass`` [kg]."""
+        return dataclasses.replace(self, payload=self.payload.with_mass(mass))
+
+    def mujoco_model(self, *, armature: bool = True, friction: bool = False) -> mujoco.MjModel:
+        """The MJCF compiled with the payload and armature applied exactly as in ``dynamics()``.
+
+        Args:
+            armature: set each joint's ``armature`` to the motor's N^2 J_m [kg m^2].
+            friction: also set joint ``damping`` to the motor's viscous friction [Nm s/rad] and
+                ``frictionloss`` to its Coulomb friction [Nm] (off by default so that the model
+                matches ``dynamics()``, which is frictionless; friction is accounted for in the
+                energy model).
+
+        Returns:
+            A fresh ``mujoco.MjModel`` (callers may modify it).
+
+        Raises:
+            RobotError: the robot has no MJCF, or the MJCF lacks the payload body or a joint.
+        """
+        if self.mjcf_path is None:
+            raise RobotError(
+                f"robot '{self.name}' ({self.urdf_path.name}) has no MJCF: "
+                "expected load_robot(..., mjcf=path) for a MuJoCo model"
+            )
+        from app.planning.robots._mujoco import build_mujoco_model
+
+        return build_mujoco_model(
+            self.mjcf_path,
+            joint_names=self.joint_names,
+            payload=self.payload,
+            payload_body=self.payload_body,
+            armature=self.armature if armature else None,
+            motors=self.motors if friction else None,
+        )
