@@ -181,6 +181,21 @@ def test_bounds_respected_everywhere() -> None:
     np.testing.assert_allclose(r.best_position, hi)
 
 
+def test_velocity_clamp_limits_every_step() -> None:
+    lo, hi = np.array([-10.0, 0.0]), np.array([10.0, 1.0])
+    seen: list[FloatArray] = []
+
+    def fn(x: FloatArray) -> FloatArray:
+        seen.append(x)
+        return rastrigin(x)
+
+    pso_minimize(fn, lo, hi, seed=3, iterations=30, velocity_clamp=0.05)
+    steps = np.abs(np.diff(np.stack(seen), axis=0))  # (iterations - 1, P, D)
+    v_max = 0.05 * (hi - lo)
+    assert np.all(steps <= v_max * (1 + 1e-12))
+    assert np.any(steps[..., 0] > 0.99 * v_max[0])  # the clamp is actually reached
+
+
 def test_initial_particle_is_used() -> None:
     calls: list[FloatArray] = []
 
