@@ -331,6 +331,14 @@ class PinocchioDynamics:
             RobotError: missing / malformed URDF, non-revolute joint, unknown payload body.
             ValueError: bad armature or thread count.
         """
+        # Constructor arguments, enough to rebuild the C++ objects after pickling.
+        self._args: dict[str, Any] = {
+            "urdf": Path(urdf),
+            "payload": payload,
+            "payload_body": payload_body,
+            "armature": None if armature is None else np.array(armature, dtype=np.float64),
+            "num_threads": num_threads,
+        }
         pin = _pinocchio()
         path = Path(urdf)
         model = _build_model(path)
@@ -417,6 +425,14 @@ class PinocchioDynamics:
         self._mass = np.array([model.inertias[j].mass for j in range(model.njoints)])
         self._lever = [np.array(model.inertias[j].lever) for j in range(model.njoints)]
         self._gravity = np.array(model.gravity.linear)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Pinocchio models and pools are rebuilt from the URDF in the receiving process.
+        return dict(self._args)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        args = dict(state)
+        self.__init__(args.pop("urdf"), **args)  # type: ignore[misc]
 
     # -- protocol --------------------------------------------------------------------------
 

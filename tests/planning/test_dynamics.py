@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -323,3 +324,19 @@ def test_bad_input_names_the_problem(human: Robot) -> None:
         PlanarArm2DOF.from_robot(load_robot("curtain_wall_6dof"))
     with pytest.raises(ValueError, match=r"m1=-1\.0: expected a finite value > 0"):
         PlanarArm2DOF(l1=0.3, lc1=0.1, m1=-1.0, i1=0.0, l2=0.3, lc2=0.1, m2=1.0, i2=0.0)
+
+
+def test_models_survive_pickling(wall: Robot) -> None:
+    """Job runners ship robots and dynamics to worker processes."""
+    dyn = wall.dynamics()
+    q, qd, qdd = random_states(wall, 10, seed=12)
+    clone = pickle.loads(pickle.dumps(dyn))
+    np.testing.assert_array_equal(
+        clone.inverse_dynamics(q, qd, qdd), dyn.inverse_dynamics(q, qd, qdd)
+    )
+    robot = pickle.loads(pickle.dumps(wall))
+    np.testing.assert_array_equal(
+        robot.dynamics().inverse_dynamics(q, qd, qdd), dyn.inverse_dynamics(q, qd, qdd)
+    )
+    closed = PlanarArm2DOF.from_robot(load_robot("human_arm_2dof"))
+    assert pickle.loads(pickle.dumps(closed)) == closed

@@ -254,7 +254,8 @@ GOOD = """<robot name="mini">
     <axis xyz="0 1 0"/>{limit}</joint>
   <link name="b"><inertial><origin xyz="0 0 -0.1"/><mass value="1"/>
     <inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
-  <joint name="tool" type="fixed"><parent link="b"/><child link="tool0"/></joint>
+  <joint name="tool" type="fixed"><parent link="b"/><child link="tool0"/>
+    <origin xyz="0.05 0 -0.2"/></joint>
   <link name="tool0"/>
 </robot>
 """
@@ -340,3 +341,21 @@ def test_pinocchio_dynamics_errors(tmp_path: Path) -> None:
 
 def test_motor_model_is_the_shared_type() -> None:
     assert all(isinstance(m, MotorModel) for m in load_robot("curtain_wall_6dof").motors)
+
+
+def test_payload_on_a_fixed_link(tmp_path: Path) -> None:
+    """A payload on a fixed child link equals the same payload placed on its parent."""
+    path = write(tmp_path, "mini.urdf", GOOD.format(kind="revolute", limit=LIMIT))
+    box = Payload.box(3.0, (0.3, 0.2, 0.1), (0.0, 0.0, -0.05))
+    on_tool = PinocchioDynamics(path, payload=box, payload_body="tool0")
+    moved = Payload(mass=3.0, com=np.array([0.05, 0.0, -0.25]), inertia=box.inertia, size=box.size)
+    on_b = PinocchioDynamics(path, payload=moved, payload_body="b")
+    rng = np.random.default_rng(13)
+    q, qd, qdd = (rng.normal(size=(30, 2)) for _ in range(3))
+    np.testing.assert_allclose(
+        on_tool.inverse_dynamics(q, qd, qdd), on_b.inverse_dynamics(q, qd, qdd), atol=1e-12
+    )
+    np.testing.assert_allclose(
+        on_tool.end_effector_position(q), on_b.end_effector_position(q), atol=1e-12
+    )
+    assert on_tool.payload_body == "tool0"

@@ -168,6 +168,15 @@ class Robot:
         if self.mjcf_path is not None:
             object.__setattr__(self, "mjcf_path", Path(self.mjcf_path))
 
+    def __getstate__(self) -> dict[str, Any]:
+        # Cached dynamics hold C++ scratch data: rebuild them after unpickling instead.
+        state = self.__dict__.copy()
+        state["_cache"] = {}
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
     @property
     def n_joints(self) -> int:
         return len(self.joint_names)
