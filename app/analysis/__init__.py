@@ -1,1 +1,78 @@
-"""analysis."""
+"""Analysis of human lifts: EMG, pose, sync, repetitions, phases, energetics, the HumanTemplate.
+
+A plain library (numpy/scipy; the human arm model from ``app.planning``). ``analyze_files`` and
+``analyze_recordings`` are the entry points of the CLI and the service; the functions below them
+work on plain arrays.
+"""
+
+from app.analysis.emg import (
+    activation_order,
+    detect_onsets,
+    emg_envelope,
+    emg_filter,
+    moving_rms,
+    normalize_amplitude,
+    peak_times,
+    saturation_flags,
+    tkeo,
+)
+from app.analysis.energetics import (
+    Energetics,
+    PhaseEnergetics,
+    human_arm_dynamics,
+    lift_energetics,
+)
+from app.analysis.pipeline import (
+    AnalysisResult,
+    LiftReport,
+    MuscleSeries,
+    PhaseStats,
+    RecordingAnalysis,
+    analyze_files,
+    analyze_recordings,
+    merge_recordings,
+)
+from app.analysis.plots import write_analysis_plots
+from app.analysis.pose import ArmAngles, arm_angles, joint_angles
+from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lifts, split_phases
+from app.analysis.sync import estimate_offset, event_offset, resample
+from app.analysis.template import LiftProfile, build_template, lift_profile
+
+__all__ = [
+    "AnalysisResult",
+    "ArmAngles",
+    "Energetics",
+    "Lift",
+    "LiftProfile",
+    "LiftReport",
+    "MuscleSeries",
+    "Phase",
+    "PhaseEnergetics",
+    "PhaseStats",
+    "RecordingAnalysis",
+    "activation_order",
+    "analyze_files",
+    "analyze_recordings",
+    "arm_angles",
+    "build_template",
+    "detect_emg_lifts",
+    "detect_lifts",
+    "detect_onsets",
+    "emg_envelope",
+    "emg_filter",
+    "estimate_offset",
+    "event_offset",
+    "human_arm_dynamics",
+    "joint_angles",
+    "lift_energetics",
+    "lift_profile",
+    "merge_recordings",
+    "moving_rms",
+    "normalize_amplitude",
+    "peak_times",
+    "resample",
+    "saturation_flags",
+    "split_phases",
+    "tkeo",
+    "write_analysis_plots",
+]

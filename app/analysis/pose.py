@@ -432,8 +432,9 @@ def arm_angles(
         lowpass: zero-phase Butterworth cut-off [Hz] for angles and positions, None for none.
         derivative: ``"savgol"`` or ``"spline"``.
         window: derivative window [s].
-        image_size: (width, height) [px] of the video behind normalised image landmarks, so x
-            and y get the same scale; defaults to ``recording.metadata["image_size"]``.
+        image_size: (width, height) [px] of the video behind raw normalised image landmarks, so
+            x and y get the same scale. Ignored when ``recording.metadata`` has an
+            ``"image_size"``: the reader then already scaled the coordinates.
 
     Returns:
         ArmAngles on the recording's pose clock.
@@ -471,9 +472,9 @@ def arm_angles(
     first = found["shoulder"][0]
     rate = float(first.rate)
     t = np.asarray(first.times, dtype=np.float64)
-    if image_size is None and "image_size" in recording.metadata:
-        size = recording.metadata["image_size"]
-        image_size = (float(size[0]), float(size[1]))
+    if "image_size" in recording.metadata:
+        # The reader has already put x and y on one scale (units of the image height).
+        image_size = None
     pts = {}
     unit = "m"
     for role, chans in found.items():

@@ -71,7 +71,8 @@ def estimate_offset(
     neighbours.
 
     Args:
-        emg_signal: (N,) EMG envelope, or (N, C) envelopes (each scaled to its peak, then summed).
+        emg_signal: (N,) EMG envelope, or (N, C) envelopes: each is tried and the one with the
+            highest correlation peak decides.
         emg_rate: EMG sampling rate [Hz].
         pose_signal: (M,) kinematic signal on the pose clock, NaN in gaps.
         pose_t: (M,) pose sample times [s].
@@ -84,9 +85,8 @@ def estimate_offset(
         offset [s] such that t_emg = t_pose + offset.
     """
     env = np.asarray(emg_signal, dtype=np.float64)
-    if env.ndim == 2:
-        env = (env / np.max(np.abs(env), axis=0)).sum(axis=1)
-    te = emg_start + np.arange(len(env)) / float(emg_rate)
+    cols = env.reshape(len(env), -1)
+    te = emg_start + np.arange(len(cols)) / float(emg_rate)
     kin = np.asarray(pose_signal, dtype=np.float64)
     tp = np.asarray(pose_t, dtype=np.float64)
     if kin.shape != tp.shape:
@@ -99,27 +99,38 @@ def estimate_offset(
         )
     step = float(np.median(np.diff(tp)))
     lags = np.arange(-max_lag, max_lag + step / 2, step)
-    scores = np.full(len(lags), -np.inf)
-    for j, lag in enumerate(lags):
-        e = np.interp(tp + lag, te, env, left=np.nan, right=np.nan)
-        m = good & np.isfinite(e)
-        if m.sum() < 10:
-            continue
-        a = kin[m] - kin[m].mean()
-        b = e[m] - e[m].mean()
-        denom = np.sqrt(np.dot(a, a) * np.dot(b, b))
-        if denom > 0:
-            scores[j] = np.dot(a, b) / denom
-    if not np.isfinite(scores).any():
+    curves = np.full((cols.shape[1], len(lags)), -np.inf)
+    for c in range(cols.shape[1]):
+        for j, lag in enumerate(lags):
+            e = np.interp(tp + lag, te, cols[:, c], left=np.nan, right=np.nan)
+            m = good & np.isfinite(e)
+            if m.sum() < 10:
+                continue
+            a = kin[m] - kin[m].mean()
+            b = e[m] - e[m].mean()
+            denom = np.sqrt(np.dot(a, a) * np.dot(b, b))
+            if denom > 0:
+                curves[c, j] = np.dot(a, b) / denom
+    if not np.isfinite(curves).any():
         raise RecordingError(
             "EMG and pose do not overlap at any offset within the search range",
             expected=f"recordings overlapping within {max_lag} s, or give the offset",
         )
-    k = int(np.argmax(scores))
+    # The channel that follows the movement most closely decides (muscles that hold a posture
+    # rather than drive the elbow can even anti-correlate with it). Only true peaks count: a
+    # maximum on the edge of the search range is where the overlap shrinks, not a match.
+    peaks = np.zeros(curves.shape, dtype=bool)
+    if len(lags) > 2:
+        inner = curves[:, 1:-1]
+        peaks[:, 1:-1] = (inner >= curves[:, :-2]) & (inner >= curves[:, 2:]) & np.isfinite(inner)
+    if not peaks.any():
+        peaks = np.isfinite(curves)
+    heights = np.where(peaks, curves, -np.inf)
+    row, k = (int(v) for v in np.unravel_index(int(np.argmax(heights)), heights.shape))
     best = float(lags[k])
-    if 0 < k < len(lags) - 1 and np.isfinite(scores[k - 1 : k + 2]).all():
-        y0, y1, y2 = scores[k - 1 : k + 2]
-        curve = y0 - 2 * y1 + y2
-        if curve < 0:
-            best += 0.5 * (y0 - y2) / curve * step
+    if 0 < k < len(lags) - 1 and np.isfinite(curves[row, k - 1 : k + 2]).all():
+        y0, y1, y2 = curves[row, k - 1 : k + 2]
+        bend = y0 - 2 * y1 + y2
+        if bend < 0:
+            best += 0.5 * (y0 - y2) / bend * step
     return best

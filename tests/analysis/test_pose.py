@@ -53,7 +53,7 @@ def _image_recording(
         name = f"{side}_{role}"
         conf = np.full(len(t), visibility)
         channels[name] = Channel(name, data, 1 / (t[1] - t[0]), "norm", "landmark", confidence=conf)
-    return Recording(channels, "synthetic.csv", "mediapipe_csv", {"image_size": size})
+    return Recording(channels, "synthetic.csv", "mediapipe_csv")
 
 
 def test_joint_angles_closed_form_2d_and_3d() -> None:
@@ -72,11 +72,18 @@ def test_joint_angles_closed_form_2d_and_3d() -> None:
 def test_image_landmarks_with_y_down_give_the_true_angles() -> None:
     t, q1, q2 = _curl(30.0)
     rec = _image_recording(t, _arm(q1, q2))
-    angles = arm_angles(rec, lowpass=None)
+    angles = arm_angles(rec, lowpass=None, image_size=(1280.0, 720.0))
     assert angles.side == "left"
     np.testing.assert_allclose(angles.shoulder, q1, atol=1e-9)
     np.testing.assert_allclose(angles.elbow, q2, atol=1e-9)
     assert angles.position_unit == "px"
+    # A reader that already scaled x by width/height says so with metadata["image_size"]:
+    # then the coordinates are used as they are, not scaled twice.
+    for ch in rec.channels.values():
+        ch.data[:, 0] *= 1280.0 / 720.0
+    rec.metadata["image_size"] = [1280, 720]
+    again = arm_angles(rec, lowpass=None, image_size=(1280.0, 720.0))
+    np.testing.assert_allclose(again.elbow, q2, atol=1e-9)
 
 
 @pytest.mark.parametrize("method", ["savgol", "spline"])
@@ -128,6 +135,7 @@ def test_wrist_acceleration_is_centripetal_for_a_steady_forearm_swing() -> None:
 def test_short_holes_are_filled_long_holes_and_jumps_split_without_derivatives() -> None:
     t, q1, q2 = _curl(30.0, seconds=10.0)
     rec = _image_recording(t, _arm(q1, q2))
+    rec.metadata["image_size"] = [1280, 720]  # as a reader that already rescaled x says
     elbow = rec.channels["left_elbow"]
     assert elbow.confidence is not None
     elbow.confidence[40:42] = 0.1  # 67 ms: interpolated

@@ -39,14 +39,18 @@ def test_estimate_offset_recovers_a_synthetic_shift() -> None:
     assert estimate_offset(env, rate_emg, kin, tp, max_lag=1.0) == pytest.approx(true, abs=0.01)
 
 
-@pytest.mark.parametrize("shift", [0.0, 0.2, -0.3])
-def test_estimate_offset_on_real_synchronised_emg_and_markers(shift: float) -> None:
-    # The C3D holds EMG and markers on one clock (offset 0). Relabel the pose clock by -shift
-    # and the estimate must come back as +shift (EMG leads motion by tens of ms: 50 ms slack).
+def test_estimate_offset_on_real_synchronised_emg_and_markers() -> None:
+    # The C3D holds EMG and markers on one clock. Relabel the pose clock by -shift: the estimate
+    # must follow the shift exactly, and its bias is the electromechanical delay (EMG leads the
+    # elbow's acceleration by a few tens of ms, so the estimate sits slightly below the shift).
     rec = pyomeca_c3d()
     angles = arm_angles(rec)
     emg = rec.of_kind("emg")
     x = np.stack([c.data for c in emg], axis=1)
     env = emg_envelope(x, emg[0].rate)
-    got = estimate_offset(env, emg[0].rate, np.abs(angles.elbow_acceleration), angles.t - shift)
-    assert got == pytest.approx(shift, abs=0.05)
+    acc = np.abs(angles.elbow_acceleration)
+    shifts = np.array([-0.4, -0.3, 0.0, 0.2, 0.4])
+    got = np.array([estimate_offset(env, emg[0].rate, acc, angles.t - s) for s in shifts])
+    bias = got - shifts
+    np.testing.assert_allclose(bias, bias[0], atol=0.01)
+    assert -0.1 < bias[0] < 0.0

@@ -1,0 +1,716 @@
+"""One entry point for the CLI and the service: recordings in, lifts, phases, onsets and a
+HumanTemplate out.
+
+Per recording: EMG envelopes and onsets; arm angles from landmarks or markers; one clock (the
+EMG clock; pose times + offset); lifts from the elbow angle, or from EMG bursts without one;
+A/B/C phases with per-phase EMG and kinematics; per-lift activation order and energetics. Then
+one template over all lifts. Arrays a dashboard plots stay on the result objects; ``to_dict`` is
+the JSON summary (degrees at this edge, seconds on the common clock).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Literal, cast
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.analysis.emg import (
+    activation_order,
+    detect_onsets,
+    emg_envelope,
+    emg_filter,
+    peak_times,
+    saturation_flags,
+)
+from app.analysis.energetics import ArmDynamics, Energetics, human_arm_dynamics, lift_energetics
+from app.analysis.pose import ArmAngles, arm_angles
+from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lifts, split_phases
+from app.analysis.sync import estimate_offset
+from app.analysis.template import LiftProfile, build_template, consensus_order, lift_profile
+from app.planning.human_template import HumanTemplate
+from app.recordings.types import SITES, Channel, Recording, RecordingError
+
+#: EMG onsets are searched from this long before a lift's start [s] (EMG leads the movement;
+#: a muscle that bears the load early switches on well before the forearm moves), but never
+#: before the previous lift's end.
+ONSET_LEAD = 1.0
+
+
+@dataclass(frozen=True)
+class MuscleSeries:
+    """One EMG channel, processed.
+
+    Attributes:
+        muscle: the site (``deltoid``, ``triceps``, ``biceps``, ``forearm``) when mapped, else
+            the channel name.
+        channel: channel name in the file.
+        t: (N,) sample times [s] on the common (EMG) clock.
+        raw: (N,) raw EMG [unit].
+        filtered: (N,) band-passed EMG [unit].
+        envelope: (N,) linear envelope [unit].
+        onsets: (M, 2) onset/offset times [s].
+        saturated_fraction: share of samples flagged as clipped.
+        unit: the EMG unit (``"V"`` after the readers' conversion).
+    """
+
+    muscle: str
+    channel: str
+    t: NDArray[np.float64]
+    raw: NDArray[np.float64]
+    filtered: NDArray[np.float64]
+    envelope: NDArray[np.float64]
+    onsets: NDArray[np.float64]
+    saturated_fraction: float
+    unit: str
+
+    @property
+    def rate(self) -> float:
+        return float(1.0 / (self.t[1] - self.t[0])) if len(self.t) > 1 else 0.0
+
+    @property
+    def peak(self) -> float:
+        return float(np.max(self.envelope))
+
+
+@dataclass(frozen=True)
+class PhaseStats:
+    """One phase of one lift with its EMG and kinematics.
+
+    Attributes:
+        phase: name, part and times [s].
+        emg_mean, emg_peak: muscle -> mean / peak envelope over the phase, as a fraction of that
+            muscle's envelope peak over the whole recording.
+        peak_velocity: largest |elbow velocity| [rad/s] (NaN if unknown).
+        peak_acceleration: largest |elbow acceleration| [rad/s^2] (NaN if unknown).
+    """
+
+    phase: Phase
+    emg_mean: dict[str, float]
+    emg_peak: dict[str, float]
+    peak_velocity: float
+    peak_acceleration: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.phase.name,
+            "part": self.phase.part,
+            "start_s": self.phase.start,
+            "end_s": self.phase.end,
+            "duration_s": self.phase.duration,
+            "emg_mean": self.emg_mean,
+            "emg_peak": self.emg_peak,
+            "peak_velocity_deg_s": _deg(self.peak_velocity),
+            "peak_acceleration_deg_s2": _deg(self.peak_acceleration),
+        }
+
+
+@dataclass(frozen=True)
+class LiftReport:
+    """One lift with everything measured on it.
+
+    Attributes:
+        index: 1-based number within its recording.
+        lift: start/top/end [s] on the common clock.
+        phases: per-phase statistics (empty for EMG-only lifts).
+        onsets: muscle -> onset time relative to the lift's start [s] (negative = before).
+        activation_order: muscles by onset.
+        emg_peak_times: muscle -> time of the envelope peak during the concentric part [s].
+        profile: the kinematic/EMG features that feed the template.
+        energetics: torques, power and energies (None without angles or dynamics).
+    """
+
+    index: int
+    lift: Lift
+    phases: list[PhaseStats]
+    onsets: dict[str, float]
+    activation_order: tuple[str, ...]
+    emg_peak_times: dict[str, float]
+    profile: LiftProfile
+    energetics: Energetics | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        lift, prof = self.lift, self.profile
+        return {
+            "index": self.index,
+            "source": lift.source,
+            "start_s": lift.start,
+            "top_s": lift.top,
+            "end_s": lift.end,
+            "concentric_s": [lift.start, lift.top],
+            "eccentric_s": [lift.top, lift.end],
+            "start_angle_deg": _deg(lift.start_angle),
+            "top_angle_deg": _deg(lift.top_angle),
+            "end_angle_deg": _deg(lift.end_angle),
+            "peak_velocity_deg_s": _deg(prof.peak_velocity),
+            "peak_velocity_angle_deg": _deg(prof.peak_velocity_angle),
+            "peak_velocity_time_fraction": _num(prof.peak_velocity_time_fraction),
+            "phases": [p.to_dict() for p in self.phases],
+            "onsets_s": self.onsets,
+            "activation_order": list(self.activation_order),
+            "emg_peak_s": self.emg_peak_times,
+            "emg_peak_time_fraction": prof.emg_peak_time_fraction,
+            "energetics": self.energetics.to_dict() if self.energetics else None,
+        }
+
+
+@dataclass(frozen=True)
+class RecordingAnalysis:
+    """Everything measured on one recording (or one merged session).
+
+    Attributes:
+        source: file name(s).
+        format: detected format(s).
+        emg: processed EMG channels.
+        angles: arm angles on the pose clock (None without pose).
+        offset: t_emg = t_pose + offset [s].
+        lifts: the lifts found.
+        warnings: what was assumed or skipped.
+    """
+
+    source: str
+    format: str
+    emg: list[MuscleSeries]
+    angles: ArmAngles | None
+    offset: float
+    lifts: list[LiftReport]
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def pose_t(self) -> NDArray[np.float64] | None:
+        """(T,) pose sample times on the common clock [s]."""
+        return None if self.angles is None else self.angles.t + self.offset
+
+    def to_dict(self) -> dict[str, Any]:
+        pose: dict[str, Any] | None = None
+        if self.angles is not None:
+            a = self.angles
+            elbow = a.elbow[np.isfinite(a.elbow)]
+            pose = {
+                "side": a.side,
+                "rate_hz": a.rate,
+                "samples": len(a.t),
+                "valid_fraction": float(a.valid.mean()),
+                "gaps_s": (a.gaps + self.offset).tolist(),
+                "elbow_range_deg": [_deg(float(elbow.min())), _deg(float(elbow.max()))]
+                if elbow.size
+                else None,
+            }
+        return {
+            "source": self.source,
+            "format": self.format,
+            "offset_s": self.offset,
+            "emg": {
+                m.muscle: {
+                    "channel": m.channel,
+                    "rate_hz": m.rate,
+                    "unit": m.unit,
+                    "onsets_s": m.onsets.tolist(),
+                    "saturated_fraction": m.saturated_fraction,
+                }
+                for m in self.emg
+            },
+            "pose": pose,
+            "lifts": [lift.to_dict() for lift in self.lifts],
+            "warnings": list(self.warnings),
+        }
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """The analysis of one or more recordings and the template built from all their lifts."""
+
+    recordings: list[RecordingAnalysis]
+    template: HumanTemplate
+    settings: dict[str, Any]
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def lifts(self) -> list[LiftReport]:
+        return [lift for rec in self.recordings for lift in rec.lifts]
+
+    @property
+    def activation_order(self) -> tuple[str, ...]:
+        return consensus_order([r.activation_order for r in self.lifts if r.activation_order])
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary: per file lifts with phases and stats, onsets per muscle,
+        activation order, the template, warnings."""
+        return {
+            "files": [rec.to_dict() for rec in self.recordings],
+            "n_lifts": len(self.lifts),
+            "activation_order": list(self.activation_order),
+            "template": self.template.to_dict(),
+            "settings": self.settings,
+            "warnings": list(self.warnings),
+        }
+
+    def summary(self) -> str:
+        """Human-readable report of lifts, phases, onsets and the template."""
+        lines: list[str] = []
+        for rec in self.recordings:
+            lines.append(f"{rec.source} ({rec.format})")
+            if rec.emg:
+                muscles = ", ".join(f"{m.muscle} [{m.channel}]" for m in rec.emg)
+                lines.append(f"  EMG: {muscles}")
+            if rec.angles is not None:
+                a = rec.angles
+                lines.append(
+                    f"  pose: {a.side} arm, {a.rate:g} Hz, {100 * a.valid.mean():.0f}% valid, "
+                    f"{len(a.gaps)} gap(s); clock offset {rec.offset:+.3f} s"
+                )
+            lines.append(f"  lifts: {len(rec.lifts)}")
+            for r in rec.lifts:
+                lift = r.lift
+                head = (
+                    f"    #{r.index} {lift.start:7.2f}-{lift.top:7.2f}-{lift.end:7.2f} s"
+                    f" ({lift.source})"
+                )
+                if np.isfinite(lift.top_angle):
+                    head += f"  elbow {_deg(lift.start_angle):.0f}->{_deg(lift.top_angle):.0f} deg"
+                if np.isfinite(r.profile.peak_velocity):
+                    head += (
+                        f"  v_peak {_deg(r.profile.peak_velocity):.0f} deg/s"
+                        f" at {_deg(r.profile.peak_velocity_angle):.0f} deg"
+                    )
+                lines.append(head)
+                for p in r.phases:
+                    if p.phase.part != "concentric":
+                        continue
+                    emg = " ".join(f"{m}={v:.2f}" for m, v in p.emg_mean.items())
+                    lines.append(
+                        f"       {p.phase.name}: {p.phase.duration:.2f} s"
+                        + (f"  EMG mean {emg}" if emg else "")
+                    )
+                if r.activation_order:
+                    onset = ", ".join(f"{m} {r.onsets[m]:+.2f}s" for m in r.activation_order)
+                    lines.append(f"       onsets: {onset}")
+                if r.energetics is not None:
+                    m = r.energetics.metrics
+                    lines.append(
+                        f"       energy: pos_work {m['pos_work']:.1f} J"
+                        f" (floor dPE {m['delta_potential']:.1f} J),"
+                        f" peak power {m['peak_power']:.0f} W"
+                    )
+            for w in rec.warnings:
+                lines.append(f"  warning: {w}")
+        tpl = self.template
+        lines.append("template:")
+        lines.append(
+            f"  peak velocity at {tpl.peak_velocity_angle_deg:.1f}"
+            f" +- {tpl.peak_velocity_angle_sd_deg:.1f} deg elbow flexion"
+            f" ({tpl.n_lifts} lifts; {tpl.source})"
+        )
+        if tpl.peak_velocity_time_fraction is not None:
+            lines.append(f"  at {100 * tpl.peak_velocity_time_fraction:.0f}% of the lifting time")
+        if tpl.activation_order:
+            lines.append(f"  activation order: {' -> '.join(tpl.activation_order)}")
+        for w in self.warnings:
+            lines.append(f"warning: {w}")
+        return "\n".join(lines)
+
+
+def _deg(x: float) -> float | None:
+    return float(np.rad2deg(x)) if np.isfinite(x) else None
+
+
+def _num(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def _site_for(channel: Channel, muscle_map: Mapping[str, str] | None) -> str | None:
+    if muscle_map:
+        name = channel.name.lower()
+        for label, site in muscle_map.items():
+            key = label.lower()
+            if name == key or name.split(".")[0] == key or name.startswith(key):
+                if site not in SITES:
+                    raise RecordingError(
+                        f"muscle map sends {label!r} to unknown site {site!r}",
+                        expected=f"one of {', '.join(SITES)}",
+                    )
+                return site
+    return channel.site
+
+
+def _process_emg(
+    recording: Recording,
+    *,
+    emg_rate: float | None,
+    muscle_map: Mapping[str, str] | None,
+    emg_options: Mapping[str, Any],
+) -> list[MuscleSeries]:
+    channels = recording.of_kind("emg")
+    out: list[MuscleSeries] = []
+    groups: dict[tuple[float, int, float], list[Channel]] = {}
+    for ch in channels:
+        rate = float(emg_rate) if emg_rate is not None else float(ch.rate)
+        groups.setdefault((rate, ch.n_samples, float(ch.start)), []).append(ch)
+    used: set[str] = set()
+    for (rate, n, start), group in groups.items():
+        names = [c.name for c in group]
+        x = np.stack([np.asarray(c.data, dtype=np.float64) for c in group], axis=1)
+        try:
+            filtered = emg_filter(x, rate, names=names, **_filter_options(emg_options))
+            env = emg_envelope(filtered, rate, band=None, names=names, **_env_options(emg_options))
+        except RecordingError as exc:
+            raise RecordingError(
+                exc.message, file=recording.source, channel=exc.channel, expected=exc.expected
+            ) from None
+        t = start + np.arange(n) / rate
+        sat = saturation_flags(x)
+        for j, ch in enumerate(group):
+            muscle = _site_for(ch, muscle_map) or ch.name
+            if muscle in used:
+                muscle = ch.name
+            used.add(muscle)
+            onsets = detect_onsets(env[:, j], rate, name=ch.name) + start
+            out.append(
+                MuscleSeries(
+                    muscle=muscle,
+                    channel=ch.name,
+                    t=t,
+                    raw=x[:, j],
+                    filtered=filtered[:, j],
+                    envelope=env[:, j],
+                    onsets=onsets,
+                    saturated_fraction=float(sat[:, j].mean()),
+                    unit=ch.unit,
+                )
+            )
+    return out
+
+
+def _filter_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    return {k: options[k] for k in ("band", "notch", "harmonics", "order") if k in options}
+
+
+def _env_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    return {k: options[k] for k in ("lowpass", "method", "rms_window", "order") if k in options}
+
+
+def _has_positions(recording: Recording) -> bool:
+    return any(c.kind in ("landmark", "marker") for c in recording.channels.values())
+
+
+def _interval_stats(
+    emg: Sequence[MuscleSeries], t0: float, t1: float
+) -> tuple[dict[str, float], dict[str, float]]:
+    means: dict[str, float] = {}
+    peaks: dict[str, float] = {}
+    for m in emg:
+        sel = (m.t >= t0) & (m.t <= t1)
+        if not sel.any() or m.peak <= 0:
+            continue
+        seg = m.envelope[sel] / m.peak
+        means[m.muscle] = float(seg.mean())
+        peaks[m.muscle] = float(seg.max())
+    return means, peaks
+
+
+def _abs_peak(t: NDArray[np.float64], x: NDArray[np.float64], t0: float, t1: float) -> float:
+    sel = (t >= t0 - 1e-9) & (t <= t1 + 1e-9) & np.isfinite(x)
+    return float(np.max(np.abs(x[sel]))) if sel.any() else float("nan")
+
+
+def _analyze_one(
+    recording: Recording,
+    *,
+    emg_rate: float | None,
+    muscle_map: Mapping[str, str] | None,
+    bounds: tuple[float, float],
+    offset: float | Literal["auto"] | None,
+    dynamics: Callable[[], ArmDynamics | None],
+    emg_options: Mapping[str, Any],
+    pose_options: Mapping[str, Any],
+) -> RecordingAnalysis:
+    warnings: list[str] = []
+    emg = _process_emg(recording, emg_rate=emg_rate, muscle_map=muscle_map, emg_options=emg_options)
+    angles: ArmAngles | None = None
+    if _has_positions(recording):
+        try:
+            angles = arm_angles(recording, **pose_options)
+        except RecordingError as exc:
+            if not emg:
+                raise
+            warnings.append(f"pose not used: {exc}")
+    if not emg and angles is None:
+        raise RecordingError(
+            "nothing to analyse",
+            file=recording.source,
+            expected="EMG channels, or landmark/marker channels of an arm",
+        )
+    shift = 0.0
+    if angles is not None and emg:
+        if offset == "auto":
+            envs = np.stack([m.envelope for m in emg if len(m.t) == len(emg[0].t)], axis=1)
+            shift = estimate_offset(
+                envs,
+                emg[0].rate,
+                np.abs(angles.elbow_acceleration),
+                angles.t,
+                emg_start=float(emg[0].t[0]),
+            )
+            warnings.append(f"clock offset estimated by cross-correlation: {shift:+.3f} s")
+        elif offset is not None:
+            shift = float(offset)
+    elif isinstance(offset, (int, float)):
+        shift = float(offset)
+    lifts: list[Lift] = []
+    if angles is not None:
+        tc = angles.t + shift
+        lifts = detect_lifts(angles.elbow, tc, segments=angles.segments)
+        if not lifts:
+            warnings.append("no lift found in the elbow angle")
+    if not lifts and emg:
+        env = np.stack([m.envelope for m in emg if len(m.t) == len(emg[0].t)], axis=1)
+        lifts = detect_emg_lifts(env, emg[0].rate, start=float(emg[0].t[0]))
+        if lifts:
+            warnings.append(
+                "lifts found from EMG bursts (no usable elbow angle); tops are estimates and "
+                "there are no phases"
+            )
+    dyn = dynamics() if angles is not None else None
+    onsets = {m.muscle: m.onsets for m in emg}
+    reports: list[LiftReport] = []
+    prev_end = -np.inf
+    for i, lift in enumerate(lifts, start=1):
+        window = (max(lift.start - ONSET_LEAD, prev_end), lift.top)
+        prev_end = lift.end
+        order = activation_order(onsets, window)
+        onset_rel = {m: t - lift.start for m, t in order}
+        peaks = {
+            m.muscle: float(
+                peak_times(m.envelope, m.rate, [[lift.start, lift.top]], start=float(m.t[0]))[0]
+            )
+            for m in emg
+        }
+        peaks = {k: v for k, v in peaks.items() if np.isfinite(v)}
+        phases: list[PhaseStats] = []
+        energetics: Energetics | None = None
+        if angles is not None and lift.source == "angle":
+            tc = angles.t + shift
+            for ph in split_phases(angles.elbow, tc, lift, bounds=bounds):
+                means, pk = _interval_stats(emg, ph.start, ph.end)
+                phases.append(
+                    PhaseStats(
+                        phase=ph,
+                        emg_mean=means,
+                        emg_peak=pk,
+                        peak_velocity=_abs_peak(tc, angles.elbow_velocity, ph.start, ph.end),
+                        peak_acceleration=_abs_peak(
+                            tc, angles.elbow_acceleration, ph.start, ph.end
+                        ),
+                    )
+                )
+            profile = lift_profile(
+                lift,
+                t=tc,
+                elbow=angles.elbow,
+                elbow_velocity=angles.elbow_velocity,
+                elbow_acceleration=angles.elbow_acceleration,
+                activation_order=[m for m, _ in order],
+                emg_peak_times=peaks,
+            )
+            if dyn is not None:
+                try:
+                    energetics = lift_energetics(
+                        tc,
+                        angles.q,
+                        angles.qd,
+                        angles.qdd,
+                        dyn,
+                        interval=(lift.start, lift.end),
+                        phases=[p.phase for p in phases],
+                    )
+                except RecordingError as exc:
+                    warnings.append(f"lift {i}: no energetics ({exc.message})")
+        else:
+            profile = lift_profile(
+                lift, activation_order=[m for m, _ in order], emg_peak_times=peaks
+            )
+        reports.append(
+            LiftReport(
+                index=i,
+                lift=lift,
+                phases=phases,
+                onsets=onset_rel,
+                activation_order=tuple(m for m, _ in order),
+                emg_peak_times=peaks,
+                profile=profile,
+                energetics=energetics,
+            )
+        )
+    return RecordingAnalysis(
+        source=recording.source,
+        format=recording.format,
+        emg=emg,
+        angles=angles,
+        offset=shift,
+        lifts=reports,
+        warnings=warnings,
+    )
+
+
+def merge_recordings(recordings: Sequence[Recording]) -> Recording:
+    """Channels of several files of one session (e.g. an EMG file and a pose file) as one
+    recording; names that clash get the file name as a prefix."""
+    channels: dict[str, Channel] = {}
+    for rec in recordings:
+        for name, ch in rec.channels.items():
+            key = name if name not in channels else f"{rec.source}:{name}"
+            channels[key] = replace(ch, name=key) if key != name else ch
+    return Recording(
+        channels=channels,
+        source=" + ".join(r.source for r in recordings),
+        format=" + ".join(r.format for r in recordings),
+        metadata={"merged": [r.source for r in recordings]},
+    )
+
+
+def analyze_recordings(
+    recordings: Sequence[Recording],
+    *,
+    emg_rate: float | None = None,
+    muscle_map: Mapping[str, str] | None = None,
+    phase_bounds_deg: tuple[float, float] = (40.0, 90.0),
+    body_mass: float = 75.0,
+    body_height: float = 1.75,
+    load_mass: float = 12.0,
+    offset: float | Literal["auto"] | None = None,
+    together: bool = False,
+    emg_options: Mapping[str, Any] | None = None,
+    pose_options: Mapping[str, Any] | None = None,
+) -> AnalysisResult:
+    """Analyse recordings and build one HumanTemplate from all their lifts.
+
+    Args:
+        recordings: the recordings (each analysed on its own unless ``together``).
+        emg_rate: true EMG sampling rate [Hz] when the file states a wrong one.
+        muscle_map: channel label -> site (deltoid, triceps, biceps, forearm), for channels
+            the reader could not map.
+        phase_bounds_deg: (A/B, B/C) elbow-flexion thresholds [deg].
+        body_mass: subject's mass [kg] for the arm model.
+        body_height: subject's height [m] for the arm model.
+        load_mass: dumbbell mass [kg].
+        offset: t_emg = t_pose + offset [s]; None = same clock (0) for one file, ``"auto"``
+            estimates it by cross-correlation (the default when ``together`` joins files).
+        together: the recordings are parts of one session (e.g. EMG file + video landmarks):
+            merge them before analysis.
+        emg_options: options for :func:`emg_filter`/:func:`emg_envelope` (band, notch,
+            lowpass, method, ...).
+        pose_options: options for :func:`arm_angles` (side, min_visibility, max_gap, ...).
+
+    Returns:
+        AnalysisResult.
+
+    Raises:
+        RecordingError: a recording with bad EMG, or with neither EMG nor an arm.
+    """
+    if not recordings:
+        raise RecordingError("no recordings given", expected="at least one file")
+    lo, hi = float(phase_bounds_deg[0]), float(phase_bounds_deg[1])
+    if not 0 < lo < hi < 180:
+        raise RecordingError(
+            f"phase bounds {phase_bounds_deg} deg", expected="0 < A/B bound < B/C bound < 180"
+        )
+    bounds = (float(np.deg2rad(lo)), float(np.deg2rad(hi)))
+    recs = [merge_recordings(recordings)] if together and len(recordings) > 1 else list(recordings)
+    if together and len(recordings) > 1 and offset is None:
+        offset = "auto"
+    warnings: list[str] = []
+    cache: dict[str, ArmDynamics | None] = {}
+
+    def dynamics() -> ArmDynamics | None:
+        if "arm" not in cache:
+            try:
+                cache["arm"] = human_arm_dynamics(
+                    body_mass=body_mass, body_height=body_height, load_mass=load_mass
+                )
+            except (ImportError, ValueError) as exc:
+                warnings.append(f"no energetics: human arm model unavailable ({exc})")
+                cache["arm"] = None
+        return cache["arm"]
+
+    analyses = [
+        _analyze_one(
+            rec,
+            emg_rate=emg_rate,
+            muscle_map=muscle_map,
+            bounds=bounds,
+            offset=offset,
+            dynamics=dynamics,
+            emg_options=emg_options or {},
+            pose_options=pose_options or {},
+        )
+        for rec in recs
+    ]
+    profiles = [r.profile for a in analyses for r in a.lifts]
+    source = ", ".join(a.source for a in analyses)
+    template = build_template(profiles, phase_bounds_deg=(lo, hi), source=source)
+    if not profiles:
+        warnings.append("no lifts found: the template keeps the paper's defaults")
+    settings = {
+        "emg_rate_hz": emg_rate,
+        "muscle_map": dict(muscle_map or {}),
+        "phase_bounds_deg": [lo, hi],
+        "body_mass_kg": body_mass,
+        "body_height_m": body_height,
+        "load_mass_kg": load_mass,
+        "offset_s": offset,
+        "emg": {"band_hz": [20.0, 450.0], "lowpass_hz": 6.0, "method": "lowpass"}
+        | {k: v for k, v in (emg_options or {}).items()},
+        "pose": dict(pose_options or {}),
+    }
+    return AnalysisResult(
+        recordings=analyses, template=template, settings=settings, warnings=warnings
+    )
+
+
+def _reader() -> Callable[..., Recording]:
+    import importlib
+
+    module = importlib.import_module("app.recordings")
+    read = getattr(module, "read_recording", None)
+    if read is None:
+        raise RecordingError("no file reader available", expected="app.recordings.read_recording")
+    return cast(Callable[..., Recording], read)
+
+
+def analyze_files(
+    paths: Sequence[str | Path],
+    *,
+    emg_rate: float | None = None,
+    muscle_map: Mapping[str, str] | None = None,
+    phase_bounds_deg: tuple[float, float] = (40.0, 90.0),
+    body_mass: float = 75.0,
+    body_height: float = 1.75,
+    load_mass: float = 12.0,
+    offset: float | Literal["auto"] | None = None,
+    together: bool = False,
+    emg_options: Mapping[str, Any] | None = None,
+    pose_options: Mapping[str, Any] | None = None,
+) -> AnalysisResult:
+    """Read files with ``app.recordings.read_recording`` and analyse them
+    (see :func:`analyze_recordings` for the options)."""
+    read = _reader()
+    recordings = [read(p, emg_rate=emg_rate, muscle_map=muscle_map) for p in paths]
+    return analyze_recordings(
+        recordings,
+        emg_rate=emg_rate,
+        muscle_map=muscle_map,
+        phase_bounds_deg=phase_bounds_deg,
+        body_mass=body_mass,
+        body_height=body_height,
+        load_mass=load_mass,
+        offset=offset,
+        together=together,
+        emg_options=emg_options,
+        pose_options=pose_options,
+    )
