@@ -277,6 +277,43 @@ def _pinocchio() -> Any:
     return pinocchio
 
 
+def _align_negative_axes(pin: Any, model: Any) -> Any:
+    """The same model with joints about -x, -y or -z turned into Pinocchio's RX, RY or RZ.
+
+    URDF axes such as (0, -1, 0) (the project's flexion convention) parse as the generic
+    ``RevoluteUnaligned`` joint, about 10 % slower in RNEA than the axis-aligned types. A
+    rotation about -e equals F R_e(q) F^-1 with F a half turn about another axis, so each
+    such joint frame is turned by F and everything expressed in it (the body inertia, the
+    children's placements, the frames) by F^-1. Joint angles, torques and every frame's world
+    pose (oMf) are unchanged; only the joint frames (oMi) of those joints turn by a half turn.
+    """
+    model = model.copy()
+    types = (pin.JointModelRX, pin.JointModelRY, pin.JointModelRZ)
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.shortname() != "JointModelRevoluteUnaligned":
+            continue
+        axis = np.array(joint.extract().axis)
+        k = int(np.argmax(np.abs(axis)))
+        if axis[k] != -1.0 or np.count_nonzero(axis) != 1:
+            continue
+        flip = pin.SE3(np.diag([1.0, -1.0, -1.0] if k == 2 else [-1.0, -1.0, 1.0]), np.zeros(3))
+        aligned = pin.JointModel(types[k]())
+        aligned.setIndexes(j, joint.idx_q, joint.idx_v)
+        model.joints[j] = aligned
+        model.jointPlacements[j] = model.jointPlacements[j] * flip
+        model.inertias[j] = flip.actInv(model.inertias[j])
+        for child in range(j + 1, model.njoints):
+            if model.parents[child] == j:
+                model.jointPlacements[child] = flip.actInv(model.jointPlacements[child])
+        for index in range(len(model.frames)):
+            frame = model.frames[index]
+            if frame.parentJoint == j:
+                frame.placement = flip.actInv(frame.placement)
+                model.frames[index] = frame
+    return model
+
+
 def _build_model(path: Path) -> Any:
     pin = _pinocchio()
     if not path.is_file():
@@ -341,7 +378,7 @@ class PinocchioDynamics:
         }
         pin = _pinocchio()
         path = Path(urdf)
-        model = _build_model(path)
+        model = _align_negative_axes(pin, _build_model(path))
         for joint_id in range(1, model.njoints):
             kind = model.joints[joint_id].shortname()
             if kind not in _REVOLUTE:

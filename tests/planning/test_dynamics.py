@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from scipy.integrate import simpson
 
 from app.planning.dynamics import Dynamics, PinocchioDynamics, PlanarArm2DOF
-from app.planning.robots import Robot, human_arm_segments, load_robot
+from app.planning.robots import Payload, Robot, human_arm_segments, load_robot
 
 G = 9.81
 
@@ -340,3 +340,70 @@ def test_models_survive_pickling(wall: Robot) -> None:
     )
     closed = PlanarArm2DOF.from_robot(load_robot("human_arm_2dof"))
     assert pickle.loads(pickle.dumps(closed)) == closed
+
+
+NEGATIVE = """<robot name="neg">
+  <link name="base"/>
+  <joint name="a" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0.1 0.2 1" rpy="0.3 -0.2 0.1"/><axis xyz="0 0 -1"/>
+    <limit lower="-3" upper="3" velocity="5" effort="50"/></joint>
+  <link name="l1"><inertial><origin xyz="0.2 0.05 0" rpy="0.1 0.2 0.3"/><mass value="2"/>
+    <inertia ixx="0.01" ixy="0.001" ixz="0.002" iyy="0.05" iyz="0" izz="0.05"/></inertial></link>
+  <joint name="b" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0.4 0 0.1" rpy="0 0.5 0"/><axis xyz="-1 0 0"/>
+    <limit lower="-3" upper="3" velocity="5" effort="50"/></joint>
+  <link name="l2"><inertial><origin xyz="0.1 0.1 0"/><mass value="1"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+  <joint name="c" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0 0.3 0"/><axis xyz="0 -1 0"/>
+    <limit lower="-3" upper="3" velocity="5" effort="50"/></joint>
+  <link name="l3"><inertial><origin xyz="0 0 -0.1"/><mass value="0.5"/>
+    <inertia ixx="0.003" ixy="0" ixz="0" iyy="0.003" iyz="0" izz="0.001"/></inertial></link>
+  <joint name="tool" type="fixed"><parent link="l3"/><child link="tool0"/>
+    <origin xyz="0.02 -0.03 -0.2" rpy="0.4 0.1 -0.3"/></joint>
+  <link name="tool0"/>
+</robot>
+"""
+
+
+def test_negative_axes_are_aligned_without_changing_anything(tmp_path: Path) -> None:
+    """Joints about -x/-y/-z become Pinocchio's RX/RY/RZ; dynamics and frames stay the same."""
+    import pinocchio as pin
+
+    path = tmp_path / "neg.urdf"
+    path.write_text(NEGATIVE)
+    raw = pin.buildModelFromUrdf(str(path))
+    assert {raw.joints[j].shortname() for j in (1, 2, 3)} == {"JointModelRevoluteUnaligned"}
+    payload = Payload.box(2.0, (0.3, 0.2, 0.1), (0.01, 0.02, -0.05))
+    dyn = PinocchioDynamics(path, payload=payload, payload_body="tool0")
+    aligned = dyn.model
+    assert [aligned.joints[j].shortname() for j in (1, 2, 3)] == [
+        "JointModelRZ",
+        "JointModelRX",
+        "JointModelRY",
+    ]
+    frame = raw.frames[raw.getFrameId("tool0")]
+    raw.inertias[3] = raw.inertias[3] + frame.placement.act(
+        pin.Inertia(payload.mass, payload.com, payload.inertia)
+    )
+    raw_data, aligned_data = raw.createData(), aligned.createData()
+    rng = np.random.default_rng(14)
+    q, qd, qdd = (rng.normal(size=(25, 3)) for _ in range(3))
+    tau = dyn.inverse_dynamics(q, qd, qdd)
+    mass = dyn.mass_matrix(q)
+    hand = dyn.end_effector_position(q)
+    for i in range(len(q)):
+        np.testing.assert_allclose(tau[i], pin.rnea(raw, raw_data, q[i], qd[i], qdd[i]), atol=1e-12)
+        full = pin.crba(raw, raw_data, q[i])
+        np.testing.assert_allclose(mass[i], np.triu(full) + np.triu(full, 1).T, atol=1e-12)
+        pin.framesForwardKinematics(raw, raw_data, q[i])
+        pin.framesForwardKinematics(aligned, aligned_data, q[i])
+        for f in range(len(raw.frames)):
+            np.testing.assert_allclose(
+                aligned_data.oMf[f].homogeneous, raw_data.oMf[f].homogeneous, atol=1e-12
+            )
+        tool = raw_data.oMf[raw.getFrameId("tool0")]
+        np.testing.assert_allclose(hand[i], tool.act(payload.com), atol=1e-12)
+        assert dyn.potential_energy(q[i]) == pytest.approx(
+            pin.computePotentialEnergy(raw, raw_data, q[i]), abs=1e-12
+        )
