@@ -193,6 +193,24 @@ def _motor_arrays(motors: Sequence[MotorModel], n: int) -> tuple[FloatArray, ...
     return gear, kt, res, visc, coul, eta
 
 
+def _joint_sum(x: FloatArray) -> FloatArray:
+    """Sum over the joint axis (..., T, n) -> (..., T). A product with ones: numpy's reduction
+    over a short last axis is several times slower, and this is the PSO's inner loop."""
+    result: FloatArray = x @ np.ones(x.shape[-1])
+    return result
+
+
+def _integrate(tt: FloatArray, y: FloatArray) -> FloatArray:
+    """Trapezoidal integral over the last axis, (..., T) -> (...,), as one dot product with the
+    trapezoid weights (equal to ``np.trapezoid`` up to round-off, and faster on batches)."""
+    dt = np.diff(tt)
+    weights = np.zeros(tt.size)
+    weights[:-1] += 0.5 * dt
+    weights[1:] += 0.5 * dt
+    result: FloatArray = y @ weights
+    return result
+
+
 # ----------------------------------------------------------------------------------------------
 # Curves over time
 # ----------------------------------------------------------------------------------------------
@@ -224,8 +242,7 @@ def power_curve(qd: ArrayLike, tau: ArrayLike) -> FloatArray:
         (..., T) power [W].
     """
     v, f = _check_pair(qd, tau)
-    result: FloatArray = np.abs(v * f).sum(axis=-1)
-    return result
+    return _joint_sum(np.abs(v * f))
 
 
 def _electrical_power(
@@ -233,13 +250,11 @@ def _electrical_power(
 ) -> tuple[FloatArray, float]:
     """Bus power (..., T) and the regeneration efficiency used for it."""
     if motors is None:
-        ideal: FloatArray = (v * f).sum(axis=-1)
-        return ideal, 0.0
+        return _joint_sum(v * f), 0.0
     gear, kt, res, visc, coul, eta = _motor_arrays(motors, v.shape[-1])
     total = f + visc * v + coul * np.tanh(v / FRICTION_VELOCITY_SCALE)
     current = total / (gear * kt)
-    power: FloatArray = (total * v + res * current * current).sum(axis=-1)
-    return power, float(eta.min())
+    return _joint_sum(total * v + res * current * current), float(eta.min())
 
 
 def electrical_power(
@@ -293,8 +308,7 @@ def _bus_energy(tt: FloatArray, p_bus: FloatArray, eta: float) -> FloatArray:
     drawn = np.maximum(p_bus, 0.0)
     if eta > 0.0:
         drawn = drawn - eta * np.maximum(-p_bus, 0.0)
-    result: FloatArray = np.trapezoid(drawn, tt, axis=-1)
-    return result
+    return _integrate(tt, drawn)
 
 
 def objective_values(
@@ -334,16 +348,16 @@ def objective_values(
     v, f = _check_pair(qd, tau, tt.size)
     result: FloatArray
     if objective == "tau_sq":
-        result = np.trapezoid((f * f).sum(axis=-1), tt, axis=-1)
+        result = _integrate(tt, _joint_sum(f * f))
     elif objective == "abs_work":
-        result = np.trapezoid(np.abs(v * f).sum(axis=-1), tt, axis=-1)
+        result = _integrate(tt, _joint_sum(np.abs(v * f)))
     elif objective == "pos_work":
-        result = np.trapezoid(np.maximum(v * f, 0.0).sum(axis=-1), tt, axis=-1)
+        result = _integrate(tt, _joint_sum(np.maximum(v * f, 0.0)))
     elif objective == "electrical_energy":
         p_bus, eta = _electrical_power(v, f, motors)
         result = _bus_energy(tt, p_bus, eta)
     elif objective == "peak_power":
-        result = np.abs(v * f).sum(axis=-1).max(axis=-1)
+        result = _joint_sum(np.abs(v * f)).max(axis=-1)
     else:  # peak_torque
         mag = np.abs(f)
         if tau_max is not None:
@@ -382,12 +396,13 @@ def energy_metrics(
         raise ValueError(f"qd and tau must have shape (T, n) for one trajectory, got {v.shape}")
     p = v * f
     p_bus, eta = _electrical_power(v, f, motors)
+    abs_power = _joint_sum(np.abs(p))
     return EnergyMetrics(
-        tau_sq=float(np.trapezoid((f * f).sum(axis=-1), tt)),
-        abs_work=float(np.trapezoid(np.abs(p).sum(axis=-1), tt)),
-        pos_work=float(np.trapezoid(np.maximum(p, 0.0).sum(axis=-1), tt)),
+        tau_sq=float(_integrate(tt, _joint_sum(f * f))),
+        abs_work=float(_integrate(tt, abs_power)),
+        pos_work=float(_integrate(tt, _joint_sum(np.maximum(p, 0.0)))),
         electrical_energy=float(_bus_energy(tt, p_bus, eta)),
-        peak_power=float(np.abs(p).sum(axis=-1).max()),
+        peak_power=float(abs_power.max()),
         peak_torque=tuple(float(x) for x in np.abs(f).max(axis=0)),
     )
 

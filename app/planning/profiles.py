@@ -415,6 +415,16 @@ def _check_knots(
     return tk, qk, qdk, qddk
 
 
+#: Falling factorials m! / (m - d)! that turn power coefficients c_m into those of the d-th
+#: derivative in u: d^d/du^d sum_m c_m u^m = sum_k FALLING[d][k] c_(k+d) u^k.
+_FALLING = (
+    np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0]),
+    np.array([1.0, 2.0, 3.0, 4.0, 5.0]),
+    np.array([2.0, 6.0, 12.0, 20.0]),
+    np.array([6.0, 24.0, 60.0]),
+)
+
+
 def _evaluate_quintic_segments(
     tk: FloatArray,
     qk: FloatArray,
@@ -426,52 +436,39 @@ def _evaluate_quintic_segments(
 ) -> tuple[FloatArray, ...]:
     """Evaluate validated batched quintic Hermite splines on the grid t (T,) -> each (B, T, n).
 
-    For every (row, sample) the time-derivatives of the power basis u^0..u^5 of its own segment
-    fill that segment's six columns of a zero-padded basis; one batched matrix product with the
-    stacked segment coefficients then gives q, qd, qdd (and jerk) together. Gathering per-sample
-    coefficients instead is several times slower: the cost here is memory traffic (allocating
-    and touching large temporaries), not arithmetic, so few large arrays are made.
+    Segment s has the local time u = (t - t_s) / h_s. Per segment the powers u^0..u^5 of its
+    own samples fill six rows of a zero-padded basis (B, 6 S, T); the derivatives are the same
+    powers times derivative coefficients c_(k+d) (k+d)! / k! / h_s^d, which depend on the row and
+    segment only. One batched matrix product then gives q, qd, qdd (and jerk) together. The
+    cost is dominated by per-call numpy overhead and memory traffic, not arithmetic, so no
+    per-sample gathers are made and only a few large arrays are allocated.
     """
     n_batch, n_knots = tk.shape
     n_seg = n_knots - 1
     n_t = t.size
+    n_joints = qk.shape[-1]
     h = np.diff(tk, axis=1)  # (B, S)
-    # Segment of every (row, sample): the number of interior knots at or before t.
-    seg = np.sum(t[None, :, None] >= tk[:, None, 1:-1], axis=2)  # (B, T)
-    rows = np.arange(n_batch)[:, None]
-    inv_h = 1.0 / h[rows, seg]
-    u = (t[None, :] - tk[rows, seg]) * inv_h
-    n_der = 4 if with_jerk else 3
-    # basis[d, b, 6 s + m, k] = d^d/dt^d u^m at sample k when it lies in segment s, else 0.
-    basis = np.zeros((n_der, n_batch, 6 * n_seg, n_t))
-    for s in range(n_seg):  # (B, T)-sized work only; the big arrays are touched once
-        m = (seg == s).astype(np.float64) if n_seg > 1 else np.ones_like(u)
+    powers = np.zeros((n_batch, 6 * n_seg, n_t))
+    for s in range(n_seg):  # (B, T)-sized work per segment; S is small
+        u = (t[None, :] - tk[:, s, None]) / h[:, s, None]
+        # The first segment takes everything before its end, the last everything after its start
+        # (both within the knot span, as validated); a sample on an interior knot goes right.
+        inside = np.ones(u.shape, dtype=bool)
+        if s > 0:
+            inside &= t[None, :] >= tk[:, s, None]
+        if s < n_seg - 1:
+            inside &= t[None, :] < tk[:, s + 1, None]
+        m = inside.astype(np.float64)
         um = u * m
         u2 = um * u
         u3 = u2 * u
-        ih = inv_h * m
-        ih2 = ih * inv_h
         o = 6 * s
-        basis[0, :, o] = m
-        basis[0, :, o + 1] = um
-        basis[0, :, o + 2] = u2
-        basis[0, :, o + 3] = u3
-        basis[0, :, o + 4] = u3 * u
-        basis[0, :, o + 5] = u3 * u2
-        basis[1, :, o + 1] = ih
-        basis[1, :, o + 2] = 2.0 * um * inv_h
-        basis[1, :, o + 3] = 3.0 * u2 * inv_h
-        basis[1, :, o + 4] = 4.0 * u3 * inv_h
-        basis[1, :, o + 5] = 5.0 * u3 * u * inv_h
-        basis[2, :, o + 2] = 2.0 * ih2
-        basis[2, :, o + 3] = 6.0 * um * ih2
-        basis[2, :, o + 4] = 12.0 * u2 * ih2
-        basis[2, :, o + 5] = 20.0 * u3 * ih2
-        if with_jerk:
-            ih3 = ih2 * inv_h
-            basis[3, :, o + 3] = 6.0 * ih3
-            basis[3, :, o + 4] = 24.0 * um * ih3
-            basis[3, :, o + 5] = 60.0 * u2 * ih3
+        powers[:, o] = m
+        powers[:, o + 1] = um
+        powers[:, o + 2] = u2
+        powers[:, o + 3] = u3
+        powers[:, o + 4] = u3 * u
+        powers[:, o + 5] = u3 * u2
     hh = h[:, :, None]
     hermite = np.stack(
         [
@@ -484,8 +481,16 @@ def _evaluate_quintic_segments(
         ],
         axis=2,
     )  # (B, S, 6, n)
-    coeffs = np.matmul(_HERMITE_TO_POWER, hermite).reshape(n_batch, 6 * n_seg, -1)
-    out = np.matmul(basis.transpose(0, 1, 3, 2), coeffs)  # (n_der, B, T, n)
+    c = np.matmul(_HERMITE_TO_POWER, hermite)  # (B, S, 6, n): q = sum_m c_m u^m
+    n_der = 4 if with_jerk else 3
+    coeffs = np.zeros((n_der, n_batch, n_seg, 6, n_joints))
+    inv_h = (1.0 / h)[:, :, None, None]
+    scale = np.ones_like(inv_h)
+    for d in range(n_der):
+        coeffs[d, :, :, : 6 - d] = c[:, :, d:] * (_FALLING[d][:, None] * scale)
+        scale = scale * inv_h
+    coeffs = coeffs.reshape(n_der, n_batch, 6 * n_seg, n_joints)
+    out = np.matmul(powers.transpose(0, 2, 1), coeffs)  # (n_der, B, T, n)
     return tuple(out)
 
 
