@@ -345,9 +345,11 @@ def _process_emg(
     emg_rate: float | None,
     muscle_map: Mapping[str, str] | None,
     emg_options: Mapping[str, Any],
+    warnings: list[str],
 ) -> list[MuscleSeries]:
     channels = recording.of_kind("emg")
     out: list[MuscleSeries] = []
+    channels = _drop_unused(recording, channels, muscle_map, warnings)
     groups: dict[tuple[float, int, float], list[Channel]] = {}
     for ch in channels:
         rate = float(emg_rate) if emg_rate is not None else float(ch.rate)
@@ -385,6 +387,34 @@ def _process_emg(
                 )
             )
     return out
+
+
+def _is_flat(ch: Channel) -> bool:
+    data = np.asarray(ch.data, dtype=np.float64)
+    finite = data[np.isfinite(data)]
+    return finite.size > 0 and bool(np.all(finite == finite[0]))
+
+
+def _drop_unused(
+    recording: Recording,
+    channels: list[Channel],
+    muscle_map: Mapping[str, str] | None,
+    warnings: list[str],
+) -> list[Channel]:
+    """Leave out flat (unused) EMG channels next to live ones, unless they are mapped to a
+    site: a muscle the user asked for that carries no signal is an error, raised later."""
+    flat = [c for c in channels if _is_flat(c)]
+    if not flat or len(flat) == len(channels):
+        return channels
+    dropped = [c for c in flat if _site_for(c, muscle_map) is None]
+    if dropped:
+        warnings.append(
+            f"{len(dropped)} flat (unused) EMG channel(s) left out: "
+            + ", ".join(c.name for c in dropped[:8])
+            + (" ..." if len(dropped) > 8 else "")
+        )
+    keep = {id(c) for c in dropped}
+    return [c for c in channels if id(c) not in keep]
 
 
 def _filter_options(options: Mapping[str, Any]) -> dict[str, Any]:
@@ -431,7 +461,14 @@ def _analyze_one(
     pose_options: Mapping[str, Any],
 ) -> RecordingAnalysis:
     warnings: list[str] = []
-    emg = _process_emg(recording, emg_rate=emg_rate, muscle_map=muscle_map, emg_options=emg_options)
+    warnings.extend(str(w) for w in recording.metadata.get("warnings", ()))
+    emg = _process_emg(
+        recording,
+        emg_rate=emg_rate,
+        muscle_map=muscle_map,
+        emg_options=emg_options,
+        warnings=warnings,
+    )
     angles: ArmAngles | None = None
     if _has_positions(recording):
         try:
@@ -696,11 +733,26 @@ def analyze_files(
     together: bool = False,
     emg_options: Mapping[str, Any] | None = None,
     pose_options: Mapping[str, Any] | None = None,
+    frame_rate: float | None = None,
+    image_size: tuple[int, int] | None = None,
 ) -> AnalysisResult:
-    """Read files with ``app.recordings.read_recording`` and analyse them
-    (see :func:`analyze_recordings` for the options)."""
+    """Read files with ``app.recordings.read_recording`` and analyse them.
+
+    ``frame_rate`` [Hz] and ``image_size`` (width, height) [px] go to the reader for pose
+    files that do not state them (MediaPipe CSV without timestamps); the other options are
+    those of :func:`analyze_recordings`.
+    """
     read = _reader()
-    recordings = [read(p, emg_rate=emg_rate, muscle_map=muscle_map) for p in paths]
+    recordings = [
+        read(
+            p,
+            emg_rate=emg_rate,
+            muscle_map=muscle_map,
+            frame_rate=frame_rate,
+            image_size=image_size,
+        )
+        for p in paths
+    ]
     return analyze_recordings(
         recordings,
         emg_rate=emg_rate,

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from app.analysis.segmentation import Lift
 from app.planning.human_template import HumanTemplate
+from app.recordings.types import SITES
 
 GRID_POINTS = 101
 
@@ -137,6 +138,8 @@ def build_template(
     Kinematic fields (peak-velocity angle mean +- SD, time fraction, profiles) come from the
     lifts with complete angle data; with none, they keep the paper's defaults (62 deg) and
     ``n_lifts`` is 0, while the activation order and EMG peak times still come from the EMG.
+    The activation order and EMG peak times cover the four sites (deltoid, triceps, biceps,
+    forearm) when any channel is mapped to one, else every muscle.
 
     Args:
         profiles: per-lift features (:func:`lift_profile`).
@@ -147,8 +150,14 @@ def build_template(
         A HumanTemplate (JSON round-trip through ``to_json``/``from_json``).
     """
     kin = [p for p in profiles if p.has_kinematics]
-    order = consensus_order([p.activation_order for p in profiles if p.activation_order])
-    muscles = sorted({m for p in profiles for m in p.emg_peak_time_fraction})
+    # The template speaks of the method's four sites; other muscles count only when no channel
+    # is mapped to a site.
+    named = {m for p in profiles for m in (*p.activation_order, *p.emg_peak_time_fraction)}
+    keep = set(SITES) if named & set(SITES) else named
+    order = consensus_order(
+        [[m for m in p.activation_order if m in keep] for p in profiles if p.activation_order]
+    )
+    muscles = sorted({m for p in profiles for m in p.emg_peak_time_fraction if m in keep})
     emg_peaks = {
         m: float(
             np.mean(

@@ -63,22 +63,6 @@ def test_to_dict_is_json_and_in_degrees(pyomeca_result) -> None:  # type: ignore
     assert "lifts: 3" in pyomeca_result.summary()
 
 
-def test_planner_accepts_the_template(pyomeca_result) -> None:  # type: ignore[no-untyped-def]
-    planner = pytest.importorskip("app.planning.planner")
-    robots = pytest.importorskip("app.planning.robots")
-    out = planner.plan(
-        robots.load_robot("human_arm_2dof"),
-        template=pyomeca_result.template,
-        particles=4,
-        iterations=2,
-        n_samples=30,
-        report_samples=50,
-    )
-    assert out.to_dict()["peak_velocity_angle_deg"] == pytest.approx(
-        pyomeca_result.template.peak_velocity_angle_deg, abs=5.0
-    )
-
-
 def test_noraxon_curls_ten_lifts_each_from_emg_alone() -> None:
     result = analyze_recordings([noraxon_recording("NT-01"), noraxon_recording("SP-01")])
     assert [len(r.lifts) for r in result.recordings] == [10, 10]
@@ -135,8 +119,18 @@ def test_bad_recordings_raise_errors_naming_file_and_channel() -> None:
         analyze_recordings([_emg_rec(np.ones((1, 1)), ["Biceps"])])
     flat = rng.standard_normal((5000, 2))
     flat[:, 0] = 1e-3
+    # A flat channel the user mapped to a site is an error ...
     with pytest.raises(RecordingError, match=r"'Deltoid'.*zero variance"):
-        analyze_recordings([_emg_rec(flat, ["Deltoid", "Biceps"])])
+        analyze_recordings(
+            [_emg_rec(flat, ["Deltoid", "Biceps"])], muscle_map={"Deltoid": "deltoid"}
+        )
+    # ... and so is a recording whose EMG channels are all flat.
+    with pytest.raises(RecordingError, match=r"'Deltoid'.*zero variance"):
+        analyze_recordings([_emg_rec(np.full((5000, 2), 0.5), ["Deltoid", "Biceps"])])
+    # An unmapped flat channel beside live ones is an unused input: left out with a warning.
+    kept = analyze_recordings([_emg_rec(flat, ["Sensor 12", "Biceps"])])
+    assert [m.channel for m in kept.recordings[0].emg] == ["Biceps"]
+    assert "Sensor 12" in " ".join(kept.recordings[0].warnings)
     face = Recording(
         {"nose": Channel("nose", rng.random((50, 3)), 30.0, "norm", "landmark")},
         "face.csv",
@@ -164,3 +158,38 @@ def test_pose_side_option_is_passed_through() -> None:
     expected = arm_angles(rec, side="left", min_visibility=0.3)
     assert result.recordings[0].angles is not None
     np.testing.assert_array_equal(result.recordings[0].angles.elbow, expected.elbow)
+
+
+def _files_available() -> None:
+    import app.recordings
+
+    if not hasattr(app.recordings, "read_recording"):
+        pytest.skip("app.recordings.read_recording is not in the tree yet")
+
+
+@pytest.mark.parametrize(("name", "emg_rate"), [("NT-01.mat", 2000.0), ("SP-01.mat", None)])
+def test_analyze_files_noraxon_ten_lifts(name: str, emg_rate: float | None) -> None:
+    _files_available()
+    from app.analysis import analyze_files
+    from tests.conftest import shared_file
+
+    path = shared_file(f"noraxon_curls_biceps_brachioradialis/{name}")
+    result = analyze_files([path], emg_rate=emg_rate)
+    assert len(result.lifts) == 10
+    assert {m.muscle for m in result.recordings[0].emg} == {"biceps", "forearm"}
+
+
+def test_analyze_files_c3d_and_mediapipe() -> None:
+    _files_available()
+    from app.analysis import analyze_files
+    from tests.conftest import shared_file
+
+    c3d = shared_file("pyomeca_upperlimb_c3d_emg/markers_analogs.c3d")
+    frames = shared_file("mediapipe_bicep_curl_frames/test.csv")
+    result = analyze_files([c3d, frames], frame_rate=30.0, load_mass=2.0)
+    marker, landmarks = result.recordings
+    lo, hi = marker.to_dict()["pose"]["elbow_range_deg"]
+    assert (180 - hi, 180 - lo) == pytest.approx((42.0, 155.0), abs=2.0)
+    assert len(marker.lifts) == 3
+    assert landmarks.angles is not None and len(landmarks.angles.gaps) >= 5
+    assert "deltoid" in result.template.activation_order
