@@ -122,3 +122,33 @@ class Recording:
             if c.site is not None and c.site not in out:
                 out[c.site] = c
         return out
+
+
+@dataclass(frozen=True)
+class DatalogSensor:
+    """One column of a Biometrics DataLOG ASCII export and how to turn its ADC counts into units.
+
+    The export has no header, so the user (or a JSON sidecar) says what each column is.
+    ``value = counts / counts_range * physical_range`` in ``unit``, then converted to SI
+    (EMG to V, angles to rad, accelerations to m/s^2).
+
+    Attributes:
+        column: 0-based column index in the tab-separated export.
+        name: channel name to give (e.g. ``"biceps"``); mapped to a site like any label.
+        kind: what the sensor measures (``"emg"``, ``"angle"`` for goniometers, ``"accel"``...).
+        rate: sampling rate of this sensor [Hz]; DataLOG sensors run at different rates.
+        physical_range: the physical value that ``counts_range`` counts stand for, in ``unit``
+            (e.g. ``3.0`` with ``"mV"`` for EMG ±4000 counts = ±3 mV; ``180.0`` ``"deg"`` for a
+            goniometer).
+        unit: unit of ``physical_range``: ``"V"``, ``"mV"``, ``"uV"``, ``"deg"``, ``"rad"``,
+            ``"g"``, ``"m/s^2"``...
+        counts_range: ADC counts that correspond to ``physical_range`` (keyword-only, 4000).
+    """
+
+    column: int
+    name: str
+    kind: ChannelKind
+    rate: float
+    physical_range: float
+    unit: str
+    counts_range: float = field(default=4000.0, kw_only=True)

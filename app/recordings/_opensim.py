@@ -1,0 +1,243 @@
+"""OpenSim TRC (marker trajectories) and MOT/STO (coordinates, forces) readers.
+
+Headers state row counts (``NumFrames``, ``nRows``) that exports often get wrong; the data
+rows are counted instead, and both numbers go into the metadata with a warning when they
+differ. Tab- and comma-separated files are read alike.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import numpy as np
+
+from app.recordings._common import (
+    F64,
+    Options,
+    Source,
+    check_rate,
+    position_channel,
+    rate_from_times,
+    scalar_channel,
+    unique_name,
+)
+from app.recordings._table import Layout, head_lines, read_table, split_fields, to_float
+from app.recordings.types import Channel, ChannelKind, Recording
+
+
+def _delimiter(text: str) -> str:
+    return "\t" if "\t" in text else ","
+
+
+def _data_layout(
+    src: Source,
+    data: bytes,
+    *,
+    start_line_index: int,
+    delimiter: str,
+    n_fields: int,
+    names_line: int,
+) -> Layout:
+    lines = head_lines(data)
+    for ln in lines[start_line_index:]:
+        if ln.text.strip(" ,\t"):
+            return Layout(
+                delimiter=delimiter,
+                decimal=".",
+                comments=[],
+                preamble=[],
+                preamble_lines=[],
+                names=None,
+                names_line=names_line,
+                data_offset=ln.start,
+                first_data_line=ln.number,
+                n_fields=n_fields,
+            )
+    raise src.error("has no data rows", line=names_line, expected="rows of numbers")
+
+
+def _field_count(src: Source, data: bytes, delimiter: str, first: int) -> int:
+    lines = head_lines(data)
+    for ln in lines[first:]:
+        if ln.text.strip(" ,\t"):
+            return len(split_fields(ln.text, delimiter))
+    raise src.error("has no data rows", expected="rows of numbers")
+
+
+def read_trc(src: Source, opts: Options) -> Recording:
+    """TRC: 5 header lines (file type, keys, values, marker names, X1/Y1/Z1), then data."""
+    data = src.data()
+    lines = head_lines(data)
+    if len(lines) < 5 or not lines[0].text.startswith("PathFileType"):
+        raise src.error("is not a TRC file", line=1, expected="'PathFileType' on line 1")
+    delim = _delimiter(lines[0].text)
+    keys = split_fields(lines[1].text, delim)
+    values = split_fields(lines[2].text, delim)
+    header = {k: v for k, v in zip(keys, values, strict=False) if k}
+    names_row = split_fields(lines[3].text, delim)
+    n_fields = _field_count(src, data, delim, 5)
+    stored = to_float(header.get("DataRate", "")) if header.get("DataRate") else None
+    if stored is None and opts.rate is None:
+        raise src.error(
+            "states no DataRate", line=3, expected="a DataRate value or the rate option"
+        )
+    rate = check_rate(opts.rate if opts.rate is not None else stored, src=src, what="DataRate")
+    unit = header.get("Units", "mm") or "mm"
+    layout = _data_layout(
+        src, data, start_line_index=5, delimiter=delim, n_fields=n_fields, names_line=4
+    )
+    table = read_table(data, layout, src, names=[str(i) for i in range(n_fields)])
+    if table.n_rows < 2:
+        raise src.error(
+            f"has {table.n_rows} data row(s)",
+            line=layout.first_data_line,
+            expected="at least 2 frames",
+        )
+    start = 0.0
+    times: F64 | None = None
+    if "1" in table.numeric and opts.rate is None:
+        t = table.finite("1", channel="Time")
+        file_rate, start, times = rate_from_times(
+            t, src=src, channel="Time", first_line=layout.first_data_line
+        )
+        if abs(file_rate - rate) > 0.01 * rate:
+            src.warn(f"DataRate {rate:g} Hz disagrees with the Time column ({file_rate:.6g} Hz)")
+    channels: dict[str, Channel] = {}
+    for k in range(2, n_fields - 2, 3):
+        label = names_row[k] if k < len(names_row) and names_row[k] else f"marker{(k - 2) // 3 + 1}"
+        cols = [table.numeric.get(str(k + j)) for j in range(3)]
+        if any(c is None for c in cols):
+            if all(str(k + j) in table.empty for j in range(3)):
+                cols = [np.full(table.n_rows, np.nan)] * 3
+            else:
+                raise src.error("marker columns are not numeric", channel=label, expected="numbers")
+        xyz = np.column_stack([c for c in cols if c is not None])
+        name = unique_name(label, channels)
+        channels[name] = position_channel(
+            name, xyz, rate=rate, unit=unit, kind="marker", src=src, start=start, time=times
+        )
+    if not channels:
+        raise src.error("has no marker columns", line=4, expected="X/Y/Z columns per marker")
+    metadata: dict[str, Any] = {
+        "header": header,
+        "stored_rate": stored,
+        "actual_rows": table.n_rows,
+    }
+    declared = to_float(header.get("NumFrames", "")) if header.get("NumFrames") else None
+    if declared is not None:
+        metadata["declared_rows"] = int(declared)
+        if int(declared) != table.n_rows:
+            src.warn(f"header says NumFrames={int(declared)}, the file holds {table.n_rows} rows")
+    n_markers = to_float(header.get("NumMarkers", "")) if header.get("NumMarkers") else None
+    if n_markers is not None and int(n_markers) != len(channels):
+        src.warn(f"header says NumMarkers={int(n_markers)}, the file has {len(channels)}")
+    return Recording(channels=channels, source=src.name, format="trc", metadata=metadata)
+
+
+_ROTATION_EXCLUDE = re.compile(r"(_t[xyz]|_trans[xyz]?|trans[xyz])$", re.IGNORECASE)
+
+
+def read_mot(src: Source, opts: Options, *, fmt: str = "mot") -> Recording:
+    """MOT/STO: ``key=value`` header up to ``endheader``, column names, data.
+
+    MOT columns are coordinates: rotations become angles (degrees converted to radians when
+    ``inDegrees=yes``), translations (``*_tx``...) stay metres. STO columns named
+    ``*_moment``/``*_force`` are N·m/N; other STO columns are coordinates when
+    ``inDegrees=yes`` and unitless otherwise.
+    """
+    data = src.data()
+    lines = head_lines(data)
+    end = next(
+        (i for i, ln in enumerate(lines) if ln.text.strip(" ,\t").lower() == "endheader"), None
+    )
+    if end is None:
+        raise src.error("has no 'endheader' line", expected="an OpenSim header ending in endheader")
+    header: dict[str, str] = {}
+    for ln in lines[:end]:
+        text = ln.text.strip(" ,\t")
+        if "=" in text:
+            k, _, v = text.partition("=")
+            header[k.strip()] = v.strip()
+    names_idx = next((i for i in range(end + 1, len(lines)) if lines[i].text.strip(" ,\t")), None)
+    if names_idx is None:
+        raise src.error(
+            "has no column names after endheader",
+            line=lines[end].number + 1,
+            expected="a column name row",
+        )
+    names_line = lines[names_idx]
+    delim = _delimiter(names_line.text)
+    names = split_fields(names_line.text, delim)
+    n_fields = _field_count(src, data, delim, names_idx + 1)
+    names = (names + [f"column{i + 1}" for i in range(len(names), n_fields)])[:n_fields]
+    layout = _data_layout(
+        src,
+        data,
+        start_line_index=names_idx + 1,
+        delimiter=delim,
+        n_fields=n_fields,
+        names_line=names_line.number,
+    )
+    table = read_table(data, layout, src, names=names)
+    if table.n_rows < 2:
+        raise src.error(
+            f"has {table.n_rows} data row(s)",
+            line=layout.first_data_line,
+            expected="at least 2 rows",
+        )
+    in_degrees = header.get("inDegrees", "no").strip().lower() == "yes"
+    tcol = next((c for c in table.numeric if c.strip().lower() == "time"), None)
+    if opts.rate is not None:
+        rate, start, times = check_rate(opts.rate, src=src, what="rate option"), 0.0, None
+    elif tcol is not None:
+        t = table.finite(tcol)
+        rate, start, times = rate_from_times(
+            t, src=src, channel=tcol, first_line=layout.first_data_line
+        )
+        rate = check_rate(rate, src=src, what="rate from the time column")
+    else:
+        raise src.error(
+            "has no time column",
+            line=names_line.number,
+            expected="a 'time' column or the rate option",
+        )
+    channels: dict[str, Channel] = {}
+    for column in table.numeric:
+        if column == tcol:
+            continue
+        lower = column.lower()
+        values = table.finite(column)
+        kind: ChannelKind
+        if lower.endswith("_moment") or lower.endswith("_torque"):
+            kind, unit = "other", "N*m"
+        elif lower.endswith("_force"):
+            kind, unit = "other", "N"
+        elif fmt == "sto" and not in_degrees:
+            kind, unit = "other", ""
+        elif _ROTATION_EXCLUDE.search(column):
+            kind, unit = "other", "m"
+        else:
+            kind, unit = "angle", "deg" if in_degrees else "rad"
+        name = unique_name(column, channels)
+        channels[name] = scalar_channel(
+            name, values, rate=rate, unit=unit, kind=kind, src=src, start=start, time=times
+        )
+    if not channels:
+        raise src.error("has no data columns", line=names_line.number, expected="coordinates")
+    metadata: dict[str, Any] = {
+        "header": header,
+        "in_degrees": in_degrees,
+        "actual_rows": table.n_rows,
+        "title": lines[0].text.strip(" ,\t"),
+    }
+    declared = to_float(header.get("nRows", "")) if header.get("nRows") else None
+    if declared is not None:
+        metadata["declared_rows"] = int(declared)
+        if int(declared) != table.n_rows:
+            src.warn(f"header says nRows={int(declared)}, the file holds {table.n_rows} rows")
+    return Recording(channels=channels, source=src.name, format=fmt, metadata=metadata)
+
+
+def read_sto(src: Source, opts: Options) -> Recording:
+    return read_mot(src, opts, fmt="sto")
