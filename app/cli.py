@@ -95,7 +95,10 @@ def _task(args: argparse.Namespace, robot: Any) -> Any:
     task = PlanTask.default(robot)
     start, goal = task.start, task.goal
     n = len(robot.joint_names)
-    for flag, text, default in (("start-deg", args.start_deg, start), ("goal-deg", args.goal_deg, goal)):
+    for flag, text, default in (
+        ("start-deg", args.start_deg, start),
+        ("goal-deg", args.goal_deg, goal),
+    ):
         if text is None:
             continue
         values = _floats(text, flag)
@@ -172,7 +175,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
             f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s, "
             f"objective {args.objective}",
             _metrics_table(
-                [("standard quintic", payload["standard"]), ("bio-optimized", payload["optimized"])],
+                [
+                    ("standard quintic", payload["standard"]),
+                    ("bio-optimized", payload["optimized"]),
+                ],
                 payload["floors"],
             ),
             "change (positive = optimized saves): "
@@ -196,7 +202,9 @@ def cmd_profiles(args: argparse.Namespace) -> int:
 
     _positive("duration", args.duration)
     robot = _load_robot(args)
-    payload = _finite(compare_profiles(robot, task=_task(args, robot), duration=args.duration).to_dict())
+    payload = _finite(
+        compare_profiles(robot, task=_task(args, robot), duration=args.duration).to_dict()
+    )
     rows = [(name, m) for name, m in payload["profiles"].items()]
     text = (
         f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s\n"
@@ -228,9 +236,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     for f in args.files:
         if not Path(f).is_file():
             raise CliError(f"{f}: no such file")
-    result = analyze_files(
-        args.files, emg_rate=args.emg_rate, muscle_map=_muscle_map(args.muscle)
-    )
+    result = analyze_files(args.files, emg_rate=args.emg_rate, muscle_map=_muscle_map(args.muscle))
     payload = _finite(result.to_dict())
     if args.plot:
         from app.analysis import write_analysis_plots

@@ -1,4 +1,4 @@
-"""The CLI contract of DESIGN.md: --json prints exactly one object; bad input exits 2 in one line."""
+"""The CLI contract of DESIGN.md: --json prints one object; bad input exits 2, in one line."""
 
 from __future__ import annotations
 
@@ -18,20 +18,47 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
 
 def test_plan_json_is_one_object_with_the_contract_keys() -> None:
     proc = run_cli(
-        "plan", "--robot", "human_arm_2dof", "--duration", "1.0", "--payload", "12",
-        "--objective", "abs_work", "--particles", "8", "--iterations", "5", "--json",
+        "plan",
+        "--robot",
+        "human_arm_2dof",
+        "--duration",
+        "1.0",
+        "--payload",
+        "12",
+        "--objective",
+        "abs_work",
+        "--particles",
+        "8",
+        "--iterations",
+        "5",
+        "--json",
     )
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)  # the whole of stdout is one JSON document
-    assert {"standard", "optimized", "floors", "improvement_pct", "peak_velocity_angle_deg",
-            "optimizer"} <= set(data)
+    assert {
+        "standard",
+        "optimized",
+        "floors",
+        "improvement_pct",
+        "peak_velocity_angle_deg",
+        "optimizer",
+    } <= set(data)
     assert data["optimizer"]["seed"] == 0
 
 
 def test_plan_writes_out_file(tmp_path: Path) -> None:
     out = tmp_path / "plan.json"
-    proc = run_cli("plan", "--robot", "human_arm_2dof", "--particles", "6", "--iterations", "3",
-                   "--out", str(out))
+    proc = run_cli(
+        "plan",
+        "--robot",
+        "human_arm_2dof",
+        "--particles",
+        "6",
+        "--iterations",
+        "3",
+        "--out",
+        str(out),
+    )
     assert proc.returncode == 0, proc.stderr
     assert "standard quintic" in proc.stdout
     assert json.loads(out.read_text())["conditions"]["robot"] == "human_arm_2dof"
@@ -52,8 +79,10 @@ def test_profiles_lists_classical_and_min_torque_change() -> None:
         (["plan", "--robot", "human_arm_2dof", "--objective", "beauty"], "beauty"),
         (["plan", "--robot", "human_arm_2dof", "--duration", "-1"], "duration"),
         (["plan", "--robot", "human_arm_2dof", "--duration", "0"], "duration"),
-        (["plan", "--robot", "human_arm_2dof", "--start-deg", "0,90", "--goal-deg", "0,90"],
-         "start equals goal"),
+        (
+            ["plan", "--robot", "human_arm_2dof", "--start-deg", "0,90", "--goal-deg", "0,90"],
+            "start equals goal",
+        ),
         (["plan", "--robot", "human_arm_2dof", "--duration", "0.05"], "infeasible"),
         (["plan", "--robot", "human_arm_2dof", "--duration", "abc"], "duration"),
     ],

@@ -10,8 +10,10 @@ With constant inertia and no gravity this is the minimum-jerk (quintic) trajecto
 and configuration-dependent inertia it is not. We solve it directly: each moving joint is the
 quintic plus a correction c · φ_k(s), where φ_k(s) = s³(1-s)³ P_k(2s-1) (P_k Legendre
 polynomials, s = t/T) vanish with their first and second derivatives at both ends, so position,
-velocity and acceleration boundary conditions hold for every c. L-BFGS minimises J over c with
-gradients by forward differences, all perturbed trajectories evaluated in one batched
+velocity and acceleration boundary conditions hold for every c. J is integrated by Gauss-Legendre
+quadrature, with dτ/dt by a central difference of the analytic trajectory (not of a sampled
+torque), so the discrete problem has the continuous one's minimiser. L-BFGS minimises J over c
+with gradients by forward differences, all perturbed trajectories evaluated in one batched
 inverse-dynamics call.
 """
 
@@ -25,7 +27,7 @@ from numpy.polynomial import Polynomial
 from numpy.polynomial import legendre as npleg
 from numpy.typing import NDArray
 
-from app.planning.profiles import Trajectory, quintic, time_grid
+from app.planning.profiles import Trajectory, time_grid
 
 if TYPE_CHECKING:
     from app.planning.dynamics import Dynamics
@@ -68,11 +70,8 @@ def _basis(s: FloatArray, n_basis: int) -> tuple[FloatArray, FloatArray, FloatAr
     return b0, b1, b2, b3
 
 
-def _torque_change(t: FloatArray, tau: FloatArray) -> FloatArray:
-    """∫ Σ_j (dτ_j/dt)² dt for (..., T, n) torques on grid t (T,) -> (...,)."""
-    dtau = np.gradient(tau, t, axis=-2)
-    integrand = np.sum(dtau**2, axis=-1)
-    return np.asarray(np.trapezoid(integrand, t, axis=-1), dtype=np.float64)
+#: The rest-to-rest quintic's normalised shape 10s³ - 15s⁴ + 6s⁵.
+_QUINTIC_SHAPE = Polynomial([0.0, 0.0, 0.0, 10.0, -15.0, 6.0])
 
 
 def minimum_torque_change(
@@ -83,7 +82,7 @@ def minimum_torque_change(
     *,
     n_samples: int = 100,
     n_basis: int = 6,
-    solve_samples: int = 201,
+    quadrature_nodes: int = 48,
     max_iterations: int = 200,
 ) -> MinTorqueChangeResult:
     """Minimum-torque-change trajectory between two rest configurations.
@@ -95,7 +94,7 @@ def minimum_torque_change(
         duration: motion time [s].
         n_samples: samples of the returned trajectory.
         n_basis: correction terms per moving joint.
-        solve_samples: time samples used while optimising.
+        quadrature_nodes: Gauss-Legendre nodes for the integral of the torque change.
         max_iterations: L-BFGS iteration limit.
 
     Returns:
@@ -105,33 +104,44 @@ def minimum_torque_change(
 
     start = np.asarray(start, dtype=np.float64)
     goal = np.asarray(goal, dtype=np.float64)
-    moving = np.flatnonzero(np.abs(goal - start) > 0)
-    n = start.size
+    delta = goal - start
+    moving = np.flatnonzero(np.abs(delta) > 0)
     dim = n_basis * moving.size
 
     def build(coeffs: FloatArray, t: FloatArray) -> tuple[FloatArray, ...]:
-        """Coefficient sets (B, dim) -> q, qd, qdd, jerk each (B, T, n)."""
-        base = quintic(start, goal, duration, n_samples=t.size)
+        """Coefficient sets (B, dim) at times t (T,) -> q, qd, qdd, jerk each (B, T, n)."""
         s = t / duration
         b0, b1, b2, b3 = _basis(s, n_basis)
         c = coeffs.reshape(coeffs.shape[0], moving.size, n_basis)
+        shape = _QUINTIC_SHAPE
         out = []
-        for order, (bm, ref) in enumerate(
-            zip((b0, b1, b2, b3), (base.q, base.qd, base.qdd, base.jerk), strict=True)
-        ):
-            arr = np.broadcast_to(ref, (coeffs.shape[0], *ref.shape)).copy()
+        for order, bm in enumerate((b0, b1, b2, b3)):
+            base = shape.deriv(order)(s) if order else shape(s)
+            arr = np.empty((coeffs.shape[0], t.size, start.size))
+            arr[:] = (start if order == 0 else 0.0) + np.outer(base, delta) / duration**order
             arr[:, :, moving] += np.einsum("tk,bjk->btj", bm, c) / duration**order
             out.append(arr)
         return tuple(out)
 
-    t_solve = time_grid(duration, solve_samples)
-    ref = float(_torque_change(t_solve, _inverse(dynamics, build(np.zeros((1, dim)), t_solve)))[0])
+    # Gauss-Legendre nodes and weights on [0, T]; dτ/dt by central differences in time.
+    x, w = npleg.leggauss(quadrature_nodes)
+    nodes = 0.5 * duration * (x + 1.0)
+    weights = 0.5 * duration * w
+    h = 1e-5 * duration
+    t_eval = np.concatenate([nodes - h, nodes + h])
+
+    def torque_change(coeffs: FloatArray) -> FloatArray:
+        tau = _inverse(dynamics, build(coeffs, t_eval))
+        dtau = (tau[:, nodes.size :] - tau[:, : nodes.size]) / (2 * h)
+        return np.asarray(np.sum(dtau**2, axis=-1) @ weights, dtype=np.float64)
+
+    ref = float(torque_change(np.zeros((1, dim)))[0])
     scale = ref if ref > 0 else 1.0
-    step = 1e-6
+    step = 1e-7
 
     def fun(c: FloatArray) -> tuple[float, FloatArray]:
         batch = np.vstack([c[None, :], c[None, :] + step * np.eye(dim)])
-        j = _torque_change(t_solve, _inverse(dynamics, build(batch, t_solve))) / scale
+        j = torque_change(batch) / scale
         return float(j[0]), (j[1:] - j[0]) / step
 
     res = minimize(

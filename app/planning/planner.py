@@ -79,11 +79,15 @@ class PlanTask:
     @classmethod
     def default(cls, robot: Robot) -> PlanTask:
         """The robot's default curl task (for the built-ins: J2 0->20 deg, J3 0->150 deg)."""
-        return cls(np.array(robot.default_start, dtype=float), np.array(robot.default_goal, dtype=float))
+        return cls(
+            np.array(robot.default_start, dtype=float), np.array(robot.default_goal, dtype=float)
+        )
 
     @classmethod
     def from_degrees(cls, start_deg: Any, goal_deg: Any) -> PlanTask:
-        return cls(np.radians(np.asarray(start_deg, float)), np.radians(np.asarray(goal_deg, float)))
+        return cls(
+            np.radians(np.asarray(start_deg, float)), np.radians(np.asarray(goal_deg, float))
+        )
 
 
 @dataclass(frozen=True)
@@ -268,9 +272,7 @@ def evaluate_trajectory(
     metrics = energy_metrics(traj.t, traj.qd, tau, motors=robot.motors)
     i_peak = int(np.argmax(np.abs(traj.qd[:, elbow])))
     peak_angle = float(elbow_flexion_deg(traj.q[i_peak : i_peak + 1, elbow], task, elbow)[0])
-    violations = list(
-        check_limits(traj, q_min=robot.q_min, q_max=robot.q_max, qd_max=robot.qd_max)
-    )
+    violations = list(check_limits(traj, q_min=robot.q_min, q_max=robot.q_max, qd_max=robot.qd_max))
     over = np.abs(tau) > np.asarray(robot.tau_max) * (1 + _TOL)
     for j in np.flatnonzero(over.any(axis=0)):
         k = int(np.argmax(np.abs(tau[:, j])))
@@ -315,10 +317,11 @@ def validate_task(robot: Robot, task: PlanTask, duration: float) -> None:
     slow = np.flatnonzero(mean_speed > robot.qd_max)
     if slow.size:
         j = int(slow[0])
+        shortest = abs(goal[j] - start[j]) / robot.qd_max[j]
         raise PlanningError(
             f"infeasible: joint {j + 1} ({robot.joint_names[j]}) must average "
             f"{mean_speed[j]:.2f} rad/s over {duration} s but its limit is {robot.qd_max[j]:.2f} "
-            f"rad/s (expected a duration of at least {abs(goal[j] - start[j]) / robot.qd_max[j]:.2f} s)"
+            f"rad/s (expected a duration of at least {shortest:.2f} s)"
         )
     if abs(goal[robot.elbow_joint] - start[robot.elbow_joint]) < 1e-9:
         raise PlanningError(
@@ -380,7 +383,7 @@ class _Design:
         else:
             target = self.q_via_elbow
         t_via = float(np.interp(target, qe, t))
-        frac = np.clip(t_via / self.duration, 0.15, 0.85)
+        frac = float(np.clip(t_via / self.duration, 0.15, 0.85))
         delta = self.goal - self.start
         mean_speed = delta / self.duration
         x = [frac, float(np.interp(t_via, t, qd_std[:, self.elbow]) / mean_speed[self.elbow])]
@@ -388,7 +391,7 @@ class _Design:
             x.append(float((np.interp(t_via, t, q_std[:, j]) - self.start[j]) / delta[j]))
             x.append(float(np.interp(t_via, t, qd_std[:, j]) / mean_speed[j]))
         lo, hi = self.bounds()
-        return np.clip(np.array(x), lo, hi)
+        return np.asarray(np.clip(np.array(x), lo, hi), dtype=np.float64)
 
 
 def plan(
@@ -567,4 +570,3 @@ def _check_floors(metrics: EnergyMetrics, fl: Floors, label: str) -> None:
                 f"{label} {name} = {value:.6g} is below its physical floor {floor:.6g}: "
                 "dynamics or integration is wrong"
             )
-

@@ -48,7 +48,9 @@ def test_metrics_respect_floors_and_match_recomputation(human_plan: object, huma
         assert m.abs_work >= res.floors.delta_potential * (1 - 1e-6)
         assert m.pos_work >= res.floors.delta_potential * (1 - 1e-6)
         assert m.peak_power >= res.floors.min_peak_power * (1 - 1e-6)
-        tau = human.dynamics().inverse_dynamics(ev.trajectory.q, ev.trajectory.qd, ev.trajectory.qdd)
+        tau = human.dynamics().inverse_dynamics(
+            ev.trajectory.q, ev.trajectory.qd, ev.trajectory.qdd
+        )
         recomputed = objective_values("abs_work", ev.trajectory.t, ev.trajectory.qd, tau)
         assert float(recomputed) == pytest.approx(m.abs_work, rel=1e-12)
     # delta_potential independently: lifting a 12 kg dumbbell + arm segments by their COM rise.
@@ -62,7 +64,10 @@ def test_metrics_respect_floors_and_match_recomputation(human_plan: object, huma
 def test_same_seed_same_result_bit_for_bit(human: object) -> None:
     a = plan(human, duration=1.0, particles=10, iterations=15, seed=7)
     b = plan(human, duration=1.0, particles=10, iterations=15, seed=7)
-    assert a.to_dict() == b.to_dict()
+    da, db = a.to_dict(), b.to_dict()
+    da["optimizer"].pop("seconds")
+    db["optimizer"].pop("seconds")
+    assert da == db
     np.testing.assert_array_equal(a.optimized.trajectory.q, b.optimized.trajectory.q)
 
 
@@ -73,8 +78,15 @@ def test_quintic_is_reachable_when_target_is_mid_stroke(human: object) -> None:
     standard: a check of the parametrisation and of the seeding with the standard solution.
     """
     for objective in ("abs_work", "tau_sq", "peak_power"):
-        res = plan(human, duration=1.0, objective=objective, peak_angle_deg=75.0,
-                   particles=10, iterations=10, seed=0)
+        res = plan(
+            human,
+            duration=1.0,
+            objective=objective,
+            peak_angle_deg=75.0,
+            particles=10,
+            iterations=10,
+            seed=0,
+        )
         std = getattr(res.standard.metrics, objective)
         opt = getattr(res.optimized.metrics, objective)
         assert opt <= std * (1 + 1e-6)
@@ -83,8 +95,16 @@ def test_quintic_is_reachable_when_target_is_mid_stroke(human: object) -> None:
 def test_pso_matches_brute_force_grid_on_two_variables(human: object) -> None:
     """Elbow-only task: 2 decision variables, so a dense grid search is an independent optimum."""
     task = PlanTask.from_degrees([0.0, 0.0], [0.0, 150.0])
-    res = plan(human, task=task, duration=1.2, objective="tau_sq", particles=30, iterations=60,
-               seed=1, n_samples=100)
+    res = plan(
+        human,
+        task=task,
+        duration=1.2,
+        objective="tau_sq",
+        particles=30,
+        iterations=60,
+        seed=1,
+        n_samples=100,
+    )
     t = np.linspace(0, 1.2, 100)
     from app.planning.profiles import piecewise_quintic_batch
 
@@ -113,15 +133,21 @@ def test_6dof_plan_moves_only_the_task_joints() -> None:
     res = plan(robot, duration=1.0, objective="peak_power", particles=12, iterations=15, seed=0)
     q = res.optimized.trajectory.q
     moving = np.abs(res.task.goal - res.task.start) > 0
-    np.testing.assert_allclose(q[:, ~moving], q[:1, ~moving])
+    assert np.ptp(q[:, ~moving], axis=0).max() == 0.0
     assert not res.optimized.violations
     assert res.optimized.peak_velocity_angle_deg == pytest.approx(62.0, abs=0.5)
 
 
 def test_cli_shape_of_to_dict(human_plan: object) -> None:
     d = human_plan.to_dict()
-    assert {"standard", "optimized", "floors", "improvement_pct", "peak_velocity_angle_deg",
-            "optimizer"} <= set(d)
+    assert {
+        "standard",
+        "optimized",
+        "floors",
+        "improvement_pct",
+        "peak_velocity_angle_deg",
+        "optimizer",
+    } <= set(d)
     assert {"iterations", "evaluations", "seconds", "seed"} <= set(d["optimizer"])
     assert {"delta_potential", "min_peak_power"} <= set(d["floors"])
     for key in ("tau_sq", "abs_work", "pos_work", "electrical_energy", "peak_power", "peak_torque"):
