@@ -394,6 +394,79 @@ class _Design:
         return np.asarray(np.clip(np.array(x), lo, hi), dtype=np.float64)
 
 
+@dataclass(frozen=True)
+class PlanProblem:
+    """The PSO problem of one planning task: decision-vector bounds and the batched cost.
+
+    Exposed so benchmarks can hand exactly the planner's problem to another optimiser.
+    """
+
+    robot: Robot
+    design: _Design
+    objective: str
+    t: FloatArray
+    lower: FloatArray
+    upper: FloatArray
+    initial: FloatArray
+
+    @classmethod
+    def build(
+        cls,
+        robot: Robot,
+        task: PlanTask,
+        *,
+        duration: float,
+        objective: str,
+        q_via_elbow: float,
+        n_samples: int,
+    ) -> PlanProblem:
+        start = np.asarray(task.start, float)
+        goal = np.asarray(task.goal, float)
+        elbow = robot.elbow_joint
+        moving = np.flatnonzero(np.abs(goal - start) > 0)
+        design = _Design(
+            start=start,
+            goal=goal,
+            duration=duration,
+            elbow=elbow,
+            q_via_elbow=q_via_elbow,
+            others=tuple(int(j) for j in moving if j != elbow),
+        )
+        t = time_grid(duration, n_samples)
+        std = quintic(start, goal, duration, n_samples=n_samples)
+        lower, upper = design.bounds()
+        initial = design.initial_guess(std.q, std.qd, t)
+        return cls(robot, design, objective, t, lower, upper, initial)
+
+    def swarm_cost(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Decision vectors (P, D) -> objective (P,) and constraint violation (P,) >= 0."""
+        robot, design, t = self.robot, self.design, self.t
+        elbow = design.elbow
+        tk, qk, qdk, qddk = design.knots(x)
+        q, qd, qdd = piecewise_quintic_batch(tk, qk, qdk, qddk, t)
+        tau = robot.dynamics().inverse_dynamics(q, qd, qdd)
+        tau_max = np.asarray(robot.tau_max)
+        cost = objective_values(self.objective, t, qd, tau, motors=robot.motors, tau_max=tau_max)
+        # Violations, each normalised so 1 means "100 % over the limit".
+        q_min, q_max = np.asarray(robot.q_min), np.asarray(robot.q_max)
+        v = np.zeros(x.shape[0])
+        v += np.maximum(np.abs(qd) / np.asarray(robot.qd_max) - 1.0, 0.0).max(axis=(1, 2))
+        v += np.maximum(np.abs(tau) / tau_max - 1.0, 0.0).max(axis=(1, 2))
+        span = np.maximum(q_max - q_min, 1e-9)
+        v += np.maximum((q_min - q) / span, 0.0).max(axis=(1, 2))
+        v += np.maximum((q - q_max) / span, 0.0).max(axis=(1, 2))
+        # The elbow's speed must peak at the via point (where it equals the via speed).
+        v_via = np.abs(qdk[:, 1, elbow])
+        v += np.maximum(np.abs(qd[:, :, elbow]).max(axis=1) / v_via - 1.0, 0.0)
+        # No joint may reverse: velocity keeps the sign of the stroke.
+        delta = design.goal - design.start
+        direction = np.sign(delta)
+        mean_speed = np.maximum(np.abs(delta) / design.duration, 1e-9)
+        reverse = np.maximum(-qd * direction, 0.0) / mean_speed
+        v += np.where(direction != 0, reverse, 0.0).max(axis=(1, 2))
+        return cost, v
+
+
 def plan(
     robot: Robot,
     *,
@@ -453,42 +526,11 @@ def plan(
             f"peak-velocity angle {target_deg:.1f} deg lies outside the elbow's stroke "
             f"[{math.degrees(lo_e):.1f}, {math.degrees(hi_e):.1f}] deg"
         )
-    moving = np.flatnonzero(np.abs(goal - start) > 0)
-    design = _Design(
-        start=start,
-        goal=goal,
-        duration=duration,
-        elbow=elbow,
-        q_via_elbow=q_via,
-        others=tuple(int(j) for j in moving if j != elbow),
+    problem = PlanProblem.build(
+        robot, task, duration=duration, objective=objective, q_via_elbow=q_via, n_samples=n_samples
     )
+    design = problem.design
     dyn = robot.dynamics()
-    t = time_grid(duration, n_samples)
-    std_coarse = quintic(start, goal, duration, n_samples=n_samples)
-    q_min, q_max = np.asarray(robot.q_min), np.asarray(robot.q_max)
-    qd_max, tau_max = np.asarray(robot.qd_max), np.asarray(robot.tau_max)
-    direction = np.sign(goal - start)
-
-    def swarm_cost(x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        tk, qk, qdk, qddk = design.knots(x)
-        q, qd, qdd = piecewise_quintic_batch(tk, qk, qdk, qddk, t)
-        tau = dyn.inverse_dynamics(q, qd, qdd)
-        cost = objective_values(objective, t, qd, tau, motors=robot.motors, tau_max=tau_max)
-        # Violations, each normalised so 1 means "100 % over the limit".
-        v = np.zeros(x.shape[0])
-        v += np.maximum(np.abs(qd) / qd_max - 1.0, 0.0).max(axis=(1, 2))
-        v += np.maximum(np.abs(tau) / tau_max - 1.0, 0.0).max(axis=(1, 2))
-        span = np.maximum(q_max - q_min, 1e-9)
-        v += np.maximum((q_min - q) / span, 0.0).max(axis=(1, 2))
-        v += np.maximum((q - q_max) / span, 0.0).max(axis=(1, 2))
-        # The elbow's speed must peak at the via point (where it equals the via speed).
-        v_via = np.abs(qdk[:, 1, elbow])
-        v += np.maximum(np.abs(qd[:, :, elbow]).max(axis=1) / v_via - 1.0, 0.0)
-        # No joint may reverse: velocity keeps the sign of the stroke.
-        mean_speed = np.maximum(np.abs(goal - start) / duration, 1e-9)
-        reverse = np.maximum(-qd * direction, 0.0) / mean_speed
-        v += np.where(direction != 0, reverse, 0.0).max(axis=(1, 2))
-        return cost, v
 
     def on_iteration(iteration: int, best_cost: float) -> None:
         if progress is not None:
@@ -497,17 +539,15 @@ def plan(
                 f"PSO iteration {iteration}/{iterations}, best {objective} = {best_cost:.6g}",
             )
 
-    lower, upper = design.bounds()
-    initial = design.initial_guess(std_coarse.q, std_coarse.qd, t)
     result = pso_minimize(
-        swarm_cost,
-        lower,
-        upper,
+        problem.swarm_cost,
+        problem.lower,
+        problem.upper,
         particles=particles,
         iterations=iterations,
         seed=seed,
         callback=on_iteration,
-        initial=initial,
+        initial=problem.initial,
     )
     if result.best_violation > 0:
         raise PlanningError(
