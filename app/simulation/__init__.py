@@ -3,6 +3,16 @@
 A plain library (numpy, mujoco, and the planning package); the service layer wraps it.
 """
 
+from app.simulation.sweep import (
+    METRICS,
+    SimulationResult,
+    SweepCell,
+    SweepResult,
+    classify,
+    peaks_and_phases,
+    run_sweep,
+    simulate_comparison,
+)
 from app.simulation.tracking import (
     DEFAULT_TIMESTEP,
     SimulationError,
@@ -16,11 +26,19 @@ from app.simulation.tracking import (
 
 __all__ = [
     "DEFAULT_TIMESTEP",
+    "METRICS",
     "SimulationError",
+    "SimulationResult",
+    "SweepCell",
+    "SweepResult",
     "TrackingResult",
+    "classify",
     "default_gains",
+    "peaks_and_phases",
     "resample",
+    "run_sweep",
     "simulate_batch",
+    "simulate_comparison",
     "simulate_tracking",
     "simulation_grid",
 ]
