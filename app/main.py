@@ -118,10 +118,9 @@ def create_app(
             "Errors are `application/problem+json`."
         ),
         lifespan=lifespan,
-        # Enforced while the body streams in, not after it is buffered.
-        max_body_size=settings.max_upload_bytes,
     )
-    install_error_handlers(app)
+    # The upload limit is enforced while the body streams in, not after it is buffered.
+    install_error_handlers(app, max_body_bytes=settings.max_upload_bytes)
     if settings.cors_origins:
         from fastapi.middleware.cors import CORSMiddleware
 

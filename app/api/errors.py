@@ -85,8 +85,6 @@ async def _api_error(request: Request, exc: Exception) -> JSONResponse:
 async def _http_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, StarletteHTTPException)
     detail = exc.detail if isinstance(exc.detail, str) else str(exc.detail)
-    if exc.status_code == 413:
-        detail = "the request body is larger than the upload limit (BIOPLAN_MAX_UPLOAD_MB)"
     return problem(
         exc.status_code, _phrase(exc.status_code), detail, headers=dict(exc.headers or {})
     )
@@ -136,6 +134,56 @@ async def _science_error(request: Request, exc: Exception) -> JSONResponse:
     )
 
 
+class BodyTooLarge(StarletteHTTPException):
+    """The request body exceeds the upload limit (raised while it streams in)."""
+
+    def __init__(self, limit: int) -> None:
+        super().__init__(
+            413,
+            f"the request body is larger than the upload limit of {limit} bytes "
+            "(BIOPLAN_MAX_UPLOAD_MB)",
+        )
+
+
+class BodyLimitMiddleware:
+    """Refuses request bodies over ``limit`` bytes: at once when Content-Length says so, else
+    as soon as the streamed bytes pass the limit (nothing larger is ever buffered or parsed).
+    """
+
+    def __init__(self, app: ASGIApp, limit: int) -> None:
+        self.app = app
+        self.limit = limit
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        for key, value in scope.get("headers", []):
+            if key == b"content-length":
+                try:
+                    declared = int(value)
+                except ValueError:
+                    break
+                if declared > self.limit:
+                    exc = BodyTooLarge(self.limit)
+                    await problem(413, "Content Too Large", exc.detail)(scope, receive, send)
+                    return
+        seen = 0
+
+        async def counting_receive() -> Message:
+            nonlocal seen
+            message = await receive()
+            if message["type"] == "http.request":
+                seen += len(message.get("body", b""))
+                if seen > self.limit:
+                    # An HTTPException passes through FastAPI's body parsing unchanged and
+                    # reaches the problem handler.
+                    raise BodyTooLarge(self.limit)
+            return message
+
+        await self.app(scope, counting_receive, send)
+
+
 class CatchAllMiddleware:
     """Turns an unexpected exception into a logged problem 500 (no traceback to the client)."""
 
@@ -171,8 +219,8 @@ class CatchAllMiddleware:
             await response(scope, receive, send)
 
 
-def install_error_handlers(app: FastAPI) -> None:
-    """Register the problem+json handlers on ``app``."""
+def install_error_handlers(app: FastAPI, *, max_body_bytes: int) -> None:
+    """Register the problem+json handlers and the body-size limit on ``app``."""
     from app.recordings.types import RecordingError
 
     app.add_exception_handler(ApiError, _api_error)
@@ -180,4 +228,5 @@ def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.add_exception_handler(RecordingError, _science_error)
     app.add_exception_handler(ValueError, _science_error)
+    app.add_middleware(BodyLimitMiddleware, limit=max_body_bytes)
     app.add_middleware(CatchAllMiddleware)

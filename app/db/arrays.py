@@ -8,6 +8,7 @@ Arrays are never stored as JSON lists of floats. One array is ``.npy`` bytes com
 from __future__ import annotations
 
 import io
+import zipfile
 import zlib
 from collections.abc import Mapping
 
@@ -27,7 +28,7 @@ def encode_array(array: NDArray[np.generic]) -> bytes:
     if arr.dtype == object:
         raise TypeError("object arrays cannot be stored (expected a numeric dtype)")
     buf = io.BytesIO()
-    np.save(buf, np.ascontiguousarray(arr), allow_pickle=False)
+    np.save(buf, arr, allow_pickle=False)
     return _MAGIC + zlib.compress(buf.getbuffer(), 1)
 
 
@@ -55,5 +56,5 @@ def decode_arrays(data: bytes) -> dict[str, NDArray[np.generic]]:
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             return {name: npz[name] for name in npz.files}
-    except (ValueError, OSError) as exc:
+    except (ValueError, OSError, zipfile.BadZipFile) as exc:
         raise ArrayDecodeError(f"stored arrays are corrupt: {exc}") from exc

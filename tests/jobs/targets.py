@@ -23,8 +23,12 @@ def target(kind: str, payload: dict[str, Any], progress: Progress) -> dict[str, 
         # Reports its pid first, so a test can check the process is gone after a cancel.
         progress(0.0, f"pid {os.getpid()}")
         deadline = time.monotonic() + float(payload["seconds"])
+        beat = payload.get("heartbeat")
         while time.monotonic() < deadline:
             time.sleep(0.05)
+            if beat:  # evidence, outside the runner, that the work is still going on
+                with open(beat, "w") as fh:
+                    fh.write(repr(time.monotonic()))
             progress(0.5, f"pid {os.getpid()}")
         return {"result": {"slept": payload["seconds"]}}
     if kind == "fail":
@@ -32,3 +36,14 @@ def target(kind: str, payload: dict[str, Any], progress: Progress) -> dict[str, 
     if kind == "crash":
         os._exit(7)
     raise KeyError(kind)
+
+
+def service_target(kind: str, payload: dict[str, Any], progress: Progress) -> dict[str, Any]:
+    """For JobService tests: real job kinds, behaviour chosen by ``payload["behave"]``."""
+    out = target(payload["behave"], payload, progress)
+    if payload["behave"] == "count":
+        # What a plan job returns: the CLI JSON and arrays for plots.
+        import numpy as np
+
+        out["arrays"] = {"t": np.linspace(0.0, 1.0, int(payload["n"]))}
+    return out

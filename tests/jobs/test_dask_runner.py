@@ -1,0 +1,93 @@
+"""DaskRunner on a real LocalCluster: worker processes, scheduler and workers over loopback."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from app.jobs.runner import DaskRunner
+from tests.jobs.targets import target
+from tests.jobs.test_local_runner import TERMINAL, Collector
+
+
+@pytest.fixture(scope="module")
+def cluster() -> Iterator[Any]:
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=40,
+    ) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def runner(cluster: Any) -> Iterator[tuple[DaskRunner, Collector]]:
+    sink = Collector()
+    r = DaskRunner(cluster.scheduler_address, target=target)
+    r.start(sink)
+    yield r, sink
+    r.shutdown()
+
+
+def test_scheduler_and_workers_listen_on_loopback(cluster: Any) -> None:
+    assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+    workers = cluster.scheduler_info["workers"]
+    assert len(workers) == 2
+    assert all(addr.startswith("tcp://127.0.0.1:") for addr in workers)
+
+
+def test_jobs_run_in_worker_processes(runner: tuple[DaskRunner, Collector]) -> None:
+    r, sink = runner
+    r.submit(1, "echo", {"x": 1})
+    r.submit(2, "echo", {"x": 2})
+    results = []
+    for job_id in (1, 2):
+        done = sink.wait_for(job_id, TERMINAL)
+        assert done.type == "succeeded"
+        assert done.result is not None
+        results.append(done.result["result"])
+    assert [res["echo"] for res in results] == [{"x": 1}, {"x": 2}]
+    assert all(res["pid"] != os.getpid() for res in results)
+    assert r.info()["workers"] == 2
+
+
+def test_progress_and_failure_come_back(runner: tuple[DaskRunner, Collector]) -> None:
+    r, sink = runner
+    r.submit(3, "count", {"n": 4, "dt": 0.3})
+    r.submit(4, "fail", {"why": "no EMG channel"})
+    assert sink.wait_for(3, TERMINAL).type == "succeeded"
+    assert any(e.type == "started" for e in sink.of(3))
+    fractions = [e.progress for e in sink.of(3) if e.type == "progress"]
+    assert fractions and fractions == sorted(fractions)
+    failed = sink.wait_for(4, TERMINAL)
+    assert failed.type == "failed"
+    assert failed.error == "bad input: no EMG channel"
+
+
+def test_cancel_stops_a_running_task(runner: tuple[DaskRunner, Collector], tmp_path: Path) -> None:
+    r, sink = runner
+    beat = tmp_path / "heartbeat"
+    r.submit(5, "sleep", {"seconds": 60, "heartbeat": str(beat)})
+    sink.wait_for(5, {"progress"})
+    deadline = time.monotonic() + 10
+    while not beat.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert beat.exists()
+    assert r.cancel(5)
+    assert sink.wait_for(5, TERMINAL).type == "cancelled"
+    # Dask cannot interrupt a thread: the task stops at its next progress report, after which
+    # its heartbeat file no longer changes.
+    time.sleep(1.0)
+    last = beat.read_text()
+    time.sleep(1.0)
+    assert beat.read_text() == last, "the cancelled task kept running"
