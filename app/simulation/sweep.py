@@ -403,6 +403,7 @@ def simulate_comparison(
         "goal_deg": np.degrees(result.task.goal).tolist(),
         "phase_bounds_deg": list(result.phase_bounds_deg),
         "elbow_joint": robot.joint_names[result.elbow_joint],
+        "shoulder_joint": robot.joint_names[robot.shoulder_joint],
         "peak_velocity_angle_deg": result.optimized.peak_velocity_angle_deg,
         "target_peak_velocity_angle_deg": result.target_peak_angle_deg,
         "timestep": float(timestep),
