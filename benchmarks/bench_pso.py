@@ -41,12 +41,16 @@ VELOCITY_CLAMP = 0.2
 
 def rastrigin(x: FloatArray) -> FloatArray:
     """Rastrigin, minimum 0 at 0; (P, D) -> (P,)."""
-    return 10.0 * x.shape[1] + np.sum(x * x - 10.0 * np.cos(2.0 * np.pi * x), axis=1)
+    out: FloatArray = 10.0 * x.shape[1] + np.sum(x * x - 10.0 * np.cos(2.0 * np.pi * x), axis=1)
+    return out
 
 
 def rosenbrock(x: FloatArray) -> FloatArray:
     """Rosenbrock, minimum 0 at (1, ..., 1); (P, D) -> (P,)."""
-    return np.sum(100.0 * (x[:, 1:] - x[:, :-1] ** 2) ** 2 + (1.0 - x[:, :-1]) ** 2, axis=1)
+    out: FloatArray = np.sum(
+        100.0 * (x[:, 1:] - x[:, :-1] ** 2) ** 2 + (1.0 - x[:, :-1]) ** 2, axis=1
+    )
+    return out
 
 
 def _penalised(objective: Objective, penalty: float) -> Callable[[FloatArray], FloatArray]:

@@ -12,15 +12,20 @@ FloatArray = NDArray[np.float64]
 
 
 def sphere(x: FloatArray) -> FloatArray:
-    return np.sum(x * x, axis=1)
+    out: FloatArray = np.sum(x * x, axis=1)
+    return out
 
 
 def rosenbrock(x: FloatArray) -> FloatArray:
-    return np.sum(100.0 * (x[:, 1:] - x[:, :-1] ** 2) ** 2 + (1.0 - x[:, :-1]) ** 2, axis=1)
+    out: FloatArray = np.sum(
+        100.0 * (x[:, 1:] - x[:, :-1] ** 2) ** 2 + (1.0 - x[:, :-1]) ** 2, axis=1
+    )
+    return out
 
 
 def rastrigin(x: FloatArray) -> FloatArray:
-    return 10.0 * x.shape[1] + np.sum(x * x - 10.0 * np.cos(2.0 * np.pi * x), axis=1)
+    out: FloatArray = 10.0 * x.shape[1] + np.sum(x * x - 10.0 * np.cos(2.0 * np.pi * x), axis=1)
+    return out
 
 
 def _box(d: int, half: float) -> tuple[FloatArray, FloatArray]:
@@ -173,7 +178,8 @@ def test_bounds_respected_everywhere() -> None:
 
     def fn(x: FloatArray) -> FloatArray:
         seen.append(x)
-        return -np.sum(x, axis=1)  # pushes every particle against the upper walls
+        out: FloatArray = -np.sum(x, axis=1)  # pushes every particle against the upper walls
+        return out
 
     r = pso_minimize(fn, lo, hi, seed=1, iterations=40, velocity_clamp=0.9)
     allx = np.concatenate(seen)
