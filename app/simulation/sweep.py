@@ -746,7 +746,8 @@ def run_sweep(
 
     Raises:
         RobotError: the robot has no MJCF.
-        SimulationError: an empty grid, a bad duration or payload, or an unknown objective.
+        SimulationError: an empty grid, a bad duration or payload.
+        PlanningError: an unknown objective.
     """
     from app.planning.energy import OBJECTIVES
 
@@ -762,7 +763,10 @@ def run_sweep(
         raise SimulationError(f"payloads must be masses >= 0 kg, got {list(pays)}")
     unknown = [o for o in objs if o not in OBJECTIVES]
     if unknown:
-        raise SimulationError(
+        # The planner's own error for this (what ``plan`` raises for an unknown objective).
+        from app.planning.planner import PlanningError
+
+        raise PlanningError(
             f"unknown objective(s) {', '.join(unknown)}: expected some of {', '.join(OBJECTIVES)}"
         )
     if len(set(durs)) != len(durs) or len(set(pays)) != len(pays) or len(set(objs)) != len(objs):

@@ -179,13 +179,19 @@ def test_parallel_sweep_equals_serial_sweep(cw: Robot) -> None:
         assert a.standard == b.standard and a.optimized == b.optimized
 
 
+def test_unknown_objective_is_the_planners_error(cw: Robot) -> None:
+    from app.planning.planner import PlanningError
+
+    with pytest.raises(PlanningError, match="beauty"):
+        run_sweep(robot=cw, durations=[1.0], payloads=[1.0], objectives=["beauty"], workers=1)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "needle"),
     [
         ({"durations": [], "payloads": [1.0]}, "empty"),
         ({"durations": [0.0], "payloads": [1.0]}, "durations"),
         ({"durations": [1.0], "payloads": [-1.0]}, "payloads"),
-        ({"durations": [1.0], "payloads": [1.0], "objectives": ["beauty"]}, "beauty"),
         ({"durations": [1.0, 1.0], "payloads": [1.0]}, "repeat"),
     ],
 )
