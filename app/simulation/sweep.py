@@ -33,6 +33,7 @@ from app.simulation.tracking import (
     DEFAULT_TIMESTEP,
     INTEGRATOR,
     POOR_TRACKING_RAD,
+    Feedforward,
     SimulationError,
     TrackingResult,
     simulate_batch,
@@ -318,7 +319,7 @@ def simulate_comparison(
     iterations: int = 100,
     peak_angle_deg: float | None = None,
     timestep: float = DEFAULT_TIMESTEP,
-    feedforward: str = "pinocchio",
+    feedforward: Feedforward = "pinocchio",
     natural_frequency_hz: float = DEFAULT_NATURAL_FREQUENCY_HZ,
     damping_ratio: float = DEFAULT_DAMPING_RATIO,
     progress: ProgressCallback | None = None,
@@ -385,7 +386,7 @@ def simulate_comparison(
         robot,
         [result.standard.trajectory, result.optimized.trajectory],
         timestep=timestep,
-        feedforward=feedforward,  # type: ignore[arg-type]
+        feedforward=feedforward,
         natural_frequency_hz=natural_frequency_hz,
         damping_ratio=damping_ratio,
     )

@@ -254,3 +254,23 @@ def test_bad_options_are_refused(cw: Robot) -> None:
         simulate_tracking(cw, traj, kp=[1.0, 2.0])
     with pytest.raises(SimulationError, match="feedforward"):
         simulate_tracking(cw, traj, feedforward="magic")  # type: ignore[arg-type]
+
+
+def test_user_mjcf_without_actuators_falls_back_to_the_python_loop(
+    cw: Robot, tmp_path: Path
+) -> None:
+    assert cw.mjcf_path is not None
+    text = cw.mjcf_path.read_text(encoding="utf-8")
+    start, end = text.index("<actuator>"), text.index("</actuator>") + len("</actuator>")
+    bare_xml = tmp_path / "no_actuators.xml"
+    bare_xml.write_text(text[:start] + text[end:], encoding="utf-8")
+    with_act = load_robot(cw.urdf_path, mjcf=cw.mjcf_path, payload=4.0)
+    without = load_robot(cw.urdf_path, mjcf=bare_xml, payload=4.0)
+    traj = _bio_like(cw, n_samples=201)
+    a = simulate_tracking(with_act, traj)
+    b = simulate_tracking(without, traj)
+    assert (a.backend, b.backend) == ("rollout", "loop")
+    np.testing.assert_allclose(a.q, b.q, atol=1e-12)
+    np.testing.assert_allclose(a.tau, b.tau, atol=1e-8)
+    with pytest.raises(SimulationError, match="one joint actuator per joint"):
+        simulate_tracking(without, traj, backend="rollout")
