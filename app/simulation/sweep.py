@@ -290,7 +290,7 @@ class SimulationResult:
         for label in ("standard", "optimized"):
             p = self.peaks(label)
             pw = p["power"]
-            tq = max(p["torque"], key=lambda d: abs(d["value"]) / 1.0)
+            tq = max(p["torque"], key=lambda d: abs(d["value"]))
             lines.append(
                 f"{label}: power peak {pw['value']:.4g} W at t={pw['time']:.3f} s, elbow "
                 f"{pw['elbow_deg']:.1f} deg (phase {pw['phase']}); largest torque peak "
@@ -578,7 +578,8 @@ class SweepResult:
             f"{1000 * c['timestep']:g} ms, {c['workers']} worker(s), {c['seconds']:.1f} s",
             "cells: change in % of the standard (positive = the bio-inspired plan saves);",
             f"  '+' saves, '=' no difference (|change| < {NO_DIFFERENCE_PCT:g}%), '-' costs "
-            "more, '*' standard already on the abs_work floor, 'infeasible'/'unstable' as said",
+            "more, '*' standard already on the abs_work floor, '!' the cell has warnings (e.g. "
+            "the standard quintic exceeds a limit), 'infeasible'/'unstable' as said",
         ]
         for o in self.objectives:
             for m in metrics or METRICS:
@@ -627,7 +628,8 @@ def _cell_text(cell: SweepCell, metric: str) -> str:
         return "n/a"
     mark = {"saves": "+", "no difference": "=", "costs more": "-"}[classify(v)]
     floor = "*" if cell.at_floor else ""
-    return f"{v:+.1f}% {mark}{floor}"
+    warn = "!" if cell.warnings else ""
+    return f"{v:+.1f}% {mark}{floor}{warn}"
 
 
 # Worker state: the robot (without its caches) and robots per payload, built once per process.

@@ -80,8 +80,9 @@ POOR_TRACKING_RAD = math.radians(1.0)
 #: Positions [rad] or speeds [rad/s] this large mean the simulation ran away.
 RUNAWAY_POSITION_RAD = 1e3
 RUNAWAY_SPEED_RAD_S = 1e4
-#: Slack on joint position limits for the simulated motion [rad].
-LIMIT_SLACK_RAD = 1e-6
+#: Slack on joint position limits for the simulated motion [rad] (0.05 deg: a start or goal
+#: on a limit is not reported for a tracking error far below a degree).
+LIMIT_SLACK_RAD = math.radians(0.05)
 #: MuJoCo's integrator used here.
 INTEGRATOR = "Euler (semi-implicit)"
 
