@@ -9,12 +9,14 @@ script can move between ``bioplan plan --json`` and ``POST /api/plans``. SI unit
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Generic, Literal, TypeVar
+from typing import Annotated, Any, Generic, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 #: Energy metrics a plan can minimise (``app.planning.energy.OBJECTIVES``).
-Objective = Literal["tau_sq", "abs_work", "pos_work", "electrical_energy", "peak_power"]
+Objective = Literal[
+    "tau_sq", "abs_work", "pos_work", "electrical_energy", "peak_power", "peak_torque"
+]
 Site = Literal["deltoid", "triceps", "biceps", "forearm"]
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 JobKind = Literal["analysis", "plan", "simulation", "sweep"]
@@ -221,14 +223,14 @@ class _RobotTask(BaseModel):
     )
     objective: Objective = "abs_work"
     seed: int = Field(default=0, ge=0, le=2**32 - 1)
-
-
-class PlanRequest(_RobotTask):
-    """Plan the standard and the bio-inspired trajectory (``bioplan plan``)."""
-
+    start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="start joint angles (default: the curl task's)"
+    )
+    goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="goal joint angles (default: the curl task's)"
+    )
     particles: int = Field(default=40, ge=2, le=1000)
     iterations: int = Field(default=100, ge=1, le=10000)
-    n_samples: int = Field(default=100, ge=10, le=100000, description="optimiser grid points")
     peak_angle_deg: float | None = Field(
         default=None, gt=0, lt=180, description="elbow velocity-peak angle (default: template's)"
     )
@@ -236,8 +238,14 @@ class PlanRequest(_RobotTask):
         default=None, description="a HumanTemplate (as written by `bioplan analyze --out`)"
     )
     template_analysis_id: int | None = Field(
-        default=None, ge=1, description="use the template of this finished analysis"
+        default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
     )
+
+
+class PlanRequest(_RobotTask):
+    """Plan the standard and the bio-inspired trajectory (``bioplan plan``)."""
+
+    n_samples: int = Field(default=100, ge=10, le=100000, description="optimiser grid points")
 
 
 class SimulationRequest(_RobotTask):
@@ -256,8 +264,10 @@ class SweepRequest(BaseModel):
     payloads: list[float] = Field(
         default=[0.0, 4.0, 8.0, 12.0, 20.0], min_length=1, max_length=50, description="[kg]"
     )
-    objectives: list[Objective] = Field(default=["abs_work"], min_length=1, max_length=5)
+    objectives: list[Objective] = Field(default=["abs_work"], min_length=1, max_length=6)
     seed: int = Field(default=0, ge=0, le=2**32 - 1)
+    particles: int | None = Field(default=None, ge=2, le=1000, description="default: sweep's")
+    iterations: int | None = Field(default=None, ge=1, le=10000, description="default: sweep's")
     workers: int = Field(default=1, ge=1, le=64, description="processes inside the job")
 
     @field_validator("durations")

@@ -114,6 +114,7 @@ class JobService:
         self._events: queue.Queue[Any] = queue.Queue()
         self._writer: threading.Thread | None = None
         self._closed = False
+        self._described: dict[str, dict[str, Any]] = {}
 
     # lifecycle -------------------------------------------------------------------------------
 
@@ -225,6 +226,29 @@ class JobService:
             logger.warning("app.planning.robots is missing: no built-in robots")
             return []
 
+    def describe_builtin(self, name: str) -> dict[str, Any]:
+        """Joints and limits of a built-in robot (loaded once, then cached)."""
+        cached = self._described.get(name)
+        if cached is None:
+            cached = tasks.describe_robot({"name": name})
+            cached["builtin"] = True
+            self._described[name] = cached
+        return dict(cached)
+
+    def robot_joints(self, session: Session, name: str) -> list[str]:
+        """Joint names of a built-in or uploaded robot.
+
+        Raises:
+            UnknownRobotError: no such robot.
+        """
+        if name in self.builtin_robots:
+            return list(self.describe_builtin(name)["joint_names"])
+        row = crud.get_robot(session=session, name=name)
+        if row is None:
+            self.robot_spec(session, name, files=False)  # raises with the list of names
+        assert row is not None
+        return list(row.description.get("joint_names", []))
+
     def robot_spec(self, session: Session, name: str, *, files: bool = True) -> dict[str, Any]:
         """The plain-data robot spec for a job: a built-in name, or the uploaded files.
 
@@ -286,7 +310,7 @@ class JobService:
             return {"files": files, "read_options": read_options, "options": options}
         payload = dict(p)
         payload["robot"] = self.robot_spec(session, p["robot"])
-        if job.kind == "plan" and p.get("template_analysis_id") is not None:
+        if job.kind in ("plan", "simulation") and p.get("template_analysis_id") is not None:
             payload["template"] = self.analysis_template(session, p["template_analysis_id"])
         payload.pop("template_analysis_id", None)
         return payload

@@ -185,33 +185,56 @@ def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
 # ---------------------------------------------------------------------------------- planning
 
 
+def _task(robot: Any, start_deg: list[float] | None, goal_deg: list[float] | None) -> Any:
+    """A PlanTask from start/goal angles [deg], each defaulting to the robot's curl task."""
+    if start_deg is None and goal_deg is None:
+        return None
+    from app.planning.planner import PlanTask
+
+    default = PlanTask.default(robot)
+    start, goal = np.array(default.start, float), np.array(default.goal, float)
+    n = len(robot.joint_names)
+    for name, values, target in (("start_deg", start_deg, start), ("goal_deg", goal_deg, goal)):
+        if values is None:
+            continue
+        if len(values) != n:
+            raise ValueError(f"{name} needs {n} angles for {robot.name}, got {len(values)}")
+        target[:] = np.radians(np.asarray(values, float))
+    return PlanTask(start, goal)
+
+
+def _template(payload: dict[str, Any]) -> Any:
+    from app.planning.human_template import HumanTemplate
+
+    template = payload.get("template")
+    return None if template is None else HumanTemplate.from_dict(template)
+
+
 def plan(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
     """Plan standard and bio-inspired trajectories (``bioplan plan``).
 
     Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
-    ``seed``, ``particles``, ``iterations``, ``n_samples``, ``peak_angle_deg``, ``template``
-    (HumanTemplate dict or None).
+    ``seed``, ``particles``, ``iterations``, ``n_samples``, ``peak_angle_deg``, ``start_deg``,
+    ``goal_deg``, ``template`` (HumanTemplate dict or None).
 
     Returns:
         ``{"result": PlanResult.to_dict(), "arrays": PlanResult.arrays()}``.
     """
-    from app.planning.human_template import HumanTemplate
-
     run_plan = _entry("app.planning", "plan")
-    template = payload.get("template")
     with _robot(payload["robot"], payload.get("payload")) as robot:
-        kwargs: dict[str, Any] = {
-            "duration": float(payload["duration"]),
-            "objective": payload.get("objective", "abs_work"),
-            "seed": int(payload.get("seed", 0)),
-            "particles": int(payload.get("particles", 40)),
-            "iterations": int(payload.get("iterations", 100)),
-            "n_samples": int(payload.get("n_samples", 100)),
-            "peak_angle_deg": payload.get("peak_angle_deg"),
-            "template": None if template is None else HumanTemplate.from_dict(template),
-            "progress": progress,
-        }
-        result = run_plan(robot, **kwargs)
+        result = run_plan(
+            robot,
+            task=_task(robot, payload.get("start_deg"), payload.get("goal_deg")),
+            duration=float(payload["duration"]),
+            objective=payload.get("objective", "abs_work"),
+            seed=int(payload.get("seed", 0)),
+            particles=int(payload.get("particles", 40)),
+            iterations=int(payload.get("iterations", 100)),
+            n_samples=int(payload.get("n_samples", 100)),
+            peak_angle_deg=payload.get("peak_angle_deg"),
+            template=_template(payload),
+            progress=progress,
+        )
     arrays = {k: np.asarray(v, dtype=np.float64) for k, v in result.arrays().items()}
     return {"result": _json_safe(result.to_dict()), "arrays": arrays}
 
@@ -226,16 +249,23 @@ def _arrays_of(result: Any) -> dict[str, Any] | None:
 def simulate(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
     """Simulate standard and optimised trajectories (``bioplan simulate``).
 
-    Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
-    ``seed``.
+    Payload: as for :func:`plan` but without ``n_samples`` (the simulation grid is used).
+
+    Returns:
+        ``{"result": SimulationResult.to_dict(), "arrays": SimulationResult.arrays()}``.
     """
     simulate_comparison = _entry("app.simulation", "simulate_comparison")
     with _robot(payload["robot"], payload.get("payload")) as robot:
         result = simulate_comparison(
             robot,
+            task=_task(robot, payload.get("start_deg"), payload.get("goal_deg")),
             duration=float(payload["duration"]),
             objective=payload.get("objective", "abs_work"),
             seed=int(payload.get("seed", 0)),
+            particles=int(payload.get("particles", 40)),
+            iterations=int(payload.get("iterations", 100)),
+            peak_angle_deg=payload.get("peak_angle_deg"),
+            template=_template(payload),
             progress=progress,
         )
     return {"result": _json_safe(result.to_dict()), "arrays": _arrays_of(result)}
@@ -245,9 +275,11 @@ def sweep(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[st
     """Savings over a grid of durations, payloads and objectives (``bioplan sweep``).
 
     Payload: ``robot`` (spec), ``durations`` [s], ``payloads`` [kg], ``objectives``, ``seed``,
-    ``workers`` (processes inside the job; 1 on Dask, whose workers cannot fork).
+    ``particles``/``iterations`` (None: the sweep's defaults), ``workers`` (processes inside
+    the job).
     """
     run_sweep = _entry("app.simulation", "run_sweep")
+    budget = {k: int(payload[k]) for k in ("particles", "iterations") if payload.get(k)}
     with _robot(payload["robot"]) as robot:
         result = run_sweep(
             robot=robot,
@@ -257,6 +289,7 @@ def sweep(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[st
             seed=int(payload.get("seed", 0)),
             progress=progress,
             workers=payload.get("workers"),
+            **budget,
         )
     return {"result": _json_safe(result.to_dict())}
 

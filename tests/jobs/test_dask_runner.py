@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 
 from app.jobs.runner import DaskRunner
+from app.jobs.tasks import entry_points
 from tests.jobs.targets import target
 from tests.jobs.test_local_runner import TERMINAL, Collector
 
@@ -91,3 +92,42 @@ def test_cancel_stops_a_running_task(runner: tuple[DaskRunner, Collector], tmp_p
     last = beat.read_text()
     time.sleep(1.0)
     assert beat.read_text() == last, "the cancelled task kept running"
+
+
+@pytest.mark.skipif(not entry_points()["plan"], reason="app.planning.plan missing")
+def test_real_plan_and_analysis_jobs_through_the_api_on_dask(cluster: Any, tmp_path: Path) -> None:
+    from app.db.crud import json_safe
+    from app.planning import load_robot, plan
+    from tests.api.conftest import make_client, wait_job
+
+    address = cluster.scheduler_address.replace("tcp://", "dask://")
+    with make_client(tmp_path, executor=address) as client:
+        health = client.get("/api/health").json()
+        assert health["executor"] == address and health["workers"] == 2
+        body = {"robot": "human_arm_2dof", "duration": 1.2, "seed": 5, "particles": 8,
+                "iterations": 5}  # fmt: skip
+        job = client.post("/api/plans", json=body).json()
+        done = wait_job(client, job["id"])
+        assert done["state"] == "succeeded", done
+        got = client.get(done["result_url"]).json()["result"]
+        ref = json_safe(
+            plan(
+                load_robot("human_arm_2dof"), duration=1.2, seed=5, particles=8, iterations=5
+            ).to_dict()
+        )
+        for key in ("standard", "optimized", "floors", "improvement_pct"):
+            assert got[key] == ref[key]
+
+        if entry_points()["analysis"]:
+            from tests.conftest import shared_file
+
+            path = shared_file(
+                "noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv"
+            )
+            rec = client.post(
+                "/api/recordings", files=[("files", (path.name, path.read_bytes()))]
+            ).json()
+            job = client.post("/api/analyses", json={"recording_id": rec["id"]}).json()
+            done = wait_job(client, job["id"])
+            assert done["state"] == "succeeded", done
+            assert client.get(f"/api/analyses/{job['id']}/template").json()["source"]

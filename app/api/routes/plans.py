@@ -19,28 +19,43 @@ from app.api.routes._common import (
     list_results,
     result_out,
 )
-from app.api.schemas import ArraysOut, Job, JobState, Page, PlanComparison, PlanRequest, ResultOut
+from app.api.schemas import (
+    ArraysOut,
+    Job,
+    JobState,
+    Page,
+    PlanComparison,
+    PlanRequest,
+    ResultOut,
+    SimulationRequest,
+)
 from app.jobs.service import JobService, UnknownRobotError
 
 router = APIRouter(prefix="/api/plans", tags=["plans"], responses=PROBLEM_RESPONSES)
 
 
-def check_robot(jobs: JobService, session: Session, name: str) -> None:
-    """422 unless ``name`` is a built-in or uploaded robot."""
+def check_robot(jobs: JobService, session: Session, name: str) -> list[str]:
+    """The robot's joint names; 422 unless ``name`` is a built-in or uploaded robot."""
     try:
-        jobs.robot_spec(session, name, files=False)
+        return jobs.robot_joints(session, name)
     except UnknownRobotError as exc:
         raise ApiError(422, str(exc), field="robot") from None
 
 
-@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
-def submit_plan(
-    body: PlanRequest, session: SessionDep, jobs: RunnerDep, response: Response
-) -> dict[str, Any]:
-    """Queue a plan (``bioplan plan``); the result is the CLI's ``--json`` output."""
+def check_task(body: PlanRequest | SimulationRequest, session: Session, jobs: JobService) -> None:
+    """422 for a request the planner would refuse: robot, angles, template."""
     from app.planning.human_template import HumanTemplate
 
-    check_robot(jobs, session, body.robot)
+    joints = check_robot(jobs, session, body.robot)
+    for name in ("start_deg", "goal_deg"):
+        angles = getattr(body, name)
+        if angles is not None and len(angles) != len(joints):
+            raise ApiError(
+                422,
+                f"{name} needs {len(joints)} angles for {body.robot} ({', '.join(joints)}), "
+                f"got {len(angles)}",
+                field=name,
+            )
     if body.template is not None and body.template_analysis_id is not None:
         raise ApiError(422, "give template or template_analysis_id, not both", field="template")
     if body.template is not None:
@@ -53,6 +68,14 @@ def submit_plan(
             jobs.analysis_template(session, body.template_analysis_id)
         except LookupError as exc:
             raise ApiError(422, str(exc.args[0]), field="template_analysis_id") from None
+
+
+@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
+def submit_plan(
+    body: PlanRequest, session: SessionDep, jobs: RunnerDep, response: Response
+) -> dict[str, Any]:
+    """Queue a plan (``bioplan plan``); the result is the CLI's ``--json`` output."""
+    check_task(body, session, jobs)
     job = jobs.submit(
         kind="plan", params=body.model_dump(mode="json"), resource={"robot": body.robot}
     )

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 from pathlib import PurePosixPath
 from typing import Annotated, Any
 
@@ -22,15 +21,6 @@ RobotName = Annotated[str, Path(pattern=ROBOT_NAME)]
 MAX_MODEL_BYTES = 5 * 1024 * 1024
 
 
-@functools.cache
-def _describe_builtin(name: str) -> dict[str, Any]:
-    from app.jobs.tasks import describe_robot
-
-    out = describe_robot({"name": name})
-    out["builtin"] = True
-    return out
-
-
 def _uploaded(row: RobotRecord) -> dict[str, Any]:
     out = dict(row.description)
     out.update(
@@ -47,7 +37,7 @@ def _uploaded(row: RobotRecord) -> dict[str, Any]:
 @router.get("", response_model=list[RobotInfo])
 def list_robots(session: SessionDep, jobs: RunnerDep) -> list[dict[str, Any]]:
     """Built-in robots first, then uploaded ones, each with joints and limits (SI units)."""
-    out = [_describe_builtin(name) for name in jobs.builtin_robots]
+    out = [jobs.describe_builtin(name) for name in jobs.builtin_robots]
     out += [_uploaded(r) for r in crud.list_robots(session=session)]
     return out
 
@@ -55,7 +45,7 @@ def list_robots(session: SessionDep, jobs: RunnerDep) -> list[dict[str, Any]]:
 @router.get("/{name}", response_model=RobotInfo)
 def get_robot(session: SessionDep, jobs: RunnerDep, name: RobotName) -> dict[str, Any]:
     if name in jobs.builtin_robots:
-        return _describe_builtin(name)
+        return jobs.describe_builtin(name)
     row = crud.get_robot(session=session, name=name)
     if row is None:
         raise ApiError(404, f"robot {name!r} does not exist")

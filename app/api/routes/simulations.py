@@ -14,7 +14,7 @@ from app.api.routes._common import (
     list_results,
     result_out,
 )
-from app.api.routes.plans import check_robot
+from app.api.routes.plans import check_task
 from app.api.schemas import ArraysOut, Job, JobState, Page, ResultOut, SimulationRequest
 
 router = APIRouter(prefix="/api/simulations", tags=["simulations"], responses=PROBLEM_RESPONSES)
@@ -25,7 +25,7 @@ def submit_simulation(
     body: SimulationRequest, session: SessionDep, jobs: RunnerDep, response: Response
 ) -> dict[str, Any]:
     """Queue a simulation (``bioplan simulate``); the result is the CLI's ``--json`` output."""
-    check_robot(jobs, session, body.robot)
+    check_task(body, session, jobs)
     job = jobs.submit(
         kind="simulation", params=body.model_dump(mode="json"), resource={"robot": body.robot}
     )

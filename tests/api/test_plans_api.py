@@ -1,0 +1,143 @@
+"""Plans through the API: the CLI's JSON, arrays for plots, comparison, cancel, bad requests."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+import pytest
+
+from app.jobs.tasks import entry_points
+from tests.api.conftest import TestClient, assert_problem, wait_job
+
+pytestmark = pytest.mark.skipif(not entry_points()["plan"], reason="app.planning.plan missing")
+
+TINY = {"robot": "human_arm_2dof", "duration": 1.0, "particles": 8, "iterations": 5}
+
+
+def _without_timing(result: dict[str, Any]) -> dict[str, Any]:
+    out = dict(result)
+    out["optimizer"] = {k: v for k, v in result["optimizer"].items() if k != "seconds"}
+    return out
+
+
+def _run(client: TestClient, **body: Any) -> dict[str, Any]:
+    r = client.post("/api/plans", json={**TINY, **body})
+    assert r.status_code == 202, r.text
+    job = wait_job(client, r.json()["id"])
+    assert job["state"] == "succeeded", job
+    out: dict[str, Any] = client.get(job["result_url"]).json()
+    return out
+
+
+def test_objectives_match_the_planner() -> None:
+    from typing import get_args
+
+    from app.api.schemas import Objective
+    from app.planning.energy import OBJECTIVES
+
+    assert set(get_args(Objective)) == set(OBJECTIVES)
+
+
+def test_plan_result_is_the_cli_json_of_the_same_plan(shared_client: TestClient) -> None:
+    from app.db.crud import json_safe
+    from app.planning import load_robot, plan
+
+    out = _run(shared_client, seed=3, objective="abs_work", payload=10.0)
+    expected = plan(
+        load_robot("human_arm_2dof", payload=10.0),
+        duration=1.0,
+        objective="abs_work",
+        seed=3,
+        particles=8,
+        iterations=5,
+    )
+    result = out["result"]
+    assert set(result) >= {
+        "standard", "optimized", "floors", "improvement_pct", "peak_velocity_angle_deg", "optimizer"
+    }  # fmt: skip
+    assert _without_timing(result) == _without_timing(json_safe(expected.to_dict()))
+    # A physical floor holds end to end: no rest-to-rest lift does less positive work than dPE.
+    assert result["optimized"]["pos_work"] >= result["floors"]["delta_potential"] * (1 - 1e-9)
+
+    arrays = shared_client.get(f"/api/plans/{out['id']}/arrays", params={"points": 50}).json()
+    ref = expected.arrays()
+    idx = np.unique(np.linspace(0, len(ref["t"]) - 1, 50).round().astype(int))
+    assert arrays["points"] == len(idx)
+    np.testing.assert_allclose(arrays["arrays"]["t"], ref["t"][idx])
+    np.testing.assert_allclose(arrays["arrays"]["optimized_q"], ref["optimized_q"][idx])
+    only = shared_client.get(
+        f"/api/plans/{out['id']}/arrays", params={"name": ["t", "standard_energy"]}
+    ).json()
+    assert set(only["arrays"]) == {"t", "standard_energy"}
+    assert_problem(
+        shared_client.get(f"/api/plans/{out['id']}/arrays", params={"name": "nope"}),
+        422,
+        field="name",
+    )
+
+
+def test_compare_two_plans(shared_client: TestClient) -> None:
+    a = _run(shared_client, seed=1, duration=1.0)
+    b = _run(shared_client, seed=1, duration=1.5)
+    cmp = shared_client.get("/api/plans/compare", params={"a": a["id"], "b": b["id"]}).json()
+    assert cmp["conditions"]["a"]["duration"] == 1.0 and cmp["conditions"]["b"]["duration"] == 1.5
+    for traj in ("standard", "optimized"):
+        for metric in ("abs_work", "tau_sq", "peak_power"):
+            va, vb = a["result"][traj][metric], b["result"][traj][metric]
+            d = cmp[traj][metric]
+            assert (d["a"], d["b"]) == (va, vb)
+            assert d["diff"] == pytest.approx(vb - va)
+            assert d["diff_pct"] == pytest.approx(100 * (vb - va) / abs(va))
+    listed = shared_client.get("/api/plans", params={"robot": "human_arm_2dof"}).json()
+    assert {a["id"], b["id"]} <= {p["id"] for p in listed["items"]}
+    assert_problem(shared_client.get("/api/plans/compare", params={"a": a["id"], "b": 9999}), 404)
+
+
+def test_cancel_a_running_plan(shared_client: TestClient) -> None:
+    big = {"particles": 1000, "iterations": 10000, "n_samples": 2000, "robot": "curtain_wall_6dof"}
+    job = shared_client.post("/api/plans", json={**TINY, **big}).json()
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        now = shared_client.get(f"/api/jobs/{job['id']}").json()
+        if now["state"] == "running":
+            break
+        time.sleep(0.05)
+    assert now["state"] == "running", now
+    t0 = time.monotonic()
+    r = shared_client.post(f"/api/jobs/{job['id']}/cancel")
+    assert r.status_code == 200 and r.json()["state"] == "cancelled"
+    assert time.monotonic() - t0 < 5
+    assert shared_client.get(f"/api/plans/{job['id']}").json()["result"] is None
+    deadline = time.monotonic() + 5
+    while shared_client.get("/api/health").json()["running"] and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert shared_client.get("/api/health").json()["running"] == 0  # its process is gone
+
+
+def test_bad_plan_requests_are_422(shared_client: TestClient) -> None:
+    post = shared_client.post
+    assert_problem(post("/api/plans", json={**TINY, "robot": "r2d2"}), 422, field="robot")
+    assert_problem(post("/api/plans", json={**TINY, "objective": "speed"}), 422, field="objective")
+    assert_problem(post("/api/plans", json={**TINY, "duration": 0}), 422, field="duration")
+    r = post("/api/plans", json={**TINY, "start_deg": [0, 0, 0]})
+    assert "needs 2 angles" in assert_problem(r, 422, field="start_deg")["detail"]
+    r = post("/api/plans", json={**TINY, "template": {"peak_velocity_angle_deg": 500}})
+    assert_problem(r, 422, field="template")
+    r = post("/api/plans", json={**TINY, "template_analysis_id": 777})
+    assert_problem(r, 422, field="template_analysis_id")
+
+
+def test_template_and_angles_reach_the_planner(shared_client: TestClient) -> None:
+    out = _run(
+        shared_client,
+        template={"peak_velocity_angle_deg": 70.0, "source": "api test"},
+        start_deg=[0.0, 10.0],
+        goal_deg=[30.0, 140.0],
+    )
+    cond = out["result"]["conditions"]
+    assert cond["template"] == "api test"
+    assert out["result"]["target_peak_velocity_angle_deg"] == pytest.approx(70.0)
+    np.testing.assert_allclose(cond["start_deg"], [0.0, 10.0])
+    np.testing.assert_allclose(cond["goal_deg"], [30.0, 140.0])
