@@ -53,26 +53,41 @@ def as_signal(
             expected=f"at least {min_samples} samples",
         )
     cols = arr.reshape(n, -1)
-    finite = np.isfinite(cols)
-    if not allow_nan and not finite.all():
-        col = int(np.argmin(finite.all(axis=0)))
-        row = int(np.argmin(finite[:, col]))
-        raise RecordingError(
-            f"{what} has a non-finite value (NaN or inf) at sample {row}",
-            channel=channel_label(names, col),
-            expected="finite samples only",
-        )
-    n_finite = finite.sum(axis=0)
-    if (n_finite == 0).any():
-        col = int(np.argmin(n_finite))
-        raise RecordingError(
-            f"{what} has no finite samples",
-            channel=channel_label(names, col),
-            expected="finite samples",
-        )
+
+    # Fast path for the usual case: a NaN or inf anywhere makes its column's sum non-finite.
+    # Column by column: numpy reduces a narrow (N, C) block along axis 0 several times slower.
+    def extremes() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        hi = np.array([cols[:, j].max() for j in range(cols.shape[1])])
+        lo = np.array([cols[:, j].min() for j in range(cols.shape[1])])
+        return hi, lo
+
+    sums = np.array([cols[:, j].sum() for j in range(cols.shape[1])])
+    if np.isfinite(sums).all():
+        hi, lo = extremes()
+    else:
+        finite = np.isfinite(cols)
+        if finite.all():  # only the sum overflowed
+            hi, lo = extremes()
+        else:
+            if not allow_nan:
+                col = int(np.argmin(finite.all(axis=0)))
+                row = int(np.argmin(finite[:, col]))
+                raise RecordingError(
+                    f"{what} has a non-finite value (NaN or inf) at sample {row}",
+                    channel=channel_label(names, col),
+                    expected="finite samples only",
+                )
+            n_finite = finite.sum(axis=0)
+            if (n_finite == 0).any():
+                col = int(np.argmin(n_finite))
+                raise RecordingError(
+                    f"{what} has no finite samples",
+                    channel=channel_label(names, col),
+                    expected="finite samples",
+                )
+            hi = np.where(finite, cols, -np.inf).max(axis=0)
+            lo = np.where(finite, cols, np.inf).min(axis=0)
     if require_variance:
-        hi = np.where(finite, cols, -np.inf).max(axis=0)
-        lo = np.where(finite, cols, np.inf).min(axis=0)
         flat = np.flatnonzero(~(hi > lo))
         if flat.size:
             raise RecordingError(

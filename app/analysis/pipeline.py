@@ -21,8 +21,7 @@ from numpy.typing import NDArray
 from app.analysis.emg import (
     activation_order,
     detect_onsets,
-    emg_envelope,
-    emg_filter,
+    emg_process,
     peak_times,
     saturation_flags,
 )
@@ -359,8 +358,7 @@ def _process_emg(
         names = [c.name for c in group]
         x = np.stack([np.asarray(c.data, dtype=np.float64) for c in group], axis=1)
         try:
-            filtered = emg_filter(x, rate, names=names, **_filter_options(emg_options))
-            env = emg_envelope(filtered, rate, band=None, names=names, **_env_options(emg_options))
+            filtered, env = emg_process(x, rate, names=names, **emg_options)
         except RecordingError as exc:
             raise RecordingError(
                 exc.message, file=recording.source, channel=exc.channel, expected=exc.expected
@@ -415,14 +413,6 @@ def _drop_unused(
         )
     keep = {id(c) for c in dropped}
     return [c for c in channels if id(c) not in keep]
-
-
-def _filter_options(options: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: options[k] for k in ("band", "notch", "harmonics", "order") if k in options}
-
-
-def _env_options(options: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: options[k] for k in ("lowpass", "method", "rms_window", "order") if k in options}
 
 
 def _has_positions(recording: Recording) -> bool:
