@@ -596,6 +596,8 @@ class SweepResult:
                     lines.append(f"{d:>16g}" + "".join(cells))
                 counts = self.counts(o, m)
                 lines.append("  " + ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())))
+        if c.get("pool_note"):
+            lines.append(f"note: {c['pool_note']}")
         bad = [c for c in self.cells if c.status != "ok"]
         for cell in bad:
             lines.append(
@@ -729,8 +731,10 @@ def run_sweep(
     """Plan and simulate every (duration, payload, objective) cell; classify the changes.
 
     Cells run in a process pool (``workers`` processes, default ``min(2, cpu_count)``; 1 runs
-    them in this process). Every cell uses the same seed, so the result does not depend on the
-    order in which cells finish.
+    them in this process). Workers are spawned (fresh interpreters), so a calling script needs
+    the usual ``if __name__ == "__main__":`` guard; without it the pool breaks and the cells run
+    in this process instead (said in ``conditions["pool_note"]``). Every cell uses the same
+    seed, so the result does not depend on the order in which cells finish.
 
     Args:
         robot: the robot (its payload shape is kept; the mass is set per cell); needs an MJCF.
@@ -799,28 +803,47 @@ def run_sweep(
 
     if progress is not None:
         progress(0.0, f"sweeping {len(jobs)} cells on {n_workers} worker(s)")
-    if n_workers == 1 or len(jobs) == 1:
+
+    def run_here(todo: Sequence[tuple[float, float, str, int, int, int, float]]) -> None:
         _init_worker(clean)
         try:
-            for job in jobs:
+            for job in todo:
                 report(_cell_job(job))
         finally:
             _WORKER.clear()
+
+    pool_note = ""
+    if n_workers == 1 or len(jobs) == 1:
+        run_here(jobs)
     else:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
+        from concurrent.futures.process import BrokenProcessPool
 
         # "spawn": fresh interpreters, safe even when the caller runs threads (the service).
         ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(
-            max_workers=min(n_workers, len(jobs)),
-            mp_context=ctx,
-            initializer=_init_worker,
-            initargs=(clean,),
-        ) as pool:
-            futures = [pool.submit(_cell_job, job) for job in jobs]
-            for fut in as_completed(futures):
-                report(fut.result())
+        try:
+            with ProcessPoolExecutor(
+                max_workers=min(n_workers, len(jobs)),
+                mp_context=ctx,
+                initializer=_init_worker,
+                initargs=(clean,),
+            ) as pool:
+                futures = [pool.submit(_cell_job, job) for job in jobs]
+                for fut in as_completed(futures):
+                    report(fut.result())
+        except BrokenProcessPool as exc:
+            # Spawned workers re-import the caller's __main__; a script without the
+            # ``if __name__ == "__main__":`` guard (or code piped to stdin) cannot be
+            # re-imported. Finish in this process rather than fail.
+            finished = {(c.duration, c.payload, c.objective) for c in results}
+            todo = [job for job in jobs if (job[0], job[1], job[2]) not in finished]
+            pool_note = (
+                f"the process pool failed ({exc}); {len(todo)} cells ran in this process "
+                "(a script needs the `if __name__ == '__main__':` guard for worker processes)"
+            )
+            n_workers = 1
+            run_here(todo)
     order = {(d, p, o): i for i, (d, p, o, *_rest) in enumerate(jobs)}
     cells = tuple(sorted(results, key=lambda c: order[(c.duration, c.payload, c.objective)]))
     return SweepResult(
@@ -841,5 +864,6 @@ def run_sweep(
             "at_floor_fraction": AT_FLOOR_FRACTION,
             "poor_tracking_rad": POOR_TRACKING_RAD,
             "payload_shape": [float(v) for v in robot.payload.size],
+            "pool_note": pool_note,
         },
     )

@@ -5,6 +5,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -198,3 +202,28 @@ def test_unknown_objective_is_the_planners_error(cw: Robot) -> None:
 def test_bad_sweep_input_is_refused(cw: Robot, kwargs: dict[str, object], needle: str) -> None:
     with pytest.raises(SimulationError, match=needle):
         run_sweep(robot=cw, workers=1, **kwargs)  # type: ignore[arg-type]
+
+
+def test_script_without_main_guard_still_gets_its_sweep(tmp_path: Path) -> None:
+    # Spawned workers re-import __main__; an unguarded script breaks the pool, and the sweep
+    # then finishes in the calling process instead of crashing.
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "from app.planning.robots import load_robot\n"
+        "from app.simulation import run_sweep\n"
+        "res = run_sweep(robot=load_robot('curtain_wall_6dof'), durations=[1.0],\n"
+        "                payloads=[0.0, 4.0], workers=2, particles=4, iterations=3)\n"
+        "print('RESULT', res.conditions['workers'], [c.status for c in res.cells])\n",
+        encoding="utf-8",
+    )
+    root = Path(__file__).resolve().parents[2]
+    proc = subprocess.run(
+        [sys.executable, str(script)],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        cwd=root,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "RESULT 1 ['ok', 'ok']" in proc.stdout
