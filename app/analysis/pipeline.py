@@ -131,6 +131,16 @@ class LiftReport:
     profile: LiftProfile
     energetics: Energetics | None = None
 
+    @property
+    def emg_peak_after_velocity_peak(self) -> dict[str, float]:
+        """muscle -> envelope peak time minus the elbow-velocity peak time [s] (the EMG peaks
+        aligned with the kinematic characteristic point; negative = EMG first)."""
+        frac = self.profile.peak_velocity_time_fraction
+        if not np.isfinite(frac):
+            return {}
+        t_peak = self.lift.start + frac * (self.lift.top - self.lift.start)
+        return {m: t - t_peak for m, t in self.emg_peak_times.items()}
+
     def to_dict(self) -> dict[str, Any]:
         lift, prof = self.lift, self.profile
         return {
@@ -152,6 +162,7 @@ class LiftReport:
             "activation_order": list(self.activation_order),
             "emg_peak_s": self.emg_peak_times,
             "emg_peak_time_fraction": prof.emg_peak_time_fraction,
+            "emg_peak_after_velocity_peak_s": self.emg_peak_after_velocity_peak,
             "energetics": self.energetics.to_dict() if self.energetics else None,
         }
 

@@ -50,7 +50,7 @@ def test_pyomeca_lifts_phases_and_template(pyomeca_result) -> None:  # type: ign
 
 
 def test_to_dict_is_json_and_in_degrees(pyomeca_result) -> None:  # type: ignore[no-untyped-def]
-    data = json.loads(json.dumps(pyomeca_result.to_dict()))
+    data = json.loads(json.dumps(pyomeca_result.to_dict(), allow_nan=False))
     f = data["files"][0]
     lo, hi = f["pose"]["elbow_range_deg"]
     assert 180 - hi == pytest.approx(42.0, abs=2.0)
@@ -60,6 +60,12 @@ def test_to_dict_is_json_and_in_degrees(pyomeca_result) -> None:  # type: ignore
     assert {p["name"] for p in lift["phases"]} >= {"B", "C"}
     assert lift["energetics"]["metrics"]["abs_work"] > 0
     assert data["template"]["n_lifts"] == 3
+    # EMG peaks aligned with the velocity peak: offsets agree with the absolute peak times.
+    vpeak = lift["concentric_s"][0] + lift["peak_velocity_time_fraction"] * (
+        lift["concentric_s"][1] - lift["concentric_s"][0]
+    )
+    for muscle, dt in lift["emg_peak_after_velocity_peak_s"].items():
+        assert dt == pytest.approx(lift["emg_peak_s"][muscle] - vpeak)
     assert "lifts: 3" in pyomeca_result.summary()
 
 
@@ -69,6 +75,7 @@ def test_noraxon_curls_ten_lifts_each_from_emg_alone() -> None:
     assert all(r.lift.source == "emg" for r in result.lifts)
     assert result.template.n_lifts == 0  # no angle: kinematics keep the paper's defaults
     assert result.template.peak_velocity_angle_deg == 62.0
+    json.dumps(result.to_dict(), allow_nan=False)
     assert set(result.template.activation_order) == {"biceps", "forearm"}
 
 
@@ -101,6 +108,7 @@ def test_mediapipe_frames_with_gaps_give_no_kinematics_across_them() -> None:
     assert len(rec.lifts) == len(independent)
     finite = rec.angles.elbow[np.isfinite(rec.angles.elbow)]
     assert np.all((finite >= 0) & (finite <= np.pi))
+    json.dumps(result.to_dict(), allow_nan=False)
 
 
 def _emg_rec(x: np.ndarray, names: list[str]) -> Recording:
