@@ -272,6 +272,13 @@ class AnalysisResult:
                     f"  pose: {a.side} arm, {a.rate:g} Hz, {100 * a.valid.mean():.0f}% valid, "
                     f"{len(a.gaps)} gap(s); clock offset {rec.offset:+.3f} s"
                 )
+            # With channels mapped to the method's sites, the text shows those (JSON has all).
+            names = {m.muscle for m in rec.emg}
+            shown = names & set(SITES) or names
+            if shown != names:
+                lines.append(
+                    f"  (per-lift EMG below for {', '.join(sorted(shown))}; all in --json)"
+                )
             lines.append(f"  lifts: {len(rec.lifts)}")
             for r in rec.lifts:
                 lift = r.lift
@@ -290,13 +297,15 @@ class AnalysisResult:
                 for p in r.phases:
                     if p.phase.part != "concentric":
                         continue
-                    emg = " ".join(f"{m}={v:.2f}" for m, v in p.emg_mean.items())
+                    emg = " ".join(f"{m}={v:.2f}" for m, v in p.emg_mean.items() if m in shown)
                     lines.append(
                         f"       {p.phase.name}: {p.phase.duration:.2f} s"
                         + (f"  EMG mean {emg}" if emg else "")
                     )
                 if r.activation_order:
-                    onset = ", ".join(f"{m} {r.onsets[m]:+.2f}s" for m in r.activation_order)
+                    onset = ", ".join(
+                        f"{m} {r.onsets[m]:+.2f}s" for m in r.activation_order if m in shown
+                    )
                     lines.append(f"       onsets: {onset}")
                 if r.energetics is not None:
                     m = r.energetics.metrics
