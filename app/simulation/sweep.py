@@ -599,11 +599,13 @@ class SweepResult:
         if c.get("pool_note"):
             lines.append(f"note: {c['pool_note']}")
         bad = [c for c in self.cells if c.status != "ok"]
-        for cell in bad:
+        for cell in bad[:5]:
             lines.append(
                 f"{cell.status}: T={cell.duration:g} s, m={cell.payload:g} kg, "
                 f"{cell.objective}: {cell.message}"
             )
+        if len(bad) > 5:
+            lines.append(f"... and {len(bad) - 5} more cells not ok (see --json for each)")
         return "\n".join(lines)
 
 
