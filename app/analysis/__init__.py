@@ -34,7 +34,7 @@ from app.analysis.pipeline import (
     merge_recordings,
 )
 from app.analysis.plots import write_analysis_plots
-from app.analysis.pose import ArmAngles, arm_angles, joint_angles
+from app.analysis.pose import ArmAngles, angles_from_channels, arm_angles, joint_angles
 from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lifts, split_phases
 from app.analysis.sync import estimate_offset, event_offset, resample
 from app.analysis.template import LiftProfile, build_template, lift_profile
@@ -54,6 +54,7 @@ __all__ = [
     "activation_order",
     "analyze_files",
     "analyze_recordings",
+    "angles_from_channels",
     "arm_angles",
     "build_template",
     "detect_emg_lifts",

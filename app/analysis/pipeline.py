@@ -26,7 +26,7 @@ from app.analysis.emg import (
     saturation_flags,
 )
 from app.analysis.energetics import ArmDynamics, Energetics, human_arm_dynamics, lift_energetics
-from app.analysis.pose import ArmAngles, arm_angles
+from app.analysis.pose import ArmAngles, angles_from_channels, arm_angles
 from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lifts, split_phases
 from app.analysis.sync import estimate_offset
 from app.analysis.template import LiftProfile, build_template, consensus_order, lift_profile
@@ -484,9 +484,14 @@ def _analyze_one(
         try:
             angles = arm_angles(recording, **pose_options)
         except RecordingError as exc:
-            if not emg:
+            angles = angles_from_channels(recording)
+            if angles is None and not emg:
                 raise
-            warnings.append(f"pose not used: {exc}")
+            warnings.append(f"landmarks not used: {exc}")
+    else:
+        angles = angles_from_channels(recording)
+        if angles is not None:
+            warnings.append("arm angles from joint-angle channels (taken as flexion)")
     if not emg and angles is None:
         raise RecordingError(
             "nothing to analyse",

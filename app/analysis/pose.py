@@ -518,3 +518,86 @@ def arm_angles(
         side=chosen_side if sided else "unspecified",
         position_unit=unit,
     )
+
+
+def _angle_channel(recording: Recording, joint: str, prefer: Sequence[str]) -> Channel | None:
+    found = [
+        ch
+        for name, ch in recording.channels.items()
+        if ch.kind == "angle" and ch.data.ndim == 1 and joint in name.lower()
+    ]
+    for word in prefer:
+        for ch in found:
+            if word in ch.name.lower():
+                return ch
+    return found[0] if found else None
+
+
+def angles_from_channels(
+    recording: Recording,
+    *,
+    max_gap: float = 0.2,
+    max_speed: float = 15.0,
+    lowpass: float | None = 6.0,
+    derivative: DerivativeMethod = "savgol",
+    window: float = 0.15,
+) -> ArmAngles | None:
+    """Arm angles from joint-angle channels (goniometers, OpenSim coordinates) instead of points.
+
+    The elbow channel is the ``angle`` channel whose name contains "elbow" (one with "flex"
+    preferred); the shoulder one contains "shoulder" ("flex" preferred, then "ele" for
+    elevation). Both are taken as flexion in radians, as the readers deliver them. Without a
+    shoulder channel the upper arm is taken as hanging (0 rad).
+
+    Returns:
+        ArmAngles (no wrist acceleration: shape (T, 0)), or None without an elbow channel.
+    """
+    elbow = _angle_channel(recording, "elbow", ("flex",))
+    if elbow is None:
+        return None
+    shoulder = _angle_channel(recording, "shoulder", ("flex", "ele"))
+    rate = float(elbow.rate)
+    t = np.asarray(elbow.times, dtype=np.float64)
+    e = np.asarray(elbow.data, dtype=np.float64)
+    if shoulder is not None and shoulder.n_samples == elbow.n_samples:
+        s = np.asarray(shoulder.data, dtype=np.float64)
+    else:
+        s = np.zeros_like(e)
+    filled, segments, gaps = _segments(
+        t,
+        np.column_stack([s, e]),
+        rate=rate,
+        max_gap=max_gap,
+        max_speed=max_speed,
+        jump_columns=2,
+    )
+    smooth, d1, d2 = smooth_and_differentiate(
+        t,
+        filled,
+        rate=rate,
+        segments=segments,
+        lowpass=lowpass,
+        derivative=derivative,
+        window=window,
+    )
+    side = (
+        "right"
+        if elbow.name.lower().endswith(("_r", "_right"))
+        else ("left" if elbow.name.lower().endswith(("_l", "_left")) else "unspecified")
+    )
+    return ArmAngles(
+        t=t,
+        shoulder=smooth[:, 0],
+        elbow=smooth[:, 1],
+        shoulder_velocity=d1[:, 0],
+        elbow_velocity=d1[:, 1],
+        shoulder_acceleration=d2[:, 0],
+        elbow_acceleration=d2[:, 1],
+        wrist_acceleration=np.zeros((len(t), 0)),
+        valid=np.isfinite(smooth[:, 1]),
+        segments=segments,
+        gaps=gaps,
+        rate=rate,
+        side=side,
+        position_unit="",
+    )

@@ -203,3 +203,30 @@ def test_mediapipe_frames_angles_gaps_and_no_derivative_across_them() -> None:
     # Every segment edge that borders a gap has no derivative.
     assert np.isnan(a.elbow_velocity[a.segments[1:, 0]]).all()
     assert np.isnan(a.elbow_velocity[a.segments[:-1, 1] - 1]).all()
+
+
+def test_angles_from_joint_angle_channels() -> None:
+    from app.analysis.pose import angles_from_channels
+
+    rate = 100.0
+    t, q1, q2 = _curl(rate)
+    rec = Recording(
+        {
+            "elbow_flexion": Channel("elbow_flexion", q2, rate, "rad", "angle"),
+            "shoulder_ele": Channel("shoulder_ele", q1, rate, "rad", "angle"),
+            "pro_sup": Channel("pro_sup", 0 * q1 + 0.1, rate, "rad", "angle"),
+        },
+        "ik.mot",
+        "mot",
+    )
+    a = angles_from_channels(rec)
+    assert a is not None
+    w, amp = 2 * np.pi * 0.5, np.deg2rad(130.0) / 2
+    np.testing.assert_allclose(a.elbow[50:-50], q2[50:-50], atol=2e-3)
+    np.testing.assert_allclose(a.shoulder[50:-50], q1[50:-50], atol=2e-3)
+    np.testing.assert_allclose(
+        a.elbow_velocity[50:-50], (amp * w * np.sin(w * t))[50:-50], atol=0.02
+    )
+    assert a.wrist_acceleration.shape == (len(t), 0)
+    no_elbow = Recording({"pro_sup": rec.channels["pro_sup"]}, "x.mot", "mot")
+    assert angles_from_channels(no_elbow) is None
