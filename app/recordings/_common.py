@@ -50,6 +50,7 @@ class Source:
     path: Path | None = None
     content: bytes | None = None
     warnings: list[str] = field(default_factory=list)
+    utf8: bytes | None = field(default=None, repr=False)
 
     def data(self) -> bytes:
         if self.content is None:
@@ -60,6 +61,16 @@ class Source:
             except OSError as exc:
                 raise self.error(f"cannot be read: {exc.strerror or exc}") from exc
         return self.content
+
+    def text(self) -> bytes:
+        """The content as UTF-8 (text readers and pyarrow need it).
+
+        UTF-8 and ASCII pass through without a copy; UTF-16 (with BOM) is decoded; anything
+        else is taken as Windows-1252 / Latin-1, which is what old Windows exports write.
+        """
+        if self.utf8 is None:
+            self.utf8 = to_utf8(self.data())
+        return self.utf8
 
     def error(
         self,
@@ -107,6 +118,22 @@ class Source:
 
 # ---------------------------------------------------------------------------------------------
 # units
+
+
+def to_utf8(data: bytes) -> bytes:
+    """``data`` re-encoded as UTF-8 (see ``Source.text``)."""
+    if data.isascii():
+        return data
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        try:
+            return data.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError:
+            pass
+    try:
+        data.decode("utf-8")
+        return data
+    except UnicodeDecodeError:
+        return data.decode("cp1252", errors="replace").encode("utf-8")
 
 
 _BLANK = b"\xef\xbb\xbf \t\r\n"
@@ -363,6 +390,8 @@ def emg_median_frequency(x: F64, rate: float) -> float | None:
     seg = seg - seg.mean(axis=1, keepdims=True)
     power = (np.abs(np.fft.rfft(seg * np.hanning(nseg), axis=1)) ** 2).mean(axis=0)
     power[0] = 0.0
+    if not np.all(np.isfinite(power)):
+        return None
     total = float(power.sum())
     if not math.isfinite(total) or total <= 0:
         return None

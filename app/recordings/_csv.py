@@ -192,7 +192,7 @@ def read_csv(src: Source, opts: Options) -> Recording:
     ``Resolution`` (ADC bits) is stated, values are raw counts: the mid-scale offset is
     removed and the unit is ``"counts"``.
     """
-    data = src.data()
+    data = src.text()
     layout = detect_layout(data, src)
     header = comment_values(layout)
     names = layout.names
@@ -259,7 +259,7 @@ def _count_channels(
 
 def read_noraxon(src: Source, opts: Options) -> Recording:
     """Noraxon MR3 CSV export: BOM, ``;``, decimal comma, metadata rows, ``"NAME (uV)"``."""
-    data = src.data()
+    data = src.text()
     layout = detect_layout(data, src)
     header: dict[str, str] = {}
     if len(layout.preamble) >= 2 and len(layout.preamble[0]) == len(layout.preamble[1]):
@@ -323,7 +323,7 @@ def read_vicon(src: Source, opts: Options) -> Recording:
     blank line. Device columns become scalar channels (EMG converted to V); X/Y/Z triples of
     a trajectory become (N, 3) markers in metres with NaN where the cell is empty.
     """
-    data = src.data()
+    data = src.text()
     starts = [m.start() for m in _SECTION_RE.finditer(data)]
     if not starts:
         raise src.error(

@@ -113,7 +113,7 @@ def read_datalog(src: Source, opts: Options) -> Recording:
     from ``datalog_sensors``, else a sidecar ``<file>.json``/``<stem>.json``; with neither,
     the ``rate`` option reads every column as raw counts at that rate.
     """
-    data = _pad_short_rows(src.data())
+    data = _pad_short_rows(src.text())
     layout = detect_layout(data, src, delimiter="\t")
     table = read_table(data, layout, src)
     sensors = list(opts.datalog_sensors) if opts.datalog_sensors else _sidecar_sensors(src)

@@ -30,6 +30,7 @@ from app.recordings._common import (
     scalar_channel,
     unique_name,
 )
+from app.recordings._mat5 import loadmat5
 from app.recordings.types import Channel, Recording
 
 Leaves = dict[tuple[str, ...], Any]
@@ -166,13 +167,14 @@ def _leaves(src: Source, data: bytes) -> tuple[Leaves, str]:
                 expected="a complete MATLAB v7.3 / HDF5 file",
             ) from None
         return out, "7.3"
-    import scipy.io
-
+    if not data.startswith(b"MATLAB 5.0 MAT-file"):
+        raise src.error(
+            "is not a MATLAB v5 or v7.3 file",
+            expected="'MATLAB 5.0 MAT-file' or an HDF5 (v7.3) file",
+        )
     try:
-        loaded = scipy.io.loadmat(io.BytesIO(data), simplify_cells=True)
-    except NotImplementedError as exc:
-        raise src.error(f"unsupported MAT version: {exc}", expected="MAT v5 or v7.3") from None
-    except (ValueError, TypeError, OSError, EOFError, IndexError, KeyError, AttributeError) as exc:
+        loaded = loadmat5(data)
+    except ValueError as exc:
         raise src.error(
             f"MAT v5 content cannot be read: {exc}", expected="a complete MATLAB v5 file"
         ) from None

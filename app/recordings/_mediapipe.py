@@ -186,7 +186,7 @@ def _channels(
 
 def read_mediapipe_csv(src: Source, opts: Options) -> Recording:
     """Landmark CSV: ``<name>_x,_y,_z,_v`` columns or ``x0,y0,...`` indexed by landmark id."""
-    data = src.data()
+    data = src.text()
     layout = detect_layout(data, src)
     table = read_table(data, layout, src)
     if table.n_rows < 2:
@@ -284,7 +284,7 @@ def read_mediapipe_json(src: Source, opts: Options) -> Recording:
     are milliseconds (MediaPipe's convention), ``time`` is seconds, ``frame`` needs
     ``frame_rate``.
     """
-    data = src.data()
+    data = src.text()
     try:
         obj = json.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError as exc:

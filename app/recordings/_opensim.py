@@ -67,7 +67,7 @@ def _field_count(src: Source, data: bytes, delimiter: str, first: int) -> int:
 
 def read_trc(src: Source, opts: Options) -> Recording:
     """TRC: 5 header lines (file type, keys, values, marker names, X1/Y1/Z1), then data."""
-    data = src.data()
+    data = src.text()
     lines = head_lines(data)
     if len(lines) < 5 or not lines[0].text.startswith("PathFileType"):
         raise src.error("is not a TRC file", line=1, expected="'PathFileType' on line 1")
@@ -146,7 +146,7 @@ def read_mot(src: Source, opts: Options, *, fmt: str = "mot") -> Recording:
     ``*_moment``/``*_force`` are N·m/N; other STO columns are coordinates when
     ``inDegrees=yes`` and unitless otherwise.
     """
-    data = src.data()
+    data = src.text()
     lines = head_lines(data)
     end = next(
         (i for i, ln in enumerate(lines) if ln.text.strip(" ,\t").lower() == "endheader"), None

@@ -175,6 +175,13 @@ def _options(
 
 
 def _read(src: Source, format: str | None, opts: Options) -> Recording:
+    # Corrupt files can hold 1e308 or inf; every such case is checked explicitly (finite
+    # samples, rates), so numpy's floating-point warnings would only be noise.
+    with np.errstate(all="ignore"):
+        return _read_checked(src, format, opts)
+
+
+def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
     if format is None:
         fmt = sniff_bytes(src.data()[:SNIFF_BYTES], src.name)
     elif format in FORMATS:

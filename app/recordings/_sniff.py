@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from app.recordings._common import to_utf8
 from app.recordings._csv import sniff_vicon
 from app.recordings._mediapipe import landmark_column
 from app.recordings._table import detect_delimiter, head_lines, is_comment, split_fields
@@ -51,6 +52,8 @@ def sniff_bytes(head: bytes, filename: str) -> str:
         return "mat"
     if _is_c3d(head):
         return "c3d"
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):  # UTF-16 text (Windows "Unicode" export)
+        head = to_utf8(head[: len(head) // 2 * 2])
     if b"\x00" in head[:4096]:
         raise RecordingError(
             "is a binary file of unknown format",

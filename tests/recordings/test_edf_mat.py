@@ -166,6 +166,66 @@ def test_mat_v5_labelled_matrix_and_struct(tmp_path: Path) -> None:
     np.testing.assert_allclose(elbow.data, np.deg2rad(np.linspace(0, 150, 500)))
 
 
+def _same(mine: object, ref: object) -> None:
+    if isinstance(ref, dict):
+        assert isinstance(mine, dict) and set(mine) == set(ref)
+        for k in ref:
+            _same(mine[k], ref[k])
+    elif isinstance(ref, list | tuple) or (isinstance(ref, np.ndarray) and ref.dtype.kind in "OU"):
+        ref_list = (
+            list(np.asarray(ref, dtype=object).ravel()) if isinstance(ref, np.ndarray) else ref
+        )
+        assert isinstance(mine, list) and len(mine) == len(ref_list)
+        for a, b in zip(mine, ref_list, strict=True):
+            _same(a, b)
+    elif isinstance(ref, str):
+        assert mine == ref
+    else:
+        np.testing.assert_array_equal(
+            np.asarray(mine, dtype=np.float64), np.asarray(ref, dtype=np.float64)
+        )
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_mat5_parser_matches_scipy(tmp_path: Path, compress: bool) -> None:
+    sio = pytest.importorskip("scipy.io")
+    from app.recordings._mat5 import loadmat5
+
+    rng = np.random.default_rng(3)
+    variables = {
+        "fs": 2000,
+        "emg": rng.standard_normal((50, 3)),
+        "i16": np.arange(6, dtype=np.int16).reshape(2, 3),
+        "labels": np.array(["Biceps", "Triceps", "Delt"], dtype=object),
+        "chars": np.array(["ab", "cd"]),
+        "rec": {"data": {"Biceps": np.arange(5.0)}, "sampling_frequency": 1000.0, "unit": "mV"},
+        "trials": np.array([{"a": 1.0}, {"a": 2.0}]),
+        "cells": np.array([np.arange(3.0), "text"], dtype=object),
+    }
+    path = tmp_path / "ref.mat"
+    sio.savemat(path, variables, do_compression=compress)
+    data = path.read_bytes()
+    reference = sio.loadmat(path, simplify_cells=True)
+    mine = loadmat5(data)
+    assert set(mine) == {k for k in reference if not k.startswith("__")}
+    for key in mine:
+        _same(mine[key], reference[key])
+
+
+def test_mat5_invalid_data_type_is_an_error_not_a_crash(tmp_path: Path) -> None:
+    # scipy.io.loadmat 1.17 segfaults on this single-byte corruption; the reader must not
+    sio = pytest.importorskip("scipy.io")
+    path = tmp_path / "emg.mat"
+    sio.savemat(path, {"emg": np.arange(100.0), "fs": 1000.0})
+    data = bytearray(path.read_bytes())
+    at = data.index(b"\x09\x00\x00\x00", data.index(b"emg"))  # miDOUBLE tag of the values
+    data[at] = 0x42
+    with pytest.raises(
+        RecordingError, match=r"emg\.mat: MAT v5 content cannot be read: data type 66"
+    ):
+        read_bytes(bytes(data), "emg.mat")
+
+
 def test_mat_v5_without_rate_needs_one(tmp_path: Path) -> None:
     sio = pytest.importorskip("scipy.io")
     path = tmp_path / "norate.mat"
