@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal, cast
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -725,16 +725,6 @@ def analyze_recordings(
     )
 
 
-def _reader() -> Callable[..., Recording]:
-    import importlib
-
-    module = importlib.import_module("app.recordings")
-    read = getattr(module, "read_recording", None)
-    if read is None:
-        raise RecordingError("no file reader available", expected="app.recordings.read_recording")
-    return cast(Callable[..., Recording], read)
-
-
 def analyze_files(
     paths: Sequence[str | Path],
     *,
@@ -757,9 +747,10 @@ def analyze_files(
     files that do not state them (MediaPipe CSV without timestamps); the other options are
     those of :func:`analyze_recordings`.
     """
-    read = _reader()
+    from app.recordings import read_recording
+
     recordings = [
-        read(
+        read_recording(
             p,
             emg_rate=emg_rate,
             muscle_map=muscle_map,

@@ -168,16 +168,8 @@ def test_pose_side_option_is_passed_through() -> None:
     np.testing.assert_array_equal(result.recordings[0].angles.elbow, expected.elbow)
 
 
-def _files_available() -> None:
-    import app.recordings
-
-    if not hasattr(app.recordings, "read_recording"):
-        pytest.skip("app.recordings.read_recording is not in the tree yet")
-
-
 @pytest.mark.parametrize(("name", "emg_rate"), [("NT-01.mat", 2000.0), ("SP-01.mat", None)])
 def test_analyze_files_noraxon_ten_lifts(name: str, emg_rate: float | None) -> None:
-    _files_available()
     from app.analysis import analyze_files
     from tests.conftest import shared_file
 
@@ -188,7 +180,6 @@ def test_analyze_files_noraxon_ten_lifts(name: str, emg_rate: float | None) -> N
 
 
 def test_analyze_files_c3d_and_mediapipe() -> None:
-    _files_available()
     from app.analysis import analyze_files
     from tests.conftest import shared_file
 
