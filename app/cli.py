@@ -418,6 +418,7 @@ def _bad_input_types() -> tuple[type[BaseException], ...]:
         ("app.planning.planner", "PlanningError"),
         ("app.planning.robots", "RobotError"),
         ("app.recordings.types", "RecordingError"),
+        ("app.simulation.tracking", "SimulationError"),
     ):
         mod = sys.modules.get(module)
         if mod is not None and hasattr(mod, name):
