@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from app.analysis.emg import (
     activation_order,
@@ -220,3 +222,29 @@ def test_bad_input_names_the_channel() -> None:
         emg_envelope(np.random.default_rng(6).standard_normal(10), RATE)
     with pytest.raises(RecordingError, match="positive rate"):
         emg_envelope(flat[:, 1], 0.0)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    mask=st.lists(st.booleans(), min_size=1, max_size=300),
+    min_duration=st.integers(0, 10),
+    min_gap=st.integers(0, 10),
+)
+def test_active_runs_are_clean(mask: list[bool], min_duration: int, min_gap: int) -> None:
+    from app.analysis.emg import active_runs
+
+    active = np.array(mask)
+    runs = active_runs(active, 1.0, min_duration=min_duration, min_gap=min_gap)
+    assert np.all(runs[:, 1] - runs[:, 0] >= min_duration)
+    if len(runs) > 1:
+        assert np.all(runs[1:, 0] - runs[:-1, 1] >= min_gap)
+    # Every active sample that survives lies in a run, and runs start and end on active samples.
+    for start, stop in runs:
+        assert active[start] and active[stop - 1]
+    # Runs only drop short bursts or bridge short pauses: any active run of at least
+    # min_duration samples is covered.
+    padded = np.concatenate(([False], active, [False]))
+    edges = np.flatnonzero(padded[1:] != padded[:-1]).reshape(-1, 2)
+    for start, stop in edges:
+        if stop - start >= min_duration:
+            assert np.any((runs[:, 0] <= start) & (runs[:, 1] >= stop))
