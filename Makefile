@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
 
-.PHONY: run test install install-test lint typecheck pytest bench clean
+.PHONY: run test install install-test browser lint typecheck pytest bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -20,6 +20,12 @@ $(TSTAMP): $(STAMP) pyproject.toml
 install: $(STAMP)
 install-test: $(TSTAMP)
 
+# Browser tests drive Debian's Chromium (never a downloaded browser build).
+browser:
+	@test -x /usr/bin/chromium || { \
+	  echo "installing Debian's chromium for the browser tests"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; }
+
 run: $(STAMP)
 	$(VENV)/bin/bioplan demo
 
@@ -30,7 +36,7 @@ lint: $(TSTAMP)
 typecheck: $(TSTAMP)
 	$(VENV)/bin/mypy app
 
-pytest: $(TSTAMP)
+pytest: $(TSTAMP) browser
 	$(VENV)/bin/pytest
 
 test: lint typecheck pytest
