@@ -424,7 +424,11 @@ def _vicon_section(
             f"{section}: frames {frames[0]:g}..{frames[-1]:g} with {n_sub} sub-frames should be"
             f" {expected_rows} rows, the file holds {table.n_rows}"
         )
-    metadata["sections"][section] = {"rate": rate, "rows": table.n_rows, "first_frame": frames[0]}
+    metadata["sections"][section] = {
+        "rate": rate,
+        "rows": table.n_rows,
+        "first_frame": int(frames[0]),
+    }
     current = ""
     group_of: list[str] = []
     for g in groups:

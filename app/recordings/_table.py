@@ -148,6 +148,8 @@ class Layout:
     data_offset: int  # byte offset of the first data line
     first_data_line: int  # its 1-based line number
     n_fields: int
+    # columns whose values in the first 64 KB are all numbers: parsed as float64 directly
+    numeric_hint: list[bool] = field(default_factory=list)
 
 
 def detect_layout(data: bytes, src: Source, *, delimiter: str | None = None) -> Layout:
@@ -213,7 +215,16 @@ def detect_layout(data: bytes, src: Source, *, delimiter: str | None = None) -> 
         + (len(BOM) if content[first].start == 0 and data.startswith(BOM) else 0),
         first_data_line=content[first].number,
         n_fields=n_fields,
+        numeric_hint=_numeric_hint(fields[first:], n_fields, decimal),
     )
+
+
+def _numeric_hint(rows: list[list[str]], n: int, decimal: str) -> list[bool]:
+    hint = []
+    for j in range(n):
+        values = [r[j] for r in rows if len(r) == n and r[j]]
+        hint.append(bool(values) and all(is_number(v, decimal) for v in values))
+    return hint
 
 
 def comment_values(layout: Layout) -> dict[str, str]:
@@ -319,7 +330,11 @@ def read_table(
             bad_rows.append((row.expected_columns, row.actual_columns, row.text))
         return "skip"
 
-    forced: dict[str, Any] = {}
+    # Typing the columns that look numeric skips pyarrow's inference; a column that turns out
+    # to hold text further down fails conversion and is re-read as text below.
+    forced: dict[str, Any] = {
+        k: pa.float64() for k, num in zip(keys, layout.numeric_hint, strict=False) if num
+    }
     for _ in range(n + 1):
         bad_rows.clear()
         try:
@@ -344,7 +359,7 @@ def read_table(
             # A column typed from the first block meets text further down: read it as text to
             # find the exact line below.
             m = re.search(r"column #(\d+)", str(exc))
-            if not m or keys[int(m.group(1))] in forced:
+            if not m or int(m.group(1)) >= n or forced.get(keys[int(m.group(1))]) == pa.string():
                 raise src.error(f"cannot be parsed: {exc}", expected="delimited numbers") from None
             forced[keys[int(m.group(1))]] = pa.string()
     else:  # pragma: no cover - every column forced to text cannot fail conversion

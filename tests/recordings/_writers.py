@@ -61,6 +61,17 @@ def write_vicon_csv(path: Path, *, n_frames: int = 50, sub: int = 10) -> dict[st
         a = ",".join(f"{v:.4f}" for v in relb[i])
         b = ",," if 10 <= i < 13 else ",".join(f"{v:.4f}" for v in rwra[i])
         rows.append(f"{i + 1},0,{a},{b}")
+    rows += [
+        "",
+        "Model Outputs",
+        "100",
+        ",,Subj:RElbowAngles,,",
+        "Frame,Sub Frame,X,Y,Z",
+        ",,deg,deg,deg",
+    ]
+    elbow_deg = np.linspace(10.0, 140.0, n_frames)
+    for i in range(n_frames):
+        rows.append(f"{i + 1},0,{elbow_deg[i]:.5f},0,0")
     path.write_text("\n".join(rows) + "\n", encoding="utf-8")
     rwra_m = rwra / 1000.0
     rwra_m[10:13] = np.nan
@@ -71,6 +82,9 @@ def write_vicon_csv(path: Path, *, n_frames: int = 50, sub: int = 10) -> dict[st
         "Plate 2.Fz": fz2,
         "Subj:RELB": relb / 1000.0,
         "Subj:RWRA": rwra_m,
+        "Subj:RElbowAngles.X": np.deg2rad(elbow_deg),
+        "Subj:RElbowAngles.Y": np.zeros(n_frames),
+        "Subj:RElbowAngles.Z": np.zeros(n_frames),
     }
 
 

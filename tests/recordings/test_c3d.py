@@ -139,6 +139,30 @@ def test_c3d_written_by_ezc3d(tmp_path: Path) -> None:
     assert wrist.confidence is not None and wrist.confidence[30:35].sum() == 0
 
 
+def test_c3d_model_output_angles_are_angles(tmp_path: Path) -> None:
+    ezc3d = pytest.importorskip("ezc3d")
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = [100]
+    c["parameters"]["POINT"]["LABELS"]["value"] = ("RELB", "RElbowAngles")
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    c.add_parameter("POINT", "ANGLES", ["RElbowAngles"])
+    c.add_parameter("POINT", "ANGLE_UNITS", ["deg"])
+    points = np.ones((4, 2, 20))
+    points[0, 1] = np.linspace(0.0, 90.0, 20)
+    c["data"]["points"] = points
+    c["parameters"]["ANALOG"]["RATE"]["value"] = [1000]
+    c["parameters"]["ANALOG"]["LABELS"]["value"] = ("BIC",)
+    c["parameters"]["ANALOG"]["UNITS"]["value"] = ["V"]
+    c["data"]["analogs"] = emg_like(200, 1000.0)[None, None, :]
+    path = tmp_path / "angles.c3d"
+    c.write(str(path))
+    rec = read_recording(path)
+    elbow = rec.channels["RElbowAngles.X"]
+    assert elbow.kind == "angle" and elbow.unit == "rad" and "RElbowAngles" not in rec.channels
+    np.testing.assert_allclose(elbow.data, np.deg2rad(np.linspace(0.0, 90.0, 20)), atol=1e-6)
+    assert rec.channels["RELB"].kind == "marker"
+
+
 def test_c3d_without_analog_data_is_rejected(tmp_path: Path) -> None:
     pytest.importorskip("ezc3d")
     path = tmp_path / "markers_only.c3d"

@@ -202,6 +202,10 @@ def test_vicon_synthetic_sections(tmp_path: Path) -> None:
     np.testing.assert_allclose(rwra.data, expected["Subj:RWRA"], atol=1e-9)
     assert rwra.confidence is not None
     np.testing.assert_array_equal(rwra.confidence[9:14], [1, 0, 0, 0, 1])
+    elbow = rec.channels["Subj:RElbowAngles.X"]
+    assert elbow.kind == "angle" and elbow.unit == "rad" and elbow.rate == 100.0
+    np.testing.assert_allclose(elbow.data, expected["Subj:RElbowAngles.X"], atol=1e-7)
+    assert set(rec.metadata["sections"]) == {"Devices", "Trajectories", "Model Outputs"}
     # Devices (1 kHz) and Trajectories (100 Hz) share one clock and one duration
     assert rec.channels["Biceps"].duration == pytest.approx(relb.duration)
 
