@@ -68,10 +68,13 @@ def _base(label: str) -> tuple[str, str | None]:
     return re.sub(r"\s+", "_", base.strip().lower()), unit
 
 
-def time_column(names: list[str]) -> tuple[str, float] | None:
+def time_column(
+    names: list[str], units: dict[str, str | None] | None = None
+) -> tuple[str, float] | None:
     """(column, factor to seconds) of the first column that holds time, if any."""
     for name in names:
         base, unit = _base(name)
+        unit = unit or (units or {}).get(name)
         if base in _TIME_MS_NAMES:
             return name, 1e-3
         if base in _TIME_NAMES:
@@ -163,8 +166,8 @@ def _scalar_channels(
         if column in skip or is_index_column(column):
             continue
         name, unit = split_unit(column)
-        if units is not None:
-            unit = units.get(column, unit)
+        if unit is None and units is not None:
+            unit = units.get(column)
         kind = classify(name, unit, context=context)
         values = table.finite(column, channel=name)
         name = unique_name(name, channels)
@@ -204,7 +207,10 @@ def read_csv(src: Source, opts: Options) -> Recording:
                 names = parts
     table = read_table(data, layout, src, names=names)
     _check_rows(src, table)
-    tcol = time_column(list(table.numeric))
+    units: dict[str, str | None] | None = None
+    if layout.units is not None:
+        units = {n: (u or None) for n, u in zip(table.names, layout.units, strict=False)}
+    tcol = time_column(list(table.numeric), units)
     rate, start, times = timing(
         src, table, tcol, stored_rate=header_rate(header), user_rate=opts.rate
     )
@@ -215,6 +221,9 @@ def read_csv(src: Source, opts: Options) -> Recording:
     }
     if header:
         metadata["header"] = header
+    if layout.preamble:
+        # rows above the column names ("Subject,S01"): kept as written
+        metadata["preamble"] = [[f for f in row if f] for row in layout.preamble[:50]]
     if table.text or table.empty:
         metadata["ignored_columns"] = list(table.text) + table.empty
     resolution = next((v for k, v in header.items() if k.lower() == "resolution"), None)
@@ -223,7 +232,9 @@ def read_csv(src: Source, opts: Options) -> Recording:
         channels = _count_channels(src, table, resolution, rate=rate, start=start, skip=skip)
         metadata["adc_resolution_bits"] = int(float(resolution))
     else:
-        channels = _scalar_channels(src, table, rate=rate, start=start, times=times, skip=skip)
+        channels = _scalar_channels(
+            src, table, rate=rate, start=start, times=times, skip=skip, units=units
+        )
     return Recording(channels=channels, source=src.name, format="csv", metadata=metadata)
 
 
@@ -400,6 +411,7 @@ def _vicon_section(
         preamble_lines=[],
         names=None,
         names_line=first_line + 3,
+        units=None,
         data_offset=offsets[5],
         first_data_line=first_line + 5,
         n_fields=n,

@@ -50,6 +50,7 @@ def _data_layout(
                 preamble_lines=[],
                 names=None,
                 names_line=names_line,
+                units=None,
                 data_offset=ln.start,
                 first_data_line=ln.number,
                 n_fields=n_fields,

@@ -145,6 +145,7 @@ class Layout:
     preamble_lines: list[Line]
     names: list[str] | None  # column names (None: no header row)
     names_line: int | None
+    units: list[str] | None  # a units row under the names, when there is one
     data_offset: int  # byte offset of the first data line
     first_data_line: int  # its 1-based line number
     n_fields: int
@@ -185,6 +186,7 @@ def detect_layout(data: bytes, src: Source, *, delimiter: str | None = None) -> 
     n_fields = len(fields[first])
     names: list[str] | None = None
     names_line: int | None = None
+    units: list[str] | None = None
     pre_end = first
     if first > 0:
         cand = fields[first - 1]
@@ -194,6 +196,11 @@ def detect_layout(data: bytes, src: Source, *, delimiter: str | None = None) -> 
             trimmed.pop()
         if len(trimmed) == n_fields:
             names, names_line, pre_end = trimmed, cand_line.number, first - 1
+            # a units row under the names row ("s, uV, deg"): names come from the row above
+            above = _trimmed(fields[first - 2], n_fields) if first >= 2 else None
+            if _is_units_row(trimmed) and above is not None and len(above) == n_fields:
+                units = trimmed
+                names, names_line, pre_end = above, content[first - 2].number, first - 2
         elif first == 1 or len(cand) < n_fields:
             # A single line right above the data that does not split like the data is a header
             # written with another delimiter.
@@ -211,12 +218,57 @@ def detect_layout(data: bytes, src: Source, *, delimiter: str | None = None) -> 
         preamble_lines=content[:pre_end],
         names=names,
         names_line=names_line,
+        units=units,
         data_offset=content[first].start
         + (len(BOM) if content[first].start == 0 and data.startswith(BOM) else 0),
         first_data_line=content[first].number,
         n_fields=n_fields,
         numeric_hint=_numeric_hint(fields[first:], n_fields, decimal),
     )
+
+
+_UNIT_WORDS = {
+    "s",
+    "sec",
+    "ms",
+    "v",
+    "mv",
+    "uv",
+    "µv",
+    "μv",
+    "deg",
+    "rad",
+    "mm",
+    "cm",
+    "m",
+    "g",
+    "mg",
+    "m/s^2",
+    "m/s2",
+    "m/s²",
+    "n",
+    "nm",
+    "nmm",
+    "n.m",
+    "n*m",
+    "hz",
+    "%",
+    "counts",
+    "norm",
+    "a.u.",
+}
+
+
+def _trimmed(row: list[str], n: int) -> list[str]:
+    out = list(row)
+    while len(out) > n and not out[-1]:
+        out.pop()
+    return out
+
+
+def _is_units_row(row: list[str]) -> bool:
+    filled = [f.strip().strip("()[]").lower() for f in row if f.strip()]
+    return bool(filled) and all(f in _UNIT_WORDS for f in filled)
 
 
 def _numeric_hint(rows: list[list[str]], n: int, decimal: str) -> list[bool]:

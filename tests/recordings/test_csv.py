@@ -63,6 +63,19 @@ def test_generic_csv_dialects(
     np.testing.assert_allclose(elbow.data, np.deg2rad(np.round(elbow_deg, 6)), atol=1e-9)
 
 
+def test_generic_csv_with_units_row_and_metadata_rows(tmp_path: Path) -> None:
+    _, biceps_uv, elbow_deg = _table(2000.0, n=1000)
+    lines = ["Subject,S01,,", "Task,curl 12 kg,,", "", "Time,Biceps,Elbow,Marker", "ms,uV,deg,"]
+    for i, (b, e) in enumerate(zip(biceps_uv, elbow_deg, strict=True)):
+        lines.append(f"{i * 0.5:.1f},{b:.4f},{e:.4f},{'x' if i == 10 else ''}")
+    rec = read_recording(_write(tmp_path, "units.csv", "\n".join(lines) + "\n"))
+    biceps = rec.channels["Biceps"]
+    assert biceps.rate == 2000.0 and biceps.site == "biceps" and biceps.unit == "V"
+    np.testing.assert_allclose(biceps.data, np.round(biceps_uv, 4) * 1e-6, atol=1e-12)
+    np.testing.assert_allclose(rec.channels["Elbow"].data, np.deg2rad(np.round(elbow_deg, 4)))
+    assert rec.metadata["ignored_columns"] == ["Marker"]
+
+
 def test_generic_csv_without_time_needs_rate(tmp_path: Path) -> None:
     _, biceps_uv, _ = _table(500.0)
     text = "biceps_uV,triceps_uV\n" + "".join(f"{b:.4f},{-b:.4f}\n" for b in biceps_uv)
