@@ -61,7 +61,19 @@ def preload() -> None:
     """
     import importlib
 
-    for name in ("app.recordings", "app.analysis", "app.planning", "app.simulation"):
+    modules = (
+        "app.recordings",
+        "app.analysis",
+        "app.planning",
+        "app.planning.planner",
+        "app.planning.robots",
+        "app.planning.dynamics",
+        "app.simulation",
+        "pinocchio",
+        "mujoco",
+        "scipy.signal",
+    )
+    for name in modules:
         with contextlib.suppress(ImportError):  # a package not written yet
             importlib.import_module(name)
 

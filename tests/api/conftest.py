@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -68,24 +68,17 @@ def assert_problem(response: Any, status: int, **fields: Any) -> dict[str, Any]:
     return body
 
 
-@pytest.fixture
-def client(tmp_path: Path) -> Iterator[TestClient]:
-    with make_client(tmp_path) as c:
-        yield c
-
-
 @pytest.fixture(params=DB_KINDS)
-def any_db_client(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[TestClient]:
-    """The same app on SQLite and (when configured) PostgreSQL."""
+def client(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[TestClient]:
+    """A fresh app on SQLite, and on PostgreSQL when ``BIOPLAN_TEST_POSTGRES_URL`` is set."""
     with make_client(tmp_path, db_kind=request.param) as c:
         yield c
 
 
-@pytest.fixture(scope="module")
-def shared_client(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
-    """One app for read-mostly tests of a module."""
-    with make_client(tmp_path_factory.mktemp("api")) as c:
+@pytest.fixture(scope="module", params=DB_KINDS)
+def shared_client(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[TestClient]:
+    """One app for the read-mostly tests of a module (SQLite, and PostgreSQL when set)."""
+    with make_client(tmp_path_factory.mktemp("api"), db_kind=request.param) as c:
         yield c
-
-
-ClientFactory = Callable[..., Any]

@@ -36,10 +36,10 @@ def urdf_limits(text: str) -> dict[str, list[float]]:
     }  # type: ignore[return-value]
 
 
-def test_builtins_are_listed_with_their_limits(shared_client: TestClient) -> None:
+def test_builtins_are_listed_with_their_limits(client: TestClient) -> None:
     from app.planning.robots import load_robot
 
-    robots = {r["name"]: r for r in shared_client.get("/api/robots").json()}
+    robots = {r["name"]: r for r in client.get("/api/robots").json()}
     assert {"human_arm_2dof", "curtain_wall_6dof"} <= set(robots)
     for name in ("human_arm_2dof", "curtain_wall_6dof"):
         info, robot = robots[name], load_robot(name)
@@ -47,7 +47,7 @@ def test_builtins_are_listed_with_their_limits(shared_client: TestClient) -> Non
         assert info["joint_names"] == list(robot.joint_names)
         np.testing.assert_allclose(info["tau_max"], robot.tau_max)
         np.testing.assert_allclose(info["q_max"], robot.q_max)
-        assert shared_client.get(f"/api/robots/{name}").json() == info
+        assert client.get(f"/api/robots/{name}").json() == info
     assert robots["curtain_wall_6dof"]["payload"] == 4.0  # DESIGN.md: 4 kg by default
     assert len(robots["curtain_wall_6dof"]["joint_names"]) == 6
 

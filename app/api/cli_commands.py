@@ -1,0 +1,353 @@
+"""``bioplan serve`` and ``bioplan submit``: the service from the command line.
+
+``serve`` migrates the database and runs the API with one uvicorn worker. ``submit`` is a small
+HTTP client (standard library only) for scripted use of a running server: upload recordings,
+submit a job with the CLI's options, wait for it, print the result in the CLI's JSON shape.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+import uuid
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+EXIT_OK, EXIT_JOB_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+# ---------------------------------------------------------------------------------- serve
+
+
+def serve(host: str | None = None, port: int | None = None, data_dir: str | None = None) -> int:
+    """Migrate the database (``alembic upgrade head``), then serve the API until stopped.
+
+    Args:
+        host: bind address (default ``BIOPLAN_HOST`` or 127.0.0.1); a non-loopback address
+            needs ``BIOPLAN_API_TOKEN``.
+        port: TCP port (default ``BIOPLAN_PORT`` or 8000).
+        data_dir: database and file store folder (default ``BIOPLAN_DATA_DIR`` or ./data).
+
+    Returns:
+        Exit code: 0 after a clean stop, 2 for bad settings.
+    """
+    import logging
+
+    from pydantic import ValidationError
+
+    from app.config import Settings
+
+    overrides: dict[str, Any] = {}
+    if host is not None:
+        overrides["host"] = host
+    if port is not None:
+        overrides["port"] = port
+    if data_dir is not None:
+        overrides["data_dir"] = Path(data_dir)
+    try:
+        settings = Settings(**overrides)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first.get("loc", ())) or "settings"
+        print(f"bioplan serve: error: {where}: {first['msg']}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    logging.basicConfig(
+        level=settings.log_level.upper(),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    import uvicorn
+
+    from app.db.session import upgrade
+    from app.main import create_app
+
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    upgrade(settings.db_url)  # before binding, so a broken database fails fast and loudly
+    uvicorn.run(
+        create_app(settings),
+        host=settings.host,
+        port=settings.port,
+        workers=1,  # one process: it owns the job runner (and the viewer)
+        log_level=settings.log_level,
+        timeout_graceful_shutdown=5,
+    )
+    return EXIT_OK
+
+
+# ---------------------------------------------------------------------------------- client
+
+
+class ServiceError(Exception):
+    """The server answered with a problem (or could not be reached)."""
+
+    def __init__(self, status: int, detail: str) -> None:
+        super().__init__(detail)
+        self.status = status
+
+
+class Client:
+    """A minimal JSON client of the BioPlan API (urllib only).
+
+    Args:
+        server: base URL, e.g. ``http://127.0.0.1:8000``.
+        token: API token for writes, when the server has one.
+        timeout: seconds per HTTP request.
+    """
+
+    def __init__(self, server: str, *, token: str | None = None, timeout: float = 60.0) -> None:
+        self.server = server.rstrip("/")
+        self.token = token
+        self.timeout = timeout
+
+    def request(
+        self,
+        method: str,
+        path: str,
+        *,
+        json_body: Any = None,
+        data: bytes | None = None,
+        content_type: str | None = None,
+        params: dict[str, Any] | None = None,
+    ) -> Any:
+        url = self.server + path
+        if params:
+            url += "?" + urllib.parse.urlencode(params, doseq=True)
+        headers = {"Accept": "application/json"}
+        if json_body is not None:
+            data = json.dumps(json_body).encode()
+            content_type = "application/json"
+        if content_type:
+            headers["Content-Type"] = content_type
+        if self.token:
+            headers["Authorization"] = f"Bearer {self.token}"
+        req = urllib.request.Request(url, data=data, method=method, headers=headers)
+        try:
+            with urllib.request.urlopen(req, timeout=self.timeout) as resp:
+                body = resp.read()
+        except urllib.error.HTTPError as exc:
+            text = exc.read().decode("utf-8", "replace")
+            try:
+                problem = json.loads(text)
+                detail = problem.get("detail") or problem.get("title") or text
+                for key in ("field", "file"):
+                    if problem.get(key):
+                        detail = f"{detail} ({key}: {problem[key]})"
+            except json.JSONDecodeError:
+                detail = text or exc.reason
+            raise ServiceError(exc.code, f"{method} {path}: {exc.code} {detail}") from None
+        except urllib.error.URLError as exc:
+            raise ServiceError(0, f"cannot reach {self.server}: {exc.reason}") from None
+        return json.loads(body) if body else None
+
+    def upload(self, paths: Sequence[Path], fields: dict[str, str]) -> dict[str, Any]:
+        """POST /api/recordings with the files and form fields; returns the recording."""
+        boundary = f"bioplan-{uuid.uuid4().hex}"
+        parts: list[bytes] = []
+        for name, value in fields.items():
+            parts.append(
+                f'--{boundary}\r\nContent-Disposition: form-data; name="{name}"\r\n\r\n'
+                f"{value}\r\n".encode()
+            )
+        for path in paths:
+            quoted = path.name.replace('"', "'")
+            parts.append(
+                f'--{boundary}\r\nContent-Disposition: form-data; name="files"; '
+                f'filename="{quoted}"\r\nContent-Type: application/octet-stream\r\n\r\n'.encode()
+                + path.read_bytes()
+                + b"\r\n"
+            )
+        parts.append(f"--{boundary}--\r\n".encode())
+        out: dict[str, Any] = self.request(
+            "POST",
+            "/api/recordings",
+            data=b"".join(parts),
+            content_type=f"multipart/form-data; boundary={boundary}",
+        )
+        return out
+
+    def wait(
+        self, job_id: int, *, timeout: float = 3600.0, on_progress: Any = None
+    ) -> dict[str, Any]:
+        """Poll a job until it ends; returns the final job."""
+        deadline = time.monotonic() + timeout
+        delay = 0.2
+        while True:
+            job: dict[str, Any] = self.request("GET", f"/api/jobs/{job_id}")
+            if on_progress is not None:
+                on_progress(job)
+            if job["state"] in ("succeeded", "failed", "cancelled"):
+                return job
+            if time.monotonic() > deadline:
+                raise ServiceError(0, f"job {job_id} still {job['state']} after {timeout:.0f} s")
+            time.sleep(delay)
+            delay = min(delay * 1.5, 2.0)
+
+
+def _floats(text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    return [float(v) for v in text.replace(",", " ").split()]
+
+
+def _job_body(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
+    """The endpoint and request body for ``bioplan submit <kind>`` (CLI names -> API names)."""
+    if args.kind in ("plan", "simulate"):
+        body: dict[str, Any] = {
+            "robot": args.robot,
+            "duration": args.duration,
+            "payload": args.payload,
+            "objective": args.objective,
+            "seed": args.seed,
+            "particles": args.particles,
+            "iterations": args.iterations,
+            "peak_angle_deg": args.peak_angle_deg,
+            "start_deg": _floats(args.start_deg),
+            "goal_deg": _floats(args.goal_deg),
+        }
+        if args.template:
+            body["template"] = json.loads(Path(args.template).read_text(encoding="utf-8"))
+        path = "/api/plans" if args.kind == "plan" else "/api/simulations"
+        return path, {k: v for k, v in body.items() if v is not None}
+    if args.kind == "sweep":
+        body = {
+            "robot": args.robot,
+            "durations": _floats(args.durations),
+            "payloads": _floats(args.payloads),
+            "objectives": args.objectives.split(","),
+            "seed": args.seed,
+        }
+        return "/api/sweeps", body
+    raise ValueError(f"unknown kind {args.kind}")
+
+
+def submit(args: argparse.Namespace) -> int:
+    """``bioplan submit``: run one job on a server and print its result.
+
+    Returns:
+        0 when the job succeeded, 1 when it failed or was cancelled, 2 for bad input.
+    """
+    client = Client(args.server, token=args.token, timeout=args.http_timeout)
+    quiet = args.json or not sys.stderr.isatty()
+
+    def show(job: dict[str, Any]) -> None:
+        if not quiet:
+            bar = "#" * int(30 * job["progress"])
+            print(
+                f"\r[{bar:<30}] {job['state']:<9} {job['message'][:50]:<50}",
+                end="",
+                file=sys.stderr,
+            )
+
+    try:
+        if args.kind == "analyze":
+            fields = {
+                k: str(v)
+                for k, v in (("subject", args.subject), ("task", args.task),
+                             ("load_kg", args.load_kg), ("emg_rate", args.emg_rate))
+                if v is not None
+            }  # fmt: skip
+            if args.muscle:
+                mapping = dict(m.split("=", 1) for m in args.muscle)
+                fields["muscle_map"] = json.dumps(mapping)
+            rec = client.upload([Path(f) for f in args.files], fields)
+            print(f"uploaded recording {rec['id']}", file=sys.stderr)
+            path, body = "/api/analyses", {"recording_id": rec["id"]}
+        else:
+            path, body = _job_body(args)
+        job = client.request("POST", path, json_body=body)
+        print(f"job {job['id']} ({job['kind']}) queued: {args.server}{job['result_url']}",
+              file=sys.stderr)  # fmt: skip
+        if args.no_wait:
+            print(json.dumps(job, indent=2))
+            return EXIT_OK
+        job = client.wait(job["id"], timeout=args.timeout, on_progress=show)
+        if not quiet:
+            print(file=sys.stderr)
+        if job["state"] != "succeeded":
+            print(f"bioplan submit: job {job['id']} {job['state']}: {job['error'] or ''}",
+                  file=sys.stderr)  # fmt: skip
+            return EXIT_JOB_FAILED
+        out = client.request("GET", job["result_url"])
+    except ServiceError as exc:
+        print(f"bioplan submit: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT if 400 <= exc.status < 500 else EXIT_JOB_FAILED
+    except (OSError, ValueError) as exc:
+        print(f"bioplan submit: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    result = out.get("result")
+    if args.out:
+        # Like `bioplan analyze --out`: the template; otherwise the result JSON.
+        payload = out.get("template") if args.kind == "analyze" else result
+        Path(args.out).write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(f"job {job['id']} succeeded in {job['run_seconds']:.2f} s; "
+              f"result: {args.server}{job['result_url']}")  # fmt: skip
+    return EXIT_OK
+
+
+# ------------------------------------------------------------------------------- argparse
+
+
+def add_service_subcommands(subparsers: Any) -> None:
+    """Register ``serve`` and ``submit`` on the ``bioplan`` command's subparsers."""
+    p = subparsers.add_parser("serve", help="run the web service (API, jobs, dashboard)")
+    p.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
+    p.add_argument("--port", type=int, default=None, help="TCP port (default 8000)")
+    p.add_argument("--data-dir", default=None, help="database and uploads (default ./data)")
+    p.set_defaults(handler=lambda a: serve(a.host, a.port, a.data_dir))
+
+    p = subparsers.add_parser(
+        "submit", help="run a job on a running server (upload, submit, wait, print the result)"
+    )
+    p.add_argument(
+        "--server",
+        default=os.environ.get("BIOPLAN_SERVER", "http://127.0.0.1:8000"),
+        help="server URL (default $BIOPLAN_SERVER or http://127.0.0.1:8000)",
+    )
+    p.add_argument(
+        "--token", default=os.environ.get("BIOPLAN_API_TOKEN"), help="API token for writes"
+    )
+    p.add_argument("--no-wait", action="store_true", help="print the queued job and return")
+    p.add_argument("--timeout", type=float, default=3600.0, help="seconds to wait for the job")
+    p.add_argument("--http-timeout", type=float, default=120.0, help=argparse.SUPPRESS)
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.add_argument("--out", default=None, help="write the result (analyze: the template) here")
+    kinds = p.add_subparsers(dest="kind", required=True)
+
+    def task_args(q: argparse.ArgumentParser) -> None:
+        q.add_argument("--robot", default="curtain_wall_6dof")
+        q.add_argument("--duration", type=float, default=1.0, help="motion time [s]")
+        q.add_argument("--payload", type=float, default=None, help="payload [kg]")
+        q.add_argument("--objective", default="abs_work")
+        q.add_argument("--seed", type=int, default=0)
+        q.add_argument("--particles", type=int, default=40)
+        q.add_argument("--iterations", type=int, default=100)
+        q.add_argument("--peak-angle-deg", type=float, default=None)
+        q.add_argument("--start-deg", default=None, help="start joint angles, comma-separated")
+        q.add_argument("--goal-deg", default=None, help="goal joint angles, comma-separated")
+        q.add_argument("--template", default=None, help="HumanTemplate JSON file")
+
+    task_args(kinds.add_parser("plan", help="bioplan plan, on the server"))
+    task_args(kinds.add_parser("simulate", help="bioplan simulate, on the server"))
+    q = kinds.add_parser("sweep", help="bioplan sweep, on the server")
+    q.add_argument("--robot", default="curtain_wall_6dof")
+    q.add_argument("--durations", default="0.5,0.75,1.0,1.5,2.0")
+    q.add_argument("--payloads", default="0,4,8,12,20")
+    q.add_argument("--objectives", default="abs_work")
+    q.add_argument("--seed", type=int, default=0)
+    q = kinds.add_parser("analyze", help="upload recordings and analyse them on the server")
+    q.add_argument("files", nargs="+")
+    q.add_argument("--subject", default=None)
+    q.add_argument("--task", default=None)
+    q.add_argument("--load-kg", type=float, default=None)
+    q.add_argument("--emg-rate", type=float, default=None)
+    q.add_argument("--muscle", action="append", default=None, metavar="LABEL=SITE")
+    p.set_defaults(handler=submit)
