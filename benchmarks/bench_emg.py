@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import statistics
 import sys
@@ -85,7 +86,7 @@ def read_pyarrow(path: Path) -> NDArray[np.float64]:
     import pyarrow.csv as pcsv
 
     table = pcsv.read_csv(path)
-    return np.stack([table.column(i).to_numpy() for i in range(1, 5)], axis=1)
+    return np.stack([table.column(i).to_numpy() for i in range(1, 5)]).T
 
 
 def read(path: Path) -> tuple[NDArray[np.float64], float, str]:
@@ -96,7 +97,10 @@ def read(path: Path) -> tuple[NDArray[np.float64], float, str]:
     if reader is not None:
         rec = reader(path)
         chans = rec.of_kind("emg")
-        return np.stack([c.data for c in chans], axis=1), float(chans[0].rate), "read_recording"
+        # Channels stacked as (C, N), used as the (N, C) transpose (what analyze_recordings
+        # does): every channel stays contiguous.
+        x = np.stack([c.data for c in chans]).T
+        return x, float(chans[0].rate), "read_recording"
     return read_pyarrow(path), RATE, "pyarrow.csv"
 
 
@@ -157,6 +161,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--nk-repeats", type=int, default=1, help="emg_process runs (it takes seconds per run)"
     )
+    parser.add_argument(
+        "--skip-neurokit", action="store_true", help="time only the read + pipeline part"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
     if args.repeats < 5:
@@ -184,7 +191,11 @@ def main(argv: list[str] | None = None) -> int:
         read_pyarrow(path)
         bare.append(time.perf_counter() - start)
     one_minute = x[: round(60 * rate)]
-    side = neurokit_side_by_side(one_minute, rate, args.repeats, max(1, args.nk_repeats))
+    side = (
+        None
+        if args.skip_neurokit
+        else neurokit_side_by_side(one_minute, rate, args.repeats, max(1, args.nk_repeats))
+    )
     result = {
         "benchmark": "emg_read_pipeline_onsets",
         "file_mb": round(path.stat().st_size / 1e6, 1),
@@ -201,6 +212,8 @@ def main(argv: list[str] | None = None) -> int:
         "expected_bursts": int(4 * (args.minutes * 60.0 // 5.0)),
         "target_total_s": 1.0,
         "neurokit_one_minute": side,
+        "load_average_1min": round(os.getloadavg()[0], 2),
+        "cpus": os.cpu_count(),
         "target_speedup": 20.0,
         "python": platform.python_version(),
         "numpy": np.__version__,

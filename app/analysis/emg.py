@@ -334,10 +334,12 @@ def saturation_flags(
     cols = arr.reshape(arr.shape[0], -1)
     if limit is not None:
         return (np.abs(arr) >= limit).reshape(arr.shape)
-    flags = np.zeros(cols.shape, dtype=bool)
+    flags = np.zeros(cols.shape, dtype=bool, order="F")
     for j in range(cols.shape[1]):
         col = cols[:, j]
         at_rail = (col == col.max()) | (col == col.min())
+        if np.count_nonzero(at_rail) < min_run:  # the usual case: no plateau possible
+            continue
         for start, stop in _runs(at_rail):
             if stop - start >= min_run:
                 flags[start:stop, j] = True
