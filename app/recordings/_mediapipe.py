@@ -10,6 +10,7 @@ no visibility, 1 when neither is stored).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -118,7 +119,6 @@ def _frame_rate(src: Source, opts: Options) -> float | None:
 def _timing(
     src: Source,
     opts: Options,
-    n: int,
     *,
     seconds: F64 | None,
     frames: F64 | None,
@@ -216,7 +216,7 @@ def read_mediapipe_csv(src: Source, opts: Options) -> Recording:
     metadata: dict[str, Any] = {"frames": table.n_rows, "landmark_set": "MediaPipe Pose (33)"}
     factor = _image_factor(src, opts, metadata)
     rate, start, times = _timing(
-        src, opts, table.n_rows, seconds=seconds, frames=frames, line=layout.first_data_line
+        src, opts, seconds=seconds, frames=frames, line=layout.first_data_line
     )
     xyz: dict[str, F64] = {}
     conf: dict[str, F64 | None] = {}
@@ -354,16 +354,16 @@ def read_mediapipe_json(src: Source, opts: Options) -> Recording:
         and width > 0
         and height > 0
     ):
-        opts = Options(**{**opts.__dict__, "image_size": (width, height)})
+        opts = dataclasses.replace(opts, image_size=(width, height))
     fps = info.get("fps", info.get("frame_rate"))
     if opts.frame_rate is None and opts.rate is None and isinstance(fps, int | float) and fps > 0:
-        opts = Options(**{**opts.__dict__, "frame_rate": float(fps)})
+        opts = dataclasses.replace(opts, frame_rate=float(fps))
     factor = _image_factor(src, opts, metadata)
     seconds = stamps if stamp_scale is not None and np.isfinite(stamps).all() else None
     if stamp_scale is not None and seconds is None:
         raise src.error("some frames have no timestamp", expected="a timestamp in every frame")
     frames_arr = frame_no if np.isfinite(frame_no).all() else None
-    rate, start, times = _timing(src, opts, n, seconds=seconds, frames=frames_arr)
+    rate, start, times = _timing(src, opts, seconds=seconds, frames=frames_arr)
     xyz = {
         LANDMARK_NAMES[k]: pos[:, k, :]
         for k in range(len(LANDMARK_NAMES))

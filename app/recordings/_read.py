@@ -15,6 +15,7 @@ from app.recordings._common import (
     Source,
     check_rate,
     emg_median_frequency,
+    emg_to_volts,
     is_blank,
     nice_rate,
     split_unit,
@@ -242,8 +243,6 @@ def _apply_muscle_map(rec: Recording, src: Source, opts: Options) -> None:
                     channel=ch.name,
                     expected="an EMG channel",
                 )
-            from app.recordings._common import emg_to_volts
-
             ch.data, ch.unit = emg_to_volts(ch.data, ch.unit or None, src=src, channel=ch.name)
             ch.kind = "emg"
         ch.site = site
