@@ -81,8 +81,10 @@ def read_recording(
             multi-rate files (C3D, EDF, Vicon) ignore it (use ``emg_rate``).
         emg_rate: true rate [Hz] of the EMG channels when the stored one is wrong.
         muscle_map: channel label -> site (``"deltoid"``, ``"triceps"``, ``"biceps"``,
-            ``"forearm"``) or ``"none"`` to unmap; overrides the automatic mapping. Mapping
-            a non-EMG scalar channel of unknown kind makes it EMG.
+            ``"forearm"``) or ``"none"`` to unmap; overrides the automatic mapping (a site
+            given here is taken from the channels mapped to it automatically). Labels match
+            exactly, case-insensitively, or without a bracketed unit. Mapping a scalar channel
+            of kind "other" makes it EMG (converted to V).
         image_size: (width, height) [px] of the video MediaPipe ran on; undoes the aspect
             distortion of normalised coordinates (x and z times width/height).
         frame_rate: video frame rate [Hz] for landmark files without timestamps.
@@ -198,8 +200,9 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
     except Exception as exc:
         # Third-party parsers raise any exception type on corrupt input; callers are promised
         # RecordingError only, with the file named.
+        detail = str(exc)[:200]
         raise src.error(
-            f"cannot be read as {fmt}: {type(exc).__name__}: {exc}",
+            f"cannot be read as {fmt}: {type(exc).__name__}: {detail}",
             expected=f"a valid {fmt} file",
         ) from exc
     _apply_muscle_map(rec, src, opts)
@@ -226,6 +229,7 @@ def _find_channel(rec: Recording, label: str) -> Channel | None:
 def _apply_muscle_map(rec: Recording, src: Source, opts: Options) -> None:
     if not opts.muscle_map:
         return
+    chosen: dict[str, Channel] = {}
     for label, value in opts.muscle_map.items():
         ch = _find_channel(rec, label)
         if ch is None:
@@ -246,6 +250,13 @@ def _apply_muscle_map(rec: Recording, src: Source, opts: Options) -> None:
             ch.data, ch.unit = emg_to_volts(ch.data, ch.unit or None, src=src, channel=ch.name)
             ch.kind = "emg"
         ch.site = site
+        chosen[ch.name] = ch
+    # A site the user assigns is taken away from channels mapped to it automatically, so
+    # the user's channel is the one used for that site.
+    taken = {ch.site for ch in chosen.values() if ch.site is not None}
+    for ch in rec.channels.values():
+        if ch.name not in chosen and ch.site in taken:
+            ch.site = None
 
 
 def _apply_emg_rate(rec: Recording, src: Source, opts: Options) -> None:

@@ -66,6 +66,15 @@ def test_pyomeca_c3d_content(shared_data: Path) -> None:
     )
 
 
+def test_muscle_map_moves_a_site_to_another_channel(shared_data: Path) -> None:
+    path = shared_file(PYOMECA)
+    rec = read_recording(path, muscle_map={"Delt_med.EMG2": "deltoid", "Infra.EMG10": "forearm"})
+    sites = {s: c.name for s, c in rec.emg_by_site().items()}
+    assert sites["deltoid"] == "Delt_med.EMG2" and sites["forearm"] == "Infra.EMG10"
+    assert rec.channels["Delt_ant.EMG1"].site is None
+    assert rec.channels["Delt_post.EMG3"].site is None
+
+
 def test_c3d_and_its_csv_export_give_the_same_emg(shared_data: Path) -> None:
     c3d = read_recording(shared_file(PYOMECA))
     csv = read_recording(shared_file("pyomeca_upperlimb_c3d_emg/analogs.csv"))
