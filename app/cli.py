@@ -374,6 +374,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--muscle", action="append", default=None, metavar="LABEL=SITE", help="map a channel"
     )
+    p.add_argument("--frame-rate", type=float, default=None, help="pose frame rate [Hz]")
+    p.add_argument(
+        "--image-size", type=int, nargs=2, default=None, metavar=("W", "H"), help="video size [px]"
+    )
+    p.add_argument(
+        "--offset", default=None, help="EMG-to-pose clock offset [s], or 'auto' (cross-correlation)"
+    )
+    p.add_argument(
+        "--together", action="store_true", help="treat the files as one recording (EMG + pose)"
+    )
+    p.add_argument("--phase-bounds-deg", default="40,90", help="A/B and B/C elbow angles [deg]")
+    p.add_argument("--body-mass", type=float, default=75.0, help="subject mass [kg]")
+    p.add_argument("--body-height", type=float, default=1.75, help="subject height [m]")
+    p.add_argument("--load", type=float, default=12.0, help="dumbbell mass [kg]")
     p.add_argument("--json", action="store_true")
     p.add_argument("--out", default=None, help="write the HumanTemplate JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write figures into DIR")
