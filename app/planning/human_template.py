@@ -49,7 +49,9 @@ class HumanTemplate:
     def __post_init__(self) -> None:
         lo, hi = self.phase_bounds_deg
         if not 0.0 < lo < hi:
-            raise ValueError(f"phase bounds must satisfy 0 < A/B < B/C, got {self.phase_bounds_deg}")
+            raise ValueError(
+                f"phase bounds must satisfy 0 < A/B < B/C, got {self.phase_bounds_deg}"
+            )
         if not 0.0 < self.peak_velocity_angle_deg < 180.0:
             raise ValueError(
                 f"peak velocity angle must lie in (0, 180) deg, got {self.peak_velocity_angle_deg}"
