@@ -484,6 +484,10 @@ class DaskRunner(JobRunner):
 
     def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
         key = f"bioplan-job-{job_id}-{uuid.uuid4().hex[:8]}"
+        if kind == "sweep":
+            # Dask worker processes are daemonic and cannot start a pool of their own: the
+            # cluster is the parallelism.
+            payload = {**payload, "workers": 1}
         # Large inputs (raw recordings) go to the cluster once, not inside the task graph.
         [data] = self._client.scatter([payload], hash=False)
         future = self._client.submit(

@@ -12,6 +12,7 @@ import pytest
 
 from app.jobs.runner import DaskRunner
 from app.jobs.tasks import entry_points
+from tests.db.conftest import DB_KINDS
 from tests.jobs.targets import target
 from tests.jobs.test_local_runner import TERMINAL, Collector
 
@@ -95,13 +96,17 @@ def test_cancel_stops_a_running_task(runner: tuple[DaskRunner, Collector], tmp_p
 
 
 @pytest.mark.skipif(not entry_points()["plan"], reason="app.planning.plan missing")
-def test_real_plan_and_analysis_jobs_through_the_api_on_dask(cluster: Any, tmp_path: Path) -> None:
+@pytest.mark.parametrize("db_kind", DB_KINDS)
+def test_real_plan_and_analysis_jobs_through_the_api_on_dask(
+    cluster: Any, tmp_path: Path, db_kind: str
+) -> None:
+    """The compose configuration without Docker: API + Dask cluster (+ PostgreSQL when set)."""
     from app.db.crud import json_safe
     from app.planning import load_robot, plan
     from tests.api.conftest import make_client, wait_job
 
     address = cluster.scheduler_address.replace("tcp://", "dask://")
-    with make_client(tmp_path, executor=address) as client:
+    with make_client(tmp_path, executor=address, db_kind=db_kind) as client:
         health = client.get("/api/health").json()
         assert health["executor"] == address and health["workers"] == 2
         body = {"robot": "human_arm_2dof", "duration": 1.2, "seed": 5, "particles": 8,
@@ -117,6 +122,15 @@ def test_real_plan_and_analysis_jobs_through_the_api_on_dask(cluster: Any, tmp_p
         )
         for key in ("standard", "optimized", "floors", "improvement_pct"):
             assert got[key] == ref[key]
+
+        # A sweep asking for a process pool still runs: Dask workers cannot fork one, so the
+        # runner runs its cells in the worker (the cluster is the parallelism).
+        sweep = {"robot": "human_arm_2dof", "durations": [0.8, 1.2], "payloads": [0, 5],
+                 "particles": 6, "iterations": 4, "workers": 2}  # fmt: skip
+        job = client.post("/api/sweeps", json=sweep).json()
+        done = wait_job(client, job["id"])
+        assert done["state"] == "succeeded", done
+        assert len(client.get(done["result_url"]).json()["result"]["cells"]) == 4
 
         if entry_points()["analysis"]:
             from tests.conftest import shared_file
