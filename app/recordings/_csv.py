@@ -394,7 +394,11 @@ def _vicon_section(
             line=first_line + 3,
             expected="'Frame,Sub Frame,...' as the 4th row of a section",
         )
-    n = len(cols)
+    # data rows may carry trailing empty fields the column row does not
+    nl = data.find(b"\n", offsets[5])
+    first_row = data[offsets[5] : nl if nl >= 0 else len(data)].decode("utf-8", "replace")
+    n = max(len(cols), len(split_fields(first_row.rstrip("\r"), delim)))
+    cols = (cols + [""] * n)[:n]
     groups = (groups + [""] * n)[:n]
     units = (units + [""] * n)[:n]
     # Data ends at the first blank line (sections are separated by one).

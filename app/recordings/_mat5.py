@@ -34,7 +34,7 @@ _MI_COMPRESSED = 15
 _NUMERIC_CLASSES = {6, 7, 8, 9, 10, 11, 12, 13, 14, 15}
 _CHAR, _CELL, _STRUCT, _OBJECT = 4, 1, 2, 3
 _MAX_DEPTH = 32
-_MAX_INFLATED = 1 << 30  # refuse zlib bombs: no recording variable is near 1 GB
+_MAX_INFLATED = 1 << 29  # refuse zlib bombs: no recording variable is near 512 MB
 
 
 class _Reader:
@@ -108,7 +108,7 @@ def _elements(r: _Reader, pos: int, end: int, out: dict[str, Any], *, depth: int
             except zlib.error as exc:
                 raise ValueError(f"compressed variable cannot be inflated: {exc}") from None
             if inflater.unconsumed_tail:
-                raise ValueError("compressed variable inflates beyond 1 GB")
+                raise ValueError("compressed variable inflates beyond 512 MB")
             _elements(_Reader(inner, r.endian), 0, len(inner), out, depth=depth + 1)
         elif mtype == _MI_MATRIX:
             name, value = _matrix(r, start, start + nbytes, depth=depth)
