@@ -1,0 +1,107 @@
+"""``bioplan serve`` / ``bioplan submit`` against a real server, and live SSE over HTTP."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from app.api.cli_commands import serve
+from app.jobs.tasks import entry_points
+from tests.api.test_crash_recovery import Server
+from tests.conftest import REPO_ROOT, shared_file
+
+pytestmark = pytest.mark.skipif(not entry_points()["plan"], reason="app.planning.plan missing")
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    s = Server(tmp_path_factory.mktemp("cli") / "data").start()
+    yield s
+    s.cleanup()
+
+
+def bioplan(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "app.cli", *args],
+        cwd=REPO_ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_serve_refuses_an_open_bind_without_token(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.delenv("BIOPLAN_API_TOKEN", raising=False)
+    assert serve(host="0.0.0.0", port=8123) == 2
+    assert "BIOPLAN_API_TOKEN" in capsys.readouterr().err
+
+
+def test_submit_plan_prints_the_cli_json(server: Server) -> None:
+    out = bioplan("submit", "--server", server.url, "--json", "plan", "--robot", "human_arm_2dof",
+                  "--particles", "8", "--iterations", "5", "--seed", "1")  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    result = json.loads(out.stdout)
+    jobs = server.get("/api/jobs", params={"kind": "plan"})
+    latest = server.get(jobs["items"][0]["result_url"])
+    assert result == latest["result"]
+    assert set(result) >= {"standard", "optimized", "floors", "improvement_pct", "optimizer"}
+    assert latest["job"]["params"]["seed"] == 1
+
+
+def test_submit_analyze_uploads_and_writes_the_template(server: Server, tmp_path: Path) -> None:
+    if not entry_points()["analysis"]:
+        pytest.skip("app.analysis.analyze_recordings missing")
+    path = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
+    target = tmp_path / "template.json"
+    out = bioplan("submit", "--server", server.url, "--out", str(target), "analyze", str(path),
+                  "--subject", "s07", "--load-kg", "12")  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    recs = server.get("/api/recordings", params={"subject": "s07"})
+    assert recs["total"] == 1 and recs["items"][0]["load_kg"] == 12
+    analyses = server.get("/api/analyses")
+    template = server.get(f"/api/analyses/{analyses['items'][0]['id']}/template")
+    assert json.loads(target.read_text()) == template
+
+
+def test_submit_bad_input_exits_2(server: Server) -> None:
+    out = bioplan("submit", "--server", server.url, "plan", "--robot", "nope")
+    assert out.returncode == 2
+    assert "unknown robot 'nope'" in out.stderr and "robot" in out.stderr
+    out = bioplan("submit", "--server", "http://127.0.0.1:9", "plan")
+    assert out.returncode == 1 and "cannot reach" in out.stderr
+
+
+def test_sse_streams_while_the_job_runs(server: Server) -> None:
+    body = {"robot": "curtain_wall_6dof", "particles": 400, "iterations": 10000,
+            "n_samples": 1000}  # fmt: skip
+    job = httpx.post(server.url + "/api/plans", json=body, timeout=30).json()
+    seen, names = [], []
+    cancelled = False
+    t0 = time.monotonic()
+    with httpx.stream("GET", server.url + job["events_url"], timeout=60) as r:
+        assert r.headers["content-type"].startswith("text/event-stream")
+        for line in r.iter_lines():
+            if line.startswith("event: "):
+                names.append(line.removeprefix("event: "))
+            elif line.startswith("data: "):
+                ev = json.loads(line.removeprefix("data: "))
+                seen.append(ev)
+                if names[-1] == "done":
+                    break
+                if not cancelled and ev["state"] == "running" and ev["progress"] > 0:
+                    # Live: updates arrive while the job runs; cancelling ends the stream.
+                    url = f"{server.url}/api/jobs/{job['id']}/cancel"
+                    assert httpx.post(url).status_code == 200
+                    cancelled = True
+    assert time.monotonic() - t0 < 60
+    assert any(e["state"] == "running" and 0 < e["progress"] < 1 for e in seen)
+    assert cancelled and names[-1] == "done" and seen[-1]["state"] == "cancelled"
