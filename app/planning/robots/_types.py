@@ -193,16 +193,17 @@ class Robot:
                 return row.get("value")
         raise RobotError(f"robot '{self.name}' has no parameter '{name}'")
 
-    def dynamics(self, *, armature: bool = True) -> Dynamics:
+    def dynamics(self, *, armature: bool = True, threads: int = 1) -> Dynamics:
         """Rigid-body dynamics with the payload (and the motors' armature), cached per instance.
 
         Args:
             armature: add each motor's reflected rotor inertia N^2 J_m to the joint's diagonal.
+            threads: threads for batched inverse dynamics (1 = one core).
 
         Returns:
             A ``PinocchioDynamics`` built from ``urdf_path``.
         """
-        key = ("dynamics", bool(armature))
+        key = ("dynamics", bool(armature), int(threads))
         if key not in self._cache:
             from app.planning.dynamics import PinocchioDynamics
 
@@ -211,6 +212,7 @@ class Robot:
                 payload=self.payload,
                 payload_body=self.payload_body,
                 armature=self.armature if armature else None,
+                num_threads=threads,
             )
         result: Dynamics = self._cache[key]
         return result
