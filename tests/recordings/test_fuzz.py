@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -26,8 +27,9 @@ from tests.recordings._writers import (
 )
 
 FUZZ = settings(
-    max_examples=40,
+    max_examples=int(os.environ.get("BIOPLAN_FUZZ_EXAMPLES", "40")),
     deadline=None,
+    derandomize=True,  # the same examples on every run (set BIOPLAN_FUZZ_EXAMPLES to explore more)
     database=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
