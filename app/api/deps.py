@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import secrets
+import threading
 import time
-from collections.abc import Iterator
+from collections import OrderedDict
+from collections.abc import Hashable, Iterator
 from dataclasses import dataclass, field
 from typing import Annotated, Any
 
@@ -20,6 +22,43 @@ from app.jobs.broker import JobBroker
 from app.jobs.service import JobService
 
 
+class ResponseCache:
+    """Serialized responses of frequent list requests, dropped whenever the data changes.
+
+    Exact because this process is the only writer of the database: every write route calls
+    :meth:`invalidate` after its commit, and a response computed while a write happened is not
+    stored (the version it was computed at is stale).
+    """
+
+    def __init__(self, maxsize: int = 512) -> None:
+        self.maxsize = maxsize
+        self.version = 0
+        self._items: OrderedDict[Hashable, tuple[int, bytes]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key: Hashable) -> bytes | None:
+        with self._lock:
+            hit = self._items.get(key)
+            if hit is None or hit[0] != self.version:
+                return None
+            self._items.move_to_end(key)
+            return hit[1]
+
+    def put(self, key: Hashable, version: int, body: bytes) -> None:
+        with self._lock:
+            if version != self.version:
+                return
+            self._items[key] = (version, body)
+            self._items.move_to_end(key)
+            while len(self._items) > self.maxsize:
+                self._items.popitem(last=False)
+
+    def invalidate(self) -> None:
+        with self._lock:
+            self.version += 1
+            self._items.clear()
+
+
 @dataclass
 class Services:
     """Everything the routes use, built once per app by ``app.main``."""
@@ -33,6 +72,8 @@ class Services:
     started: float = field(default_factory=time.monotonic)
     #: the 3-D viewer's address, set by whoever starts it (dashboard issue).
     viewer: dict[str, Any] = field(default_factory=dict)
+    #: cached ``GET /api/recordings`` pages.
+    recordings_cache: ResponseCache = field(default_factory=ResponseCache)
 
 
 def get_services(request: Request) -> Services:

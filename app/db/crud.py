@@ -30,6 +30,9 @@ from app.db.models import (
     utcnow,
 )
 
+#: A SELECT of any columns (SQLAlchemy 2.1 types Select by its column tuple).
+AnySelect = Select[*tuple[Any, ...]]
+
 
 def json_safe(value: Any) -> Any:
     """``value`` with NumPy scalars/arrays turned into Python ones and NaN/inf into None."""
@@ -144,7 +147,7 @@ def create_recording(
 
 
 def _recording_filters(
-    stmt: Select[Any],
+    stmt: AnySelect,
     *,
     subject: str | None,
     task: str | None,
@@ -152,7 +155,7 @@ def _recording_filters(
     q: str | None,
     created_after: datetime | None,
     created_before: datetime | None,
-) -> Select[Any]:
+) -> AnySelect:
     if subject is not None:
         stmt = stmt.where(RecordingSession.subject == subject)
     if task is not None:
@@ -190,7 +193,7 @@ def list_recordings(
 ) -> tuple[list[RecordingSession], int]:
     """A page of recording sessions, newest first, and the total matching the filters."""
 
-    def filtered(stmt: Select[Any]) -> Select[Any]:
+    def filtered(stmt: AnySelect) -> AnySelect:
         return _recording_filters(
             stmt,
             subject=subject,
@@ -210,6 +213,66 @@ def list_recordings(
         .offset(offset)
     )
     return list(session.scalars(stmt)), int(total or 0)
+
+
+def list_recording_summaries(
+    *,
+    session: Session,
+    limit: int = 50,
+    offset: int = 0,
+    subject: str | None = None,
+    task: str | None = None,
+    format: str | None = None,
+    q: str | None = None,
+    created_after: datetime | None = None,
+    created_before: datetime | None = None,
+) -> tuple[list[dict[str, Any]], int]:
+    """Like :func:`list_recordings`, as plain dicts, reading only the listed columns.
+
+    The list is the most frequent request; two narrow queries (sessions, then their files'
+    names and formats) avoid loading JSON metadata and building ORM objects.
+    """
+
+    def filtered(stmt: AnySelect) -> AnySelect:
+        return _recording_filters(
+            stmt,
+            subject=subject,
+            task=task,
+            format=format,
+            q=q,
+            created_after=created_after,
+            created_before=created_before,
+        )
+
+    total = session.scalar(filtered(select(func.count(RecordingSession.id))))
+    cols = (
+        RecordingSession.id,
+        RecordingSession.subject,
+        RecordingSession.task,
+        RecordingSession.load_kg,
+        RecordingSession.notes,
+        RecordingSession.created_at,
+    )
+    stmt = filtered(select(*cols)).order_by(
+        RecordingSession.created_at.desc(), RecordingSession.id.desc()
+    )
+    rows = session.execute(stmt.limit(limit).offset(offset)).all()
+    out = {r.id: {**r._asdict(), "file_names": [], "formats": set()} for r in rows}
+    if out:
+        files = session.execute(
+            select(RecordingFile.session_id, RecordingFile.original_name, RecordingFile.format)
+            .where(RecordingFile.session_id.in_(list(out)))
+            .order_by(RecordingFile.id)
+        )
+        for sid, name, fmt in files:
+            out[sid]["file_names"].append(name)
+            out[sid]["formats"].add(fmt)
+    items = []
+    for item in out.values():
+        item["formats"] = sorted(item["formats"])
+        item["n_files"] = len(item["file_names"])
+        items.append(item)
+    return items, int(total or 0)
 
 
 def get_recording(*, session: Session, recording_id: int) -> RecordingSession | None:

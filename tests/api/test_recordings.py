@@ -163,12 +163,31 @@ def test_list_filters_paging_and_delete(client: TestClient, tmp_path: Path) -> N
     assert client.get("/api/recordings", params={"q": "rec3"}).json()["total"] == 1
     assert client.get("/api/recordings", params={"format": "noraxon_csv"}).json()["total"] == 5
 
-    for rid in ids:
+    for n, rid in enumerate(ids):
         assert client.delete(f"/api/recordings/{rid}").status_code == 204
+        # The list is cached between writes: every delete shows at once.
+        assert client.get("/api/recordings").json()["total"] == 4 - n
     assert_problem(client.get(f"/api/recordings/{ids[0]}"), 404)
     assert_problem(client.delete(f"/api/recordings/{ids[0]}"), 404)
     blobs = [p for p in (tmp_path / "data" / "blobs").rglob("*") if p.is_file()]
     assert blobs == []
+
+
+def test_response_cache_never_serves_a_page_older_than_a_write() -> None:
+    from app.api.deps import ResponseCache
+
+    cache = ResponseCache(maxsize=2)
+    v = cache.version
+    cache.put("a", v, b"1")
+    assert cache.get("a") == b"1"
+    stale = cache.version
+    cache.invalidate()  # a write committed while "b" was being computed
+    cache.put("b", stale, b"old")
+    assert cache.get("a") is None and cache.get("b") is None
+    cache.put("b", cache.version, b"new")
+    cache.put("c", cache.version, b"c")
+    cache.put("d", cache.version, b"d")  # evicts the least recently used ("b")
+    assert (cache.get("b"), cache.get("c"), cache.get("d")) == (None, b"c", b"d")
 
 
 def test_form_errors_name_the_field(client: TestClient) -> None:

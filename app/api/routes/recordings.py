@@ -9,7 +9,8 @@ from typing import Annotated, Any, get_args
 
 import numpy as np
 from fastapi import APIRouter, File, Form, Query, Response, UploadFile
-from pydantic import Field
+from pydantic import Field, TypeAdapter
+from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.downsample import minmax_downsample
@@ -188,14 +189,18 @@ def upload_recording(
     meta: dict[str, Any] = {"subject": subject, "task": task, "load_kg": load_kg, "notes": notes}
     meta["options"] = options
     rec = crud.create_recording(session=session, blobs=services.blobs, meta=meta, files=parsed)
+    services.recordings_cache.invalidate()
     loaded = crud.get_recording(session=session, recording_id=rec.id)
     assert loaded is not None
     return _detail(loaded)
 
 
+_PAGE = TypeAdapter(Page[RecordingSummary])
+
+
 @router.get("", response_model=Page[RecordingSummary])
-def list_recordings(
-    session: SessionDep,
+async def list_recordings(
+    services: ServicesDep,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
     subject: Annotated[str | None, Query(max_length=200)] = None,
@@ -204,19 +209,34 @@ def list_recordings(
     q: Annotated[str | None, Query(max_length=200, description="text in names/notes")] = None,
     created_after: datetime | None = None,
     created_before: datetime | None = None,
-) -> dict[str, Any]:
-    items, total = crud.list_recordings(
-        session=session,
-        limit=limit,
-        offset=offset,
-        subject=subject,
-        task=task,
-        format=format,
-        q=q,
-        created_after=utc(created_after, "created_after"),
-        created_before=utc(created_before, "created_before"),
-    )
-    return {"items": [_summary(r) for r in items], "total": total, "limit": limit, "offset": offset}
+) -> Response:
+    """Recording sessions, newest first. Pages are cached until the next upload or delete."""
+    after, before = utc(created_after, "created_after"), utc(created_before, "created_before")
+    key = (limit, offset, subject, task, format, q, after, before)
+    cache = services.recordings_cache
+    body = cache.get(key)
+    if body is None:
+        version = cache.version
+
+        def compute() -> bytes:
+            with services.sessions() as session:
+                items, total = crud.list_recording_summaries(
+                    session=session,
+                    limit=limit,
+                    offset=offset,
+                    subject=subject,
+                    task=task,
+                    format=format,
+                    q=q,
+                    created_after=after,
+                    created_before=before,
+                )
+            page = {"items": items, "total": total, "limit": limit, "offset": offset}
+            return _PAGE.dump_json(_PAGE.validate_python(page))
+
+        body = await run_in_threadpool(compute)
+        cache.put(key, version, body)
+    return Response(body, media_type="application/json")
 
 
 def _get(session: SessionDep, recording_id: int) -> RecordingSession:
@@ -315,6 +335,10 @@ def get_raw_file(
 
 @router.delete("/{recording_id}", status_code=204, dependencies=[WriteAccess])
 def delete_recording(services: ServicesDep, session: SessionDep, recording_id: IdPath) -> Response:
-    if not crud.delete_recording(session=session, blobs=services.blobs, recording_id=recording_id):
+    deleted = crud.delete_recording(
+        session=session, blobs=services.blobs, recording_id=recording_id
+    )
+    services.recordings_cache.invalidate()
+    if not deleted:
         raise ApiError(404, f"recording {recording_id} does not exist")
     return Response(status_code=204)
