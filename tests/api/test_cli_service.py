@@ -105,3 +105,30 @@ def test_sse_streams_while_the_job_runs(server: Server) -> None:
     assert time.monotonic() - t0 < 60
     assert any(e["state"] == "running" and 0 < e["progress"] < 1 for e in seen)
     assert cancelled and names[-1] == "done" and seen[-1]["state"] == "cancelled"
+
+
+def test_the_python_example_in_the_docs_runs(
+    server: Server, capsys: pytest.CaptureFixture[str]
+) -> None:
+    if not entry_points()["analysis"]:
+        pytest.skip("app.analysis.analyze_recordings missing")
+    doc = (REPO_ROOT / "docs" / "service.md").read_text()
+    block = doc.split("<!-- example: scripted-use", 1)[1].split("```python\n", 1)[1]
+    code = block.split("```", 1)[0]
+    path = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
+    assert 'open("curl_emg.csv", "rb")' in code and "http://127.0.0.1:8000" in code
+    code = code.replace('open("curl_emg.csv", "rb")', f"open({str(path)!r}, 'rb')")
+    code = code.replace("http://127.0.0.1:8000", server.url)
+    namespace: dict[str, object] = {}
+    try:
+        exec(compile(code, "docs/service.md", "exec"), namespace)
+    finally:
+        api = namespace.get("api")
+        if isinstance(api, httpx.Client):
+            api.close()
+    plan = namespace["plan"]
+    arrays = namespace["arrays"]
+    assert isinstance(plan, dict) and isinstance(arrays, dict)
+    assert plan["result"]["conditions"]["robot"] == "curtain_wall_6dof"
+    assert "abs_work" in capsys.readouterr().out
+    assert len(arrays["t"]) == 200
