@@ -189,6 +189,20 @@ class AnalysisRequest(BaseModel):
     load_mass: float | None = Field(
         default=None, ge=0, le=500, description="[kg]; default: the recording's load_kg"
     )
+    together: bool = Field(
+        default=False, description="the files are parts of one session (e.g. EMG + pose)"
+    )
+    offset: float | Literal["auto"] | None = Field(
+        default=None,
+        description='t_emg = t_pose + offset [s]; "auto" estimates it by cross-correlation',
+    )
+
+    @field_validator("offset")
+    @classmethod
+    def _finite_offset(cls, v: float | str | None) -> float | str | None:
+        if isinstance(v, float) and not -3600 <= v <= 3600:
+            raise ValueError("offset must lie in [-3600, 3600] s")
+        return v
 
     @field_validator("phase_bounds_deg")
     @classmethod

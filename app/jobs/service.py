@@ -305,6 +305,8 @@ class JobService:
                 "body_mass": p.get("body_mass"),
                 "body_height": p.get("body_height"),
                 "load_mass": load if load is not None else rec.load_kg,
+                "together": p.get("together") or None,
+                "offset": p.get("offset"),
             }
             files = [{"name": f.original_name, "data": self.blobs.get(f.sha256)} for f in rec.files]
             return {"files": files, "read_options": read_options, "options": options}

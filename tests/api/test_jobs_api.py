@@ -115,3 +115,25 @@ def test_a_job_whose_input_vanished_fails_with_the_reason(
     assert events[-1][1]["state"] == "failed"
     jobs = client.get("/api/jobs", params={"state": "failed", "kind": "analysis"}).json()
     assert jobs["total"] == 1 and jobs["items"][0]["id"] == job["id"]
+
+
+@needs_analysis
+def test_session_of_two_files_analysed_together(client: TestClient) -> None:
+    from app.analysis import analyze_recordings
+    from app.recordings import read_bytes
+
+    emg = shared_file(NORAXON)
+    pose = shared_file("mediapipe_bicep_curl_frames/test.csv")
+    files = [("files", (p.name, p.read_bytes())) for p in (emg, pose)]
+    r = client.post("/api/recordings", files=files, data={"frame_rate": "30", "load_kg": "12"})
+    assert r.status_code == 201, r.text
+    body = {"recording_id": r.json()["id"], "together": True, "offset": 0.0, "body_mass": 80}
+    job = client.post("/api/analyses", json=body).json()
+    done = wait_job(client, job["id"])
+    assert done["state"] == "succeeded", done
+    recs = [
+        read_bytes(emg.read_bytes(), emg.name),
+        read_bytes(pose.read_bytes(), pose.name, frame_rate=30.0),
+    ]
+    expected = analyze_recordings(recs, together=True, offset=0.0, body_mass=80.0, load_mass=12.0)
+    assert client.get(done["result_url"]).json()["result"] == _json(expected.to_dict())

@@ -199,6 +199,11 @@ def test_form_errors_name_the_field(client: TestClient) -> None:
     assert "calf" in assert_problem(r, 422, field="muscle_map")["detail"]
     r = client.post("/api/recordings", files=files, data={"load_kg": "-3"})
     assert_problem(r, 422, field="load_kg")
+    ok = client.post("/api/recordings", files=files, data={"format": "noraxon_csv"})
+    assert ok.status_code == 201 and ok.json()["options"] == {"format": "noraxon_csv"}
+    assert client.delete(f"/api/recordings/{ok.json()['id']}").status_code == 204
+    r = client.post("/api/recordings", files=files, data={"format": "c3d"})
+    assert_problem(r, 422, file="a.csv")
     r = client.post("/api/recordings", files=[("files", ("empty.csv", b""))])
     assert_problem(r, 422, file="empty.csv")
     r = client.post("/api/recordings", data={"subject": "x"})

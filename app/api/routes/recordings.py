@@ -145,6 +145,10 @@ def upload_recording(
         str | None, Form(description="WIDTHxHEIGHT [px] for normalised landmarks")
     ] = None,
     frame_rate: Annotated[float | None, Form(gt=0, le=1e4, description="video [fps]")] = None,
+    format: Annotated[
+        str | None,
+        Form(max_length=32, description="reader to use instead of detecting it (e.g. c3d)"),
+    ] = None,
 ) -> dict[str, Any]:
     """Parse and store every file in one transaction: all of them, or none when one fails."""
     from app.jobs.tasks import parse_recording
@@ -157,6 +161,7 @@ def upload_recording(
         "muscle_map": _muscle_map(muscle_map),
         "image_size": _image_size(image_size),
         "frame_rate": frame_rate,
+        "format": format,
     }
     options = {k: v for k, v in options.items() if v is not None}
     parsed: list[crud.ParsedFile] = []
