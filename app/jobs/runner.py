@@ -20,6 +20,10 @@ Cancellation semantics:
   stops at its next progress report (the progress callback raises ``JobCancelled``), since Dask
   cannot interrupt a running task.
 A job that finishes before the cancel request is handled keeps its result.
+
+Like every multiprocessing start method other than ``fork``, the fork server re-imports the
+``__main__`` module of the API process in each job: a script that creates the app must guard its
+top level with ``if __name__ == "__main__":`` (``bioplan serve``, uvicorn and pytest do).
 """
 
 from __future__ import annotations

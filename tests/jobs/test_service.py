@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db import crud
@@ -119,7 +120,7 @@ def test_restart_requeues_or_fails_every_unfinished_job(
     assert failed.error is not None and "server stopped" in failed.error
     assert _state(sessions, finished).state == "succeeded"
     with sessions() as s:
-        assert all(j.state != "running" for j in s.query(JobRecord))
+        assert all(j.state != "running" for j in s.scalars(select(JobRecord)))
     svc.close()
 
 
