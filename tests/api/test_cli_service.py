@@ -112,7 +112,7 @@ def test_the_python_example_in_the_docs_runs(
 ) -> None:
     if not entry_points()["analysis"]:
         pytest.skip("app.analysis.analyze_recordings missing")
-    doc = (REPO_ROOT / "docs" / "service.md").read_text()
+    doc = (REPO_ROOT / "README.md").read_text()
     block = doc.split("<!-- example: scripted-use", 1)[1].split("```python\n", 1)[1]
     code = block.split("```", 1)[0]
     path = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
@@ -121,7 +121,7 @@ def test_the_python_example_in_the_docs_runs(
     code = code.replace("http://127.0.0.1:8000", server.url)
     namespace: dict[str, object] = {}
     try:
-        exec(compile(code, "docs/service.md", "exec"), namespace)
+        exec(compile(code, "README.md", "exec"), namespace)
     finally:
         api = namespace.get("api")
         if isinstance(api, httpx.Client):
