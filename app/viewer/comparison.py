@@ -1,0 +1,352 @@
+"""A finished comparison (plan or simulation), as the viewer and the Compare page use it.
+
+``Comparison`` holds both trajectories on one time grid in SI units, the phase of every sample,
+the robot's URDF text and payload; ``load_comparison`` reads one from the service's database.
+The planner's arrays differ a little between plans and simulations (a simulation has measured
+``q``/``qd`` and commanded ``qdd_cmd``); this is the one place that knows.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from app.api.deps import Services
+    from app.planning.robots import Robot
+
+FloatArray = NDArray[np.float64]
+Kind = Literal["plan", "simulation"]
+KINDS: tuple[Kind, ...] = ("plan", "simulation")
+LABELS = ("standard", "optimized")
+#: Phase names and what they mean in a curl (DESIGN.md).
+PHASES = {"A": "high-load capacity", "B": "weakest load", "C": "deceleration"}
+
+
+class ComparisonError(LookupError):
+    """A comparison cannot be shown: unknown, not finished, or its arrays are missing."""
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Standard and optimised trajectories of one plan or simulation.
+
+    Attributes:
+        kind: ``"plan"`` or ``"simulation"``.
+        id: the plan's or simulation's id (= its job id).
+        robot: robot name.
+        joint_names: (n,) joints, the column order of the arrays.
+        t: (T,) time grid [s].
+        q, qd, qdd, tau: label -> (T, n) angles [rad], velocities [rad/s], accelerations
+            [rad/s^2], torques [Nm]; labels ``standard`` and ``optimized``.
+        power: label -> (T,) mechanical power sum_j |tau_j qd_j| [W].
+        energy: label -> (T,) its running integral [J].
+        elbow_flexion_deg: label -> (T,) human-equivalent elbow flexion [deg].
+        phase_bounds_deg: (A/B, B/C) bounds [deg].
+        phase_times: label -> (t_AB, t_BC) [s], NaN when a bound is never reached.
+        elbow_joint: column of the elbow.
+        urdf: the robot's URDF text (no meshes: primitives only).
+        payload_body: URDF link that carries the payload.
+        payload_mass: [kg].
+        payload_com: (3,) payload centre in the payload body's frame [m].
+        payload_size: (3,) payload box extents [m] (zeros: a point mass).
+        result: the job's JSON result (the CLI's ``--json``).
+    """
+
+    kind: Kind
+    id: int
+    robot: str
+    joint_names: tuple[str, ...]
+    t: FloatArray
+    q: dict[str, FloatArray]
+    qd: dict[str, FloatArray]
+    qdd: dict[str, FloatArray]
+    tau: dict[str, FloatArray]
+    power: dict[str, FloatArray]
+    energy: dict[str, FloatArray]
+    elbow_flexion_deg: dict[str, FloatArray]
+    phase_bounds_deg: tuple[float, float]
+    phase_times: dict[str, tuple[float, float]]
+    elbow_joint: int
+    urdf: str
+    payload_body: str
+    payload_mass: float
+    payload_com: FloatArray
+    payload_size: FloatArray
+    result: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def title(self) -> str:
+        c = self.result.get("conditions", {})
+        objective = c.get("objective", "?")
+        return (
+            f"{self.kind.capitalize()} #{self.id}: {self.robot}, {self.payload_mass:g} kg, "
+            f"{self.duration:g} s, objective {objective}"
+        )
+
+    def phase_at(self, label: str, index: int) -> str:
+        """``"A"``, ``"B"`` or ``"C"``: the phase of sample ``index`` of one trajectory."""
+        return phase_of(float(self.elbow_flexion_deg[label][index]), self.phase_bounds_deg)
+
+    def index_at(self, time: float) -> int:
+        """The sample nearest to ``time`` [s] (clamped to the grid)."""
+        i = int(np.searchsorted(self.t, time))
+        if i <= 0:
+            return 0
+        if i >= len(self.t):
+            return len(self.t) - 1
+        return i if self.t[i] - time < time - self.t[i - 1] else i - 1
+
+    def curves(self, *, points: int = 400) -> dict[str, Any]:
+        """JSON-ready curves for the Compare page, decimated to at most ``points`` samples.
+
+        Returns:
+            ``{"t": [...], "joint_names", "standard"/"optimized": {"q", "qd", "qdd", "tau":
+            (T, n) lists, "power", "energy", "elbow_flexion_deg": (T,) lists}}``.
+        """
+        if points < 2:
+            raise ValueError(f"points must be >= 2, got {points}")
+        n = len(self.t)
+        idx = np.unique(np.linspace(0, n - 1, min(points, n)).round().astype(int))
+        out: dict[str, Any] = {"t": _clean(self.t[idx]), "joint_names": list(self.joint_names)}
+        for label in LABELS:
+            out[label] = {
+                "q": _clean(self.q[label][idx]),
+                "qd": _clean(self.qd[label][idx]),
+                "qdd": _clean(self.qdd[label][idx]),
+                "tau": _clean(self.tau[label][idx]),
+                "power": _clean(self.power[label][idx]),
+                "energy": _clean(self.energy[label][idx]),
+                "elbow_flexion_deg": _clean(self.elbow_flexion_deg[label][idx]),
+            }
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready description without the curves (phases, payload, joints)."""
+        return {
+            "kind": self.kind,
+            "id": self.id,
+            "title": self.title,
+            "robot": self.robot,
+            "joint_names": list(self.joint_names),
+            "elbow_joint": self.elbow_joint,
+            "duration": self.duration,
+            "samples": len(self.t),
+            "payload": {
+                "mass": self.payload_mass,
+                "body": self.payload_body,
+                "com": self.payload_com.tolist(),
+                "size": self.payload_size.tolist(),
+            },
+            "phase_bounds_deg": list(self.phase_bounds_deg),
+            "phase_times": {
+                label: [None if math.isnan(v) else v for v in times]
+                for label, times in self.phase_times.items()
+            },
+            "phases": PHASES,
+        }
+
+
+def _clean(array: FloatArray) -> list[Any]:
+    values: list[Any] = _nan_to_none(np.where(np.isfinite(array), array, np.nan).tolist())
+    return values
+
+
+def _nan_to_none(value: Any) -> Any:
+    if isinstance(value, list):
+        return [_nan_to_none(v) for v in value]
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value
+
+
+def phase_of(flexion_deg: float, bounds_deg: tuple[float, float]) -> str:
+    """The curl phase of an elbow flexion [deg]: A below the first bound, C from the second."""
+    if flexion_deg < bounds_deg[0]:
+        return "A"
+    return "B" if flexion_deg < bounds_deg[1] else "C"
+
+
+def crossing_times(
+    t: FloatArray, flexion_deg: FloatArray, bounds_deg: tuple[float, float]
+) -> tuple[float, float]:
+    """First times [s] the flexion reaches each bound, linearly interpolated (NaN: never)."""
+    out: list[float] = []
+    for bound in bounds_deg:
+        above = np.flatnonzero(flexion_deg >= bound)
+        if above.size == 0:
+            out.append(math.nan)
+            continue
+        i = int(above[0])
+        if i == 0:
+            out.append(float(t[0]))
+            continue
+        f0, f1 = float(flexion_deg[i - 1]), float(flexion_deg[i])
+        w = (bound - f0) / (f1 - f0)
+        out.append(float(t[i - 1] + w * (t[i] - t[i - 1])))
+    return out[0], out[1]
+
+
+def _get(arrays: Mapping[str, Any], key: str) -> FloatArray:
+    if key not in arrays:
+        raise ComparisonError(f"the stored arrays have no {key!r} (have {sorted(arrays)})")
+    return np.asarray(arrays[key], dtype=np.float64)
+
+
+def comparison_from_arrays(
+    kind: Kind,
+    result_id: int,
+    arrays: Mapping[str, Any],
+    result: Mapping[str, Any],
+    robot: Robot,
+    *,
+    urdf: str | None = None,
+) -> Comparison:
+    """Build a :class:`Comparison` from a job's arrays and JSON result.
+
+    Args:
+        kind: ``"plan"`` (arrays of ``PlanResult.arrays()``) or ``"simulation"``
+            (``SimulationResult.arrays()``).
+        result_id: the plan's or simulation's id.
+        arrays: ``t`` (T,) and ``<label>_<name>`` arrays in SI units.
+        result: the job's JSON result (``to_dict()``), for conditions and metrics.
+        robot: the robot, with the payload the job used.
+        urdf: the robot's URDF text (default: read from ``robot.urdf_path``).
+
+    Raises:
+        ComparisonError: an array is missing or has the wrong shape.
+    """
+    from app.planning.planner import PlanTask, elbow_flexion_deg
+
+    if kind not in KINDS:
+        raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
+    t = _get(arrays, "t")
+    n_joints = len(robot.joint_names)
+    conditions = dict(result.get("conditions") or {})
+    start = np.radians(np.asarray(conditions.get("start_deg", np.degrees(robot.default_start))))
+    goal = np.radians(np.asarray(conditions.get("goal_deg", np.degrees(robot.default_goal))))
+    task = PlanTask(np.asarray(start, float), np.asarray(goal, float))
+    bounds_raw = conditions.get("phase_bounds_deg") or (40.0, 90.0)
+    bounds = (float(bounds_raw[0]), float(bounds_raw[1]))
+    acc_key = "qdd" if kind == "plan" else "qdd_cmd"
+    data: dict[str, dict[str, FloatArray]] = {
+        k: {} for k in ("q", "qd", "qdd", "tau", "power", "energy", "flex")
+    }
+    times: dict[str, tuple[float, float]] = {}
+    for label in LABELS:
+        for name, key in (("q", "q"), ("qd", "qd"), ("qdd", acc_key), ("tau", "tau")):
+            arr = _get(arrays, f"{label}_{key}")
+            if arr.shape != (len(t), n_joints):
+                raise ComparisonError(
+                    f"{label}_{key} has shape {arr.shape}: expected ({len(t)}, {n_joints})"
+                )
+            data[name][label] = arr
+        for name in ("power", "energy"):
+            arr = _get(arrays, f"{label}_{name}")
+            if arr.shape != t.shape:
+                raise ComparisonError(f"{label}_{name} has shape {arr.shape}: expected {t.shape}")
+            data[name][label] = arr
+        # Phases follow the commanded elbow in a simulation (as the simulator reports them).
+        q_phase = arrays.get(f"{label}_q_cmd", data["q"][label])
+        q_phase = np.asarray(q_phase, dtype=np.float64)
+        flex = elbow_flexion_deg(q_phase[:, robot.elbow_joint], task, robot.elbow_joint)
+        data["flex"][label] = np.asarray(flex, dtype=np.float64)
+        times[label] = crossing_times(t, data["flex"][label], bounds)
+    payload = robot.payload
+    return Comparison(
+        kind=kind,
+        id=int(result_id),
+        robot=str(conditions.get("robot", robot.name)),
+        joint_names=tuple(robot.joint_names),
+        t=t,
+        q=data["q"],
+        qd=data["qd"],
+        qdd=data["qdd"],
+        tau=data["tau"],
+        power=data["power"],
+        energy=data["energy"],
+        elbow_flexion_deg=data["flex"],
+        phase_bounds_deg=bounds,
+        phase_times=times,
+        elbow_joint=int(robot.elbow_joint),
+        urdf=urdf if urdf is not None else Path(robot.urdf_path).read_text(),
+        payload_body=robot.payload_body,
+        payload_mass=float(payload.mass),
+        payload_com=np.asarray(payload.com, dtype=np.float64),
+        payload_size=np.asarray(payload.size, dtype=np.float64),
+        result=dict(result),
+    )
+
+
+def load_robot_spec(spec: Mapping[str, Any], payload: float | None) -> tuple[Robot, str]:
+    """Load a robot from a job spec: ``{"name"}`` (built in) or uploaded URDF/MJCF bytes.
+
+    Returns:
+        The robot (with ``payload`` kg, or its default when None) and its URDF text.
+    """
+    from app.planning.robots import load_robot
+
+    if spec.get("urdf") is None:
+        robot = load_robot(str(spec["name"]), payload=payload)
+        return robot, Path(robot.urdf_path).read_text()
+    with tempfile.TemporaryDirectory(prefix="bioplan-viewer-") as tmp:
+        # Fixed file names: the user's names are never used as paths.
+        urdf = Path(tmp) / "robot.urdf"
+        urdf.write_bytes(spec["urdf"])
+        mjcf = None
+        if spec.get("mjcf") is not None:
+            mjcf = Path(tmp) / "robot.xml"
+            mjcf.write_bytes(spec["mjcf"])
+        robot = load_robot(str(urdf), payload=payload, mjcf=None if mjcf is None else str(mjcf))
+        return robot, urdf.read_text()
+
+
+def load_comparison(services: Services, kind: str, result_id: int) -> Comparison:
+    """Read a finished plan or simulation from the service's database.
+
+    Raises:
+        ComparisonError: unknown kind or id, the job has not succeeded, or no arrays.
+    """
+    from sqlalchemy import select
+    from sqlalchemy.orm import undefer
+
+    from app.db.arrays import decode_arrays
+    from app.db.models import RESULT_MODELS, JobRecord
+
+    if kind not in KINDS:
+        raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
+    model: Any = RESULT_MODELS[kind]
+    with services.sessions() as session:
+        row = session.scalars(
+            select(model).where(model.id == result_id).options(undefer(model.arrays))
+        ).first()
+        if row is None:
+            raise ComparisonError(f"{kind} {result_id} does not exist")
+        job = session.get(JobRecord, result_id)
+        state = "unknown" if job is None else job.state
+        if row.result is None or row.arrays is None:
+            raise ComparisonError(f"{kind} {result_id} has no result yet (job state {state})")
+        result = dict(row.result)
+        arrays = decode_arrays(row.arrays)
+        spec = services.jobs.robot_spec(session, row.robot)
+    payload = (result.get("conditions") or {}).get("payload")
+    robot, urdf = load_robot_spec(spec, None if payload is None else float(payload))
+    return comparison_from_arrays(
+        kind,
+        result_id,
+        arrays,
+        result,
+        robot,
+        urdf=urdf,
+    )

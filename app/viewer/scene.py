@@ -1,0 +1,336 @@
+"""The comparison scene: both robots from their URDF, the payload, end-effector traces, phases.
+
+``PreparedComparison`` does all the arithmetic once per comparison (meshes in link frames, every
+joint frame's pose at every sample, the payload's path); ``ComparisonScene`` creates the nodes
+once on a viser target (one browser tab's ``ClientHandle``, or a server used for an export) and
+``show(index)`` only assigns precomputed poses, which is all the playback loop does.
+
+The standard robot is drawn in its URDF colours; the optimised one in amber, either as a
+translucent ghost over the standard one or beside it (``set_layout``).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.viewer.comparison import LABELS, Comparison
+from app.viewer.kinematics import UrdfChain, load_urdf, matrices_to_wxyz
+
+FloatArray = NDArray[np.float64]
+Layout = Literal["ghost", "side_by_side"]
+LAYOUTS: tuple[Layout, ...] = ("ghost", "side_by_side")
+
+ROOT = "/bioplan"
+#: RGB colours: standard blue, optimised amber (the Compare page uses the same pair).
+COLORS = {"standard": (37, 99, 235), "optimized": (234, 140, 20)}
+PAYLOAD_COLOR = (120, 170, 200)
+PHASE_COLORS = {"A": (46, 160, 67), "B": (212, 160, 23), "C": (207, 34, 46)}
+GHOST_OPACITY = 0.4
+
+
+@dataclass(frozen=True)
+class LinkMesh:
+    """One visual mesh of a link, in the link's frame."""
+
+    link: str
+    vertices: NDArray[np.float32]
+    faces: NDArray[np.uint32]
+    color: tuple[int, int, int]
+
+
+class PreparedComparison:
+    """Everything the scene needs, computed once per comparison.
+
+    Args:
+        comparison: the comparison to show.
+
+    Attributes:
+        link_paths: link -> names from the root link down to it.
+        meshes: visual meshes in their link frames.
+        joint_wxyz, joint_position: label -> joint -> (T, 4) / (T, 3) pose of the joint's child
+            link in its parent link's frame.
+        payload_path: label -> (T, 3) world position of the payload's centre [m].
+        reach: largest distance of the payload from the base over both trajectories [m].
+    """
+
+    def __init__(self, comparison: Comparison) -> None:
+        self.comparison = comparison
+        urdf = load_urdf(comparison.urdf, meshes=True)
+        self.chain = UrdfChain(urdf)
+        self.link_paths = {link: self.chain.link_path(link) for link in self.chain.links}
+        self.meshes = _link_meshes(urdf)
+        names = comparison.joint_names
+        # Joints that actually turn in either trajectory (J1 of a planar curl does not).
+        moving = {
+            name
+            for i, name in enumerate(names)
+            if any(np.ptp(comparison.q[label][:, i]) > 1e-9 for label in LABELS)
+        }
+        #: links moved by some joint of the trajectory (the ghost draws only these).
+        self.moving_links = {
+            link
+            for link in self.chain.links
+            if any(j.name in moving for j in self.chain.joints if j.child in self.link_paths[link])
+        }
+        self.joint_wxyz: dict[str, dict[str, FloatArray]] = {}
+        self.joint_position: dict[str, dict[str, FloatArray]] = {}
+        self.payload_path: dict[str, FloatArray] = {}
+        com = np.append(comparison.payload_com, 1.0)
+        for label in LABELS:
+            q = comparison.q[label]
+            local = self.chain.joint_transforms(q, names)
+            self.joint_wxyz[label] = {j: matrices_to_wxyz(m[:, :3, :3]) for j, m in local.items()}
+            self.joint_position[label] = {j: m[:, :3, 3].copy() for j, m in local.items()}
+            world = self.chain.link_poses(q, names)
+            if comparison.payload_body not in world:
+                raise ValueError(
+                    f"payload body {comparison.payload_body!r} is not a link of the URDF"
+                )
+            self.payload_path[label] = (world[comparison.payload_body] @ com)[:, :3]
+        stacked = np.concatenate(list(self.payload_path.values()))
+        self.reach = float(np.max(np.linalg.norm(stacked[:, :2], axis=1), initial=0.3))
+        self.height = float(np.max(stacked[:, 2], initial=1.0))
+        self.phases = {
+            label: [comparison.phase_at(label, i) for i in range(len(comparison.t))]
+            for label in LABELS
+        }
+
+    @property
+    def side_offset(self) -> float:
+        """Distance between the two robots side by side [m]."""
+        return 2.0 * self.reach + 0.4
+
+    def phase_points(self, label: str) -> list[tuple[str, FloatArray]]:
+        """Where along the payload path each phase starts: [(phase, (3,) position)]."""
+        out: list[tuple[str, FloatArray]] = []
+        previous = None
+        for i, phase in enumerate(self.phases[label]):
+            if phase != previous:
+                out.append((phase, self.payload_path[label][i]))
+                previous = phase
+        return out
+
+
+def _link_meshes(urdf: Any) -> list[LinkMesh]:
+    """Visual meshes of a yourdfpy URDF (primitives already meshed) in their link frames."""
+    scene = urdf.scene
+    if scene is None:
+        return []
+    parents = scene.graph.transforms.parents
+    meshes = []
+    for node in scene.graph.nodes_geometry:
+        transform, geometry_name = scene.graph.get(frame_to=node, frame_from=parents[node])
+        mesh = scene.geometry[geometry_name].copy()
+        mesh.apply_transform(transform)
+        color = getattr(mesh.visual, "main_color", None)
+        rgb = (160, 160, 165) if color is None else tuple(int(c) for c in color[:3])
+        meshes.append(
+            LinkMesh(
+                link=str(parents[node]),
+                vertices=np.asarray(mesh.vertices, dtype=np.float32),
+                faces=np.asarray(mesh.faces, dtype=np.uint32),
+                color=(rgb[0], rgb[1], rgb[2]),
+            )
+        )
+    return meshes
+
+
+class ComparisonScene:
+    """The scene of one comparison on one viser target; built once, then only posed.
+
+    Args:
+        target: a ``viser.ClientHandle`` (one tab) or ``viser.ViserServer``.
+        prepared: the precomputed comparison.
+        layout: ``"ghost"`` (optimised over standard, translucent) or ``"side_by_side"``.
+    """
+
+    def __init__(self, target: Any, prepared: PreparedComparison, *, layout: Layout = "ghost"):
+        self.target = target
+        self.prepared = prepared
+        scene = target.scene
+        self._frames: dict[str, dict[str, Any]] = {label: {} for label in LABELS}
+        self._roots: dict[str, Any] = {}
+        self._ghost_meshes: list[Any] = []
+        self._static_ghost: list[Any] = []
+        self._labels: dict[str, Any] = {}
+        self._phase: dict[str, str] = {}
+        self.index = -1
+        chain = prepared.chain
+        scene.add_grid(
+            f"{ROOT}/floor",
+            width=4.0 * prepared.side_offset,
+            height=4.0 * prepared.side_offset,
+            cell_size=0.25,
+            section_size=1.0,
+        )
+        for label in LABELS:
+            root = scene.add_frame(f"{ROOT}/{label}", show_axes=False)
+            self._roots[label] = root
+            optimized = label == "optimized"
+            for joint in chain.joints:
+                name = self._link_node(label, joint.child)
+                self._frames[label][joint.name] = scene.add_frame(name, show_axes=False)
+            for k, mesh in enumerate(prepared.meshes):
+                handle = scene.add_mesh_simple(
+                    f"{self._link_node(label, mesh.link)}/visual_{k}",
+                    mesh.vertices,
+                    mesh.faces,
+                    color=COLORS["optimized"] if optimized else mesh.color,
+                    opacity=GHOST_OPACITY if optimized else None,
+                    cast_shadow=not optimized,
+                )
+                if optimized:
+                    self._ghost_meshes.append(handle)
+                    if mesh.link not in prepared.moving_links:
+                        self._static_ghost.append(handle)
+            self._add_payload(scene, label)
+            self._add_trace(scene, label)
+            # Standard's label above the payload, the optimised one's below: no overlap.
+            self._labels[label] = scene.add_label(
+                f"{ROOT}/{label}/phase_label",
+                "",
+                font_screen_scale=0.9,
+                anchor="top-center" if optimized else "bottom-center",
+            )
+        self.layout: Layout = "ghost"
+        self.set_layout(layout)
+        self.show(0)
+
+    def _link_node(self, label: str, link: str) -> str:
+        return f"{ROOT}/{label}/" + "/".join(self.prepared.link_paths[link])
+
+    def _add_payload(self, scene: Any, label: str) -> None:
+        c = self.prepared.comparison
+        parent = self._link_node(label, c.payload_body)
+        color = COLORS["optimized"] if label == "optimized" else PAYLOAD_COLOR
+        opacity = GHOST_OPACITY if label == "optimized" else 0.85
+        if np.all(c.payload_size > 0.0):
+            handle = scene.add_box(
+                f"{parent}/payload",
+                color=color,
+                dimensions=tuple(float(v) for v in c.payload_size),
+                opacity=opacity,
+                position=tuple(float(v) for v in c.payload_com),
+            )
+        else:
+            # A point mass (a dumbbell in the hand): a sphere whose size grows with the mass.
+            radius = 0.03 + 0.005 * min(c.payload_mass, 20.0)
+            handle = scene.add_icosphere(
+                f"{parent}/payload",
+                radius=radius,
+                color=color,
+                opacity=opacity,
+                position=tuple(float(v) for v in c.payload_com),
+            )
+        if label == "optimized":
+            self._ghost_meshes.append(handle)
+
+    def _add_trace(self, scene: Any, label: str) -> None:
+        path = self.prepared.payload_path[label]
+        # At most ~300 segments: the trace is smooth, more only costs bandwidth.
+        step = max(1, len(path) // 300)
+        pts = path[::step]
+        if len(pts) < 2:
+            return
+        segments = np.stack([pts[:-1], pts[1:]], axis=1).astype(np.float32)
+        scene.add_line_segments(
+            f"{ROOT}/{label}/trace",
+            points=segments,
+            colors=np.array(COLORS[label], dtype=np.uint8),
+            thickness=0.008,
+        )
+        for k, (phase, pos) in enumerate(self.prepared.phase_points(label)):
+            scene.add_icosphere(
+                f"{ROOT}/{label}/phase_start_{k}",
+                radius=0.018,
+                color=PHASE_COLORS[phase],
+                position=tuple(float(v) for v in pos),
+            )
+
+    def set_layout(self, layout: Layout) -> None:
+        """Ghost overlay or side by side (moves the roots, changes opacity; no new nodes)."""
+        if layout not in LAYOUTS:
+            raise ValueError(f"unknown layout {layout!r} (expected one of {LAYOUTS})")
+        half = 0.5 * self.prepared.side_offset if layout == "side_by_side" else 0.0
+        self._roots["standard"].position = (0.0, half, 0.0)
+        self._roots["optimized"].position = (0.0, -half, 0.0)
+        opacity = GHOST_OPACITY if layout == "ghost" else 1.0
+        for handle in self._ghost_meshes:
+            handle.opacity = opacity
+        # Overlaid, the optimised robot's fixed base would only tint the standard one's.
+        for handle in self._static_ghost:
+            handle.visible = layout == "side_by_side"
+        self.layout = layout
+
+    def show(self, index: int) -> dict[str, str]:
+        """Pose both robots at sample ``index``; returns the phase of each trajectory.
+
+        Wrap calls in ``target.atomic()`` so a browser never draws half a pose.
+        """
+        p = self.prepared
+        index = int(min(max(index, 0), len(p.comparison.t) - 1))
+        if index != self.index:
+            for label in LABELS:
+                wxyz, pos = p.joint_wxyz[label], p.joint_position[label]
+                for joint, frame in self._frames[label].items():
+                    frame.wxyz = wxyz[joint][index]
+                    frame.position = pos[joint][index]
+            self.index = index
+        phases = {label: p.phases[label][index] for label in LABELS}
+        for label, phase in phases.items():
+            # Labels change only at a phase boundary: no message per frame.
+            if self._phase.get(label) != phase:
+                self._phase[label] = phase
+                handle = self._labels[label]
+                handle.text = f"{'standard' if label == 'standard' else 'optimised'}: {phase}"
+        for label in LABELS:
+            lift = -0.12 if label == "optimized" else 0.12
+            spot = p.payload_path[label][index] + np.array([0.0, 0.0, lift])
+            self._labels[label].position = tuple(float(v) for v in spot)
+        return phases
+
+    def camera(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """A camera position and look-at point that frame both robots [m]."""
+        p = self.prepared
+        side = 0.5 * p.side_offset
+        side = side if self.layout == "side_by_side" else 0.0
+        look = (0.4 * p.reach, 0.0, 0.55 * p.height)
+        dist = 1.25 * max(p.reach + side, 0.8 * p.height, 0.8)
+        return (look[0] + 0.8 * dist, look[1] - 1.0 * dist, look[2] + 0.35 * dist), look
+
+
+class PreparedCache:
+    """Prepared comparisons by (kind, id), most recently used kept; finished results never
+    change, so an entry stays valid.
+
+    Args:
+        loader: ``(kind, id) -> Comparison``.
+        size: comparisons kept in memory.
+    """
+
+    def __init__(self, loader: Callable[[str, int], Comparison], *, size: int = 8) -> None:
+        self.loader = loader
+        self.size = size
+        self._items: OrderedDict[tuple[str, int], PreparedComparison] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def __call__(self, kind: str, result_id: int) -> PreparedComparison:
+        key = (kind, int(result_id))
+        with self._lock:
+            hit = self._items.get(key)
+            if hit is not None:
+                self._items.move_to_end(key)
+                return hit
+        prepared = PreparedComparison(self.loader(kind, int(result_id)))
+        with self._lock:
+            self._items[key] = prepared
+            while len(self._items) > self.size:
+                self._items.popitem(last=False)
+        return prepared

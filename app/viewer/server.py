@@ -1,0 +1,347 @@
+"""The 3-D viewer: one viser server, one comparison scene per browser tab.
+
+The Compare page embeds ``http://HOST:PORT/?websocket=ws://HOST:PORT/bioplan/<kind>/<id>`` in
+an iframe. viser ignores the websocket's path; this module reads it from the handshake when
+the tab connects and builds that tab's own scene (``client.scene``), GUI (play, pause, speed,
+scrub, layout, the phase of the moment, the power curve in uPlot) and playback clock. So two tabs
+can show two comparisons at once. One ``Player`` thread advances every playing tab.
+
+viser takes the next free port when the one asked for is busy: ``start()`` returns the real
+port and ``url`` reports it. Its websocket checks neither origin nor credentials, so it binds to
+loopback unless told otherwise.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from app.viewer.comparison import LABELS, PHASES, Comparison
+from app.viewer.playback import SPEEDS, PlaybackClock, Player, TickStats
+from app.viewer.plots import power_plot
+from app.viewer.scene import ComparisonScene, Layout, PreparedComparison
+
+logger = logging.getLogger(__name__)
+
+Prepare = Callable[[str, int], PreparedComparison]
+
+#: The websocket path that names a tab's comparison.
+_PATH = re.compile(r"^/bioplan/(plan|simulation)/([1-9][0-9]{0,9})/?$")
+#: Seconds between updates of the slider, phase text and plot cursor while playing.
+GUI_PERIOD = 0.1
+_LAYOUT_NAMES: dict[str, Layout] = {"ghost overlay": "ghost", "side by side": "side_by_side"}
+_SPEED_NAMES = {f"{s:g}x": s for s in SPEEDS}
+
+
+def parse_client_path(path: str | None) -> tuple[str, int] | None:
+    """``(kind, id)`` from a websocket path ``/bioplan/<plan|simulation>/<id>``, else None."""
+    if not path:
+        return None
+    match = _PATH.match(path.split("?", 1)[0])
+    if match is None:
+        return None
+    return match.group(1), int(match.group(2))
+
+
+def _handshake_path(server: Any, client_id: int) -> str | None:
+    """The request path of a client's websocket handshake (viser keeps the connection)."""
+    try:
+        connection = server._websock_server._live_connections.get(client_id)
+        return None if connection is None else str(connection.request.path)
+    except AttributeError:  # another viser version: fall back to the tab's own choice
+        logger.warning("cannot read the viewer client's websocket path from this viser version")
+        return None
+
+
+@dataclass
+class ViewerSession:
+    """One browser tab showing one comparison."""
+
+    client: Any
+    kind: str
+    id: int
+    scene: ComparisonScene
+    clock: PlaybackClock
+    gui: dict[str, Any]
+    stats: TickStats = field(default_factory=TickStats)
+    last_gui: float = 0.0
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    dirty: bool = True
+
+    @property
+    def comparison(self) -> Comparison:
+        return self.scene.prepared.comparison
+
+    def tick(self) -> None:
+        """Pose the robots for the clock's time; refresh the GUI at most every GUI_PERIOD."""
+        with self.lock:
+            t = self.clock.time()
+            index = self.comparison.index_at(t)
+            moved = index != self.scene.index
+            if moved or self.dirty:
+                with self.client.atomic():
+                    phases = self.scene.show(index)
+                self.stats.frames += 1
+            now = time.monotonic()
+            if self.dirty or (moved and now - self.last_gui >= GUI_PERIOD):
+                self._refresh_gui(t, phases if moved or self.dirty else None)
+                self.last_gui = now
+                self.dirty = False
+
+    def _refresh_gui(self, t: float, phases: dict[str, str] | None) -> None:
+        c = self.comparison
+        phases = phases or {label: c.phase_at(label, self.scene.index) for label in LABELS}
+        slider = self.gui["time"]
+        slider.value = round(min(t, float(slider.max)), 3)
+        self.gui["phase"].content = _phase_text(t, phases)
+        self.gui["plot"].data = power_plot(c, t)
+
+    def toggle(self) -> None:
+        with self.lock:
+            if self.clock.playing:
+                self.clock.pause()
+            else:
+                self.clock.play()
+            button = self.gui["play"]
+            button.label = "Pause" if self.clock.playing else "Play"
+            button.icon = "player-pause" if self.clock.playing else "player-play"
+            self.dirty = True
+
+    def seek(self, t: float) -> None:
+        with self.lock:
+            self.clock.seek(t)
+            self.dirty = True
+
+    def set_speed(self, speed: float) -> None:
+        with self.lock:
+            self.clock.set_speed(speed)
+
+    def set_layout(self, layout: Layout) -> None:
+        with self.lock, self.client.atomic():
+            self.scene.set_layout(layout)
+
+    def describe(self) -> dict[str, Any]:
+        return {
+            "client_id": int(self.client.client_id),
+            "kind": self.kind,
+            "id": self.id,
+            "playing": self.clock.playing,
+            "time": self.clock.time(),
+            "speed": self.clock.speed,
+            "layout": self.scene.layout,
+            "frames": self.stats.frames,
+            "fps": self.stats.fps(),
+        }
+
+
+def _phase_text(t: float, phases: dict[str, str]) -> str:
+    std, opt = phases["standard"], phases["optimized"]
+    return (
+        f"**t = {t:.2f} s**  \n"
+        f"standard: **{std}** ({PHASES[std]})  \n"
+        f"optimised: **{opt}** ({PHASES[opt]})"
+    )
+
+
+class ViewerServer:
+    """A viser server that shows each tab the comparison its URL names.
+
+    Args:
+        prepare: ``(kind, id) -> PreparedComparison`` (e.g. a ``PreparedCache`` over the
+            service's database).
+        host: interface to bind (loopback by default: viser has no authentication).
+        port: port to ask for; viser moves to the next free one when it is busy.
+        fps: playback updates per second.
+        autoplay: start playing as soon as a tab connects.
+    """
+
+    def __init__(
+        self,
+        prepare: Prepare,
+        *,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        fps: float = 50.0,
+        autoplay: bool = True,
+    ) -> None:
+        self.prepare = prepare
+        self.host = host
+        self.requested_port = port
+        self.autoplay = autoplay
+        self.player = Player(fps)
+        self._server: Any = None
+        self._sessions: dict[int, ViewerSession] = {}
+        self._lock = threading.Lock()
+
+    # lifecycle ---------------------------------------------------------------------------
+
+    def start(self) -> int:
+        """Start serving; returns the port actually bound."""
+        import viser
+
+        if self._server is not None:
+            return self.port
+        server = viser.ViserServer(
+            host=self.host, port=self.requested_port, label="BioPlan viewer", verbose=False
+        )
+        server.gui.configure_theme(
+            control_layout="floating",
+            control_width="medium",
+            show_logo=False,
+            show_share_button=False,
+            brand_color=(37, 99, 235),
+        )
+        server.scene.set_up_direction("+z")
+        server.on_client_connect(self._on_connect)
+        server.on_client_disconnect(self._on_disconnect)
+        self._server = server
+        self.player.start()
+        port = self.port
+        if port != self.requested_port:
+            logger.warning("viewer port %d was busy; viser took %d", self.requested_port, port)
+        return port
+
+    def stop(self) -> None:
+        self.player.stop()
+        if self._server is not None:
+            self._server.stop()
+            self._server = None
+        with self._lock:
+            self._sessions.clear()
+
+    @property
+    def running(self) -> bool:
+        return self._server is not None
+
+    @property
+    def port(self) -> int:
+        if self._server is None:
+            raise RuntimeError("the viewer is not running")
+        return int(self._server.get_port())
+
+    @property
+    def url(self) -> str:
+        return f"http://{_url_host(self.host)}:{self.port}"
+
+    def client_url(self, kind: str, result_id: int) -> str:
+        """The iframe address that shows comparison ``kind``/``result_id``."""
+        host = _url_host(self.host)
+        return (
+            f"http://{host}:{self.port}/?websocket=ws://{host}:{self.port}/bioplan/"
+            f"{kind}/{int(result_id)}&hideViserLogo"
+        )
+
+    def sessions(self) -> list[dict[str, Any]]:
+        with self._lock:
+            sessions = list(self._sessions.values())
+        return [s.describe() for s in sessions]
+
+    # clients -----------------------------------------------------------------------------
+
+    def _on_connect(self, client: Any) -> None:
+        target = parse_client_path(_handshake_path(self._server, client.client_id))
+        if target is None:
+            client.gui.add_markdown(
+                "**No comparison selected.** Open one from the dashboard's Compare page."
+            )
+            return
+        kind, result_id = target
+        try:
+            prepared = self.prepare(kind, result_id)
+        except LookupError as exc:  # unknown, unfinished or deleted
+            client.gui.add_markdown(f"**Cannot show {kind} {result_id}:** {exc}")
+            return
+        except Exception:
+            logger.exception("viewer cannot prepare %s %d", kind, result_id)
+            client.gui.add_markdown(f"**Cannot show {kind} {result_id}** (see the server log).")
+            return
+        session = self._build_session(client, kind, result_id, prepared)
+        with self._lock:
+            self._sessions[client.client_id] = session
+        self.player.add(client.client_id, session.tick)
+
+    def _on_disconnect(self, client: Any) -> None:
+        self.player.remove(client.client_id)
+        with self._lock:
+            self._sessions.pop(client.client_id, None)
+
+    def _build_session(
+        self, client: Any, kind: str, result_id: int, prepared: PreparedComparison
+    ) -> ViewerSession:
+        c = prepared.comparison
+        with client.atomic():
+            scene = ComparisonScene(client, prepared)
+            position, look_at = scene.camera()
+            client.camera.up_direction = (0.0, 0.0, 1.0)
+            client.camera.position = position
+            client.camera.look_at = look_at
+            gui = client.gui
+            gui.add_markdown(f"**{c.title}**  \nblue: standard quintic · amber: bio-inspired")
+            play = gui.add_button("Pause" if self.autoplay else "Play", icon="player-pause")
+            speed = gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x")
+            time_slider = gui.add_slider(
+                "Time [s]", min=0.0, max=round(c.duration, 3), step=0.01, initial_value=0.0
+            )
+            layout = gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="ghost overlay")
+            phase = gui.add_markdown(_phase_text(0.0, {label: "A" for label in LABELS}))
+            plot = gui.add_uplot(
+                power_plot(c, 0.0),
+                (
+                    {"label": "t [s]"},
+                    {"label": "standard [W]", "stroke": "#2563eb", "width": 2},
+                    {"label": "optimised [W]", "stroke": "#ea8c14", "width": 2},
+                    {"label": "now", "stroke": "#444", "width": 1, "scale": "cursor"},
+                ),
+                title="Mechanical power Σ|τ·ω| [W]",
+                scales={"x": {"time": False}, "cursor": {"range": (0.0, 1.0)}},
+                axes=({}, {"size": 44}),
+                aspect=1.6,
+                legend={"show": True},
+            )
+        clock = PlaybackClock(c.duration)
+        session = ViewerSession(
+            client=client,
+            kind=kind,
+            id=result_id,
+            scene=scene,
+            clock=clock,
+            gui={"play": play, "time": time_slider, "phase": phase, "plot": plot},
+        )
+
+        def on_play(_: Any) -> None:
+            session.toggle()
+
+        def on_speed(_: Any) -> None:
+            session.set_speed(_SPEED_NAMES[speed.value])
+
+        def on_time(event: Any) -> None:
+            if event.client is None:
+                return  # our own update from the playback loop
+            with session.lock:
+                session.clock.pause()
+                play.label, play.icon = "Play", "player-play"
+            session.seek(float(time_slider.value))
+
+        def on_layout(_: Any) -> None:
+            session.set_layout(_LAYOUT_NAMES[layout.value])
+
+        play.on_click(on_play)
+        speed.on_update(on_speed)
+        time_slider.on_update(on_time)
+        layout.on_update(on_layout)
+        if self.autoplay:
+            clock.play()
+        else:
+            play.icon = "player-play"
+        return session
+
+
+def _url_host(host: str) -> str:
+    if host in ("0.0.0.0", "::", ""):
+        return "127.0.0.1"
+    return f"[{host}]" if ":" in host else host

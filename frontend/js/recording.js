@@ -1,0 +1,357 @@
+// Recording detail: raw EMG and envelopes with onsets, arm angles and velocities, lifts with
+// their A/B/C phases, the human template. Zooming fetches the window again (server-side
+// min/max downsampling), so long recordings stay light.
+
+import { api, followJob, qs } from "./api.js";
+import { PHASE_FILL, draw, layout, plotly } from "./plots.js";
+import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
+
+const POINTS = 1600;
+const MUSCLE_COLORS = { deltoid: "#8250df", triceps: "#0a7ea4", biceps: "#cf222e", forearm: "#1a7f37" };
+const EXTRA_COLORS = ["#6e7781", "#bc4c00", "#116329", "#953800", "#0550ae"];
+
+function emgScale(unit) {
+  // Readers deliver EMG in volts; microvolts read better.
+  return unit === "V" ? { k: 1e6, unit: "µV" } : { k: 1, unit: unit || "" };
+}
+
+function muscleColor(name, i) {
+  return MUSCLE_COLORS[name] || EXTRA_COLORS[i % EXTRA_COLORS.length];
+}
+
+/** Phase rectangles of every lift (yref paper: across all subplots). */
+function liftShapes(lifts) {
+  const shapes = [];
+  for (const lift of lifts) {
+    if (lift.phases.length) {
+      for (const p of lift.phases) {
+        shapes.push({ type: "rect", xref: "x", yref: "paper", x0: p.start_s, x1: p.end_s, y0: 0, y1: 1, fillcolor: PHASE_FILL[p.name] || "rgba(0,0,0,0.04)", line: { width: 0 }, layer: "below" });
+      }
+    } else {
+      shapes.push({ type: "rect", xref: "x", yref: "paper", x0: lift.start_s, x1: lift.top_s, y0: 0, y1: 1, fillcolor: "rgba(37,99,235,0.06)", line: { width: 0 }, layer: "below" });
+    }
+    shapes.push({ type: "line", xref: "x", yref: "paper", x0: lift.top_s, x1: lift.top_s, y0: 0, y1: 1, line: { color: "#9ca3af", width: 1, dash: "dot" } });
+  }
+  return shapes;
+}
+
+export async function render(main, [idText]) {
+  const id = Number(idText);
+  const state = { window: [null, null], analysis: null, emgChannels: [], stop: [] };
+  let rec;
+  try {
+    rec = await api(`/api/recordings/${id}`);
+  } catch (err) {
+    main.append(banner("error", messageOf(err)), h("a", { href: "#/recordings" }, "← All recordings"));
+    return;
+  }
+  const channels = rec.files.flatMap((f) => f.channels.map((c) => ({ ...c, file: f.original_name })));
+  const allEmg = channels.filter((c) => c.kind === "emg");
+  // Shown at first: the channels mapped to the method's four sites (or the first six).
+  const mapped = allEmg.filter((c) => c.site);
+  state.emgChannels = mapped.length ? mapped : allEmg.slice(0, 6);
+  const duration = Math.max(0, ...channels.map((c) => c.start + c.duration));
+
+  // ---- header and files -----------------------------------------------------------------
+  const title = [rec.subject, rec.task].filter(Boolean).join(" · ") || rec.file_names.join(", ");
+  const analysisStatus = h("div", { id: "analysis-status" });
+  const analyseButton = h("button", { type: "button", onclick: () => runAnalysis() }, "Run analysis job");
+  main.append(
+    h("div", { class: "page-head" },
+      h("div", {},
+        h("a", { href: "#/recordings", class: "small" }, "← All recordings"),
+        h("h1", {}, `Recording #${rec.id}: ${title}`),
+        h("div", { class: "muted small" }, `${rec.load_kg !== null ? `${rec.load_kg} kg · ` : ""}${fmt(duration, 4)} s · uploaded ${when(rec.created_at)}`),
+      ),
+      h("div", { class: "actions" }, analyseButton),
+    ),
+    analysisStatus,
+  );
+  if (rec.notes) main.append(h("p", { class: "muted" }, rec.notes));
+
+  const fileRows = channels.map((c) =>
+    h("tr", {},
+      h("td", { class: "mono" }, c.file),
+      h("td", {}, c.name),
+      h("td", {}, c.kind),
+      h("td", {}, c.site || h("span", { class: "muted" }, "–")),
+      h("td", { class: "num" }, `${fmt(c.rate)} Hz`),
+      h("td", { class: "num" }, c.n_samples.toLocaleString("en-US")),
+      h("td", { class: "num" }, `${fmt(c.duration)} s`),
+      h("td", {}, c.unit),
+    ));
+  const filesCard = h("details", { class: "card" },
+    h("summary", {}, `${rec.files.length} file(s), ${channels.length} channel(s): ${rec.files.map((f) => `${f.original_name} (${f.format}, ${bytes(f.size)})`).join(", ")}`),
+    h("div", { class: "table-wrap", style: "margin-top:8px" },
+      h("table", {}, h("thead", {}, h("tr", {}, ["File", "Channel", "Kind", "Site", "Rate", "Samples", "Duration", "Unit"].map((c, i) => h("th", { class: [4, 5, 6].includes(i) ? "num" : "" }, c)))), h("tbody", {}, fileRows)),
+    ),
+  );
+  main.append(filesCard);
+
+  // ---- plot cards --------------------------------------------------------------------
+  const emgDiv = h("div", { class: "plot tall", id: "emg-plot" });
+  const angleDiv = h("div", { class: "plot", id: "angle-plot" });
+  const templateDiv = h("div", { class: "plot", id: "template-plot" });
+  const analysisNote = h("div", { id: "analysis-note" }, h("p", { class: "muted small" }, "Analysing the recording (envelopes, onsets, angles, lifts)…"));
+  const liftsBox = h("div", { id: "lifts" });
+  const templateFacts = h("div", { class: "facts", id: "template-facts" });
+  const legend = h("div", { class: "legend-inline" },
+    h("span", {}, h("span", { class: "swatch sw-a" }), "A high-load capacity"),
+    h("span", {}, h("span", { class: "swatch sw-b" }), "B weakest load"),
+    h("span", {}, h("span", { class: "swatch sw-c" }), "C deceleration"),
+    h("span", {}, "· drag to zoom, double-click to reset; zooming loads the window at full detail"),
+  );
+  const picker = h("details", { class: "small", id: "channel-picker" },
+    h("summary", {}, `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`),
+    h("div", { class: "row", style: "margin-top:6px" }, allEmg.map((c) =>
+      h("label", { class: "nowrap", style: "font-weight:400; margin:0 10px 0 0" },
+        h("input", { type: "checkbox", checked: state.emgChannels.includes(c), dataset: { channel: String(c.id) }, onchange: (e) => {
+          state.emgChannels = allEmg.filter((x) => x === c ? e.target.checked : state.emgChannels.includes(x));
+          picker.querySelector("summary").textContent = `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`;
+          reload();
+        } }),
+        ` ${c.name}${c.site ? ` (${c.site})` : ""}`))),
+  );
+  main.append(
+    h("section", { class: "card" }, h("h2", {}, "EMG: raw signal and envelope, onsets, lifts"), legend, allEmg.length > state.emgChannels.length || allEmg.length > 1 ? picker : null, analysisNote, emgDiv),
+    h("section", { class: "card" }, h("h2", {}, "Shoulder and elbow flexion"), angleDiv),
+    h("div", { class: "grid-2" },
+      h("section", { class: "card" }, h("h2", {}, "Human template"), templateFacts, templateDiv),
+      h("section", { class: "card" }, h("h2", {}, "Lifts and phases"), liftsBox),
+    ),
+  );
+  if (!allEmg.length) emgDiv.replaceWith(h("p", { class: "muted" }, "This recording has no EMG channels."));
+
+  // ---- data ----------------------------------------------------------------------------
+  async function fetchRaw() {
+    if (!state.emgChannels.length) return null;
+    const [t0, t1] = state.window;
+    return api(`/api/recordings/${id}/signals${qs({ channel: state.emgChannels.map((c) => c.id), points: POINTS, t0, t1 })}`);
+  }
+  async function fetchAnalysis() {
+    const [t0, t1] = state.window;
+    return api(`/api/viewer/recordings/${id}/analysis${qs({ points: POINTS, t0, t1 })}`);
+  }
+
+  function range() {
+    const [t0, t1] = state.window;
+    return t0 === null ? undefined : [t0, t1];
+  }
+
+  async function drawEmg(raw, analysis) {
+    if (!raw) {
+      if (allEmg.length && window.Plotly) window.Plotly.purge(emgDiv);
+      return;
+    }
+    const n = raw.channels.length;
+    const traces = [];
+    const shapes = analysis ? liftShapes(analysis.lifts) : [];
+    const lay = layout({ height: Math.max(260, 150 * n + 60), showlegend: true, uirevision: "emg", hovermode: "x", margin: { l: 78, r: 12, t: 30, b: 40 } });
+    const gap = 0.04;
+    const envByChannel = new Map((analysis ? analysis.emg : []).map((e) => [e.channel, e]));
+    raw.channels.forEach((ch, i) => {
+      const axis = i === 0 ? "" : String(i + 1);
+      const info = state.emgChannels.find((c) => c.id === ch.channel_id) || {};
+      const scale = emgScale(ch.unit);
+      const s = ch.series[0];
+      const env = envByChannel.get(ch.name);
+      const label = info.site || (env ? env.muscle : ch.name);
+      const color = muscleColor(label, i);
+      traces.push({ x: s.t, y: s.y.map((v) => (v === null ? null : v * scale.k)), type: "scattergl", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, xaxis: `x${axis}`, yaxis: `y${axis}`, showlegend: false, hoverinfo: "skip" });
+      if (env) {
+        const es = emgScale(env.unit);
+        traces.push({ x: env.envelope.t, y: env.envelope.y.map((v) => (v === null ? null : v * es.k)), type: "scattergl", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, xaxis: `x${axis}`, yaxis: `y${axis}` });
+        for (const [on, off] of env.onsets) {
+          shapes.push({ type: "rect", xref: `x${axis}`, yref: `y${axis} domain`, x0: on, x1: off, y0: 0.9, y1: 1, fillcolor: color, opacity: 0.45, line: { width: 0 } });
+        }
+      }
+      const top = 1 - i / n;
+      const bottom = 1 - (i + 1) / n;
+      lay[`yaxis${axis}`] = { domain: [bottom + gap / 2, top - gap / 2], title: { text: `${ch.name.length > 14 ? `${ch.name.slice(0, 13)}…` : ch.name}<br>${label !== ch.name ? `${label} ` : ""}[${scale.unit}]`, font: { size: 10.5 } }, gridcolor: "#eceff3", zeroline: false };
+      lay[`xaxis${axis}`] = { anchor: `y${axis}`, matches: i === 0 ? undefined : "x", showticklabels: i === n - 1, gridcolor: "#eceff3", range: range(), title: i === n - 1 ? { text: "t [s]" } : undefined };
+    });
+    lay.shapes = shapes;
+    await draw(emgDiv, traces, lay);
+    hook(emgDiv);
+  }
+
+  async function drawAngles(analysis) {
+    if (!analysis || !analysis.angles) {
+      clear(angleDiv).append(h("p", { class: "muted" }, analysis ? "No shoulder or elbow angle in this recording (EMG only): lifts come from EMG bursts." : "Waiting for the analysis…"));
+      return;
+    }
+    const a = analysis.angles;
+    const line = (s, name, color, axis, dash) => ({ x: s.t, y: s.y, type: "scattergl", mode: "lines", name, line: { color, width: 2, dash }, xaxis: "x", yaxis: axis });
+    const traces = [
+      line(a.elbow_deg, "elbow flexion", "#cf222e", "y"),
+      line(a.shoulder_deg, "shoulder flexion", "#8250df", "y"),
+      line(a.elbow_velocity_deg_s, "elbow velocity", "#cf222e", "y2", "dot"),
+      line(a.shoulder_velocity_deg_s, "shoulder velocity", "#8250df", "y2", "dot"),
+    ];
+    const lay = layout({ height: 400, uirevision: "angles", hovermode: "x" });
+    lay.xaxis = { anchor: "y2", range: range(), title: { text: "t [s]" }, gridcolor: "#eceff3" };
+    lay.yaxis = { domain: [0.53, 1], title: { text: "angle [deg]" }, gridcolor: "#eceff3" };
+    lay.yaxis2 = { domain: [0, 0.47], title: { text: "velocity [deg/s]" }, gridcolor: "#eceff3", zerolinecolor: "#c9ced6" };
+    lay.shapes = liftShapes(analysis.lifts);
+    if (!angleDiv.on) clear(angleDiv);
+    await draw(angleDiv, traces, lay);
+    hook(angleDiv);
+  }
+
+  async function drawTemplate(template) {
+    const T = template;
+    clear(templateFacts).append(
+      fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}° ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`),
+      fact("lifts", String(T.n_lifts)),
+      fact("peak at", T.peak_velocity_time_fraction === null ? "–" : `${Math.round(100 * T.peak_velocity_time_fraction)} % of the lift`),
+      fact("activation order", (T.activation_order || []).join(" → ") || "–"),
+    );
+    if (!T.normalized_time || !T.normalized_time.length) {
+      clear(templateDiv).append(h("p", { class: "muted small" }, `${T.source}: no kinematic profile; the planner uses the paper's defaults (velocity peak at 62°).`));
+      return;
+    }
+    const x = T.normalized_time.map((v) => 100 * v);
+    const band = (mean, sd, color, name, axis) => [
+      { x, y: mean.map((m, i) => m + sd[i]), mode: "lines", line: { width: 0 }, showlegend: false, hoverinfo: "skip", yaxis: axis },
+      { x, y: mean.map((m, i) => m - sd[i]), mode: "lines", line: { width: 0 }, fill: "tonexty", fillcolor: color.replace("1)", "0.18)"), name: `${name} ± SD`, hoverinfo: "skip", yaxis: axis },
+      { x, y: mean, mode: "lines", line: { color, width: 2 }, name: `${name} (mean)`, yaxis: axis },
+    ];
+    const traces = [
+      ...band(T.velocity_mean, T.velocity_sd, "rgba(207,34,46,1)", "elbow velocity", "y"),
+      ...band(T.acceleration_mean, T.acceleration_sd, "rgba(37,99,235,1)", "elbow acceleration", "y2"),
+    ];
+    const lay = layout({ height: 400, hovermode: "x", legend: { orientation: "h", y: -0.22, x: 0 }, margin: { l: 56, r: 12, t: 10, b: 40 } });
+    lay.xaxis = { title: { text: "lift [% of the concentric part]", standoff: 4 }, anchor: "y2", gridcolor: "#eceff3" };
+    lay.yaxis = { domain: [0.54, 1], title: { text: "velocity / peak" }, gridcolor: "#eceff3" };
+    lay.yaxis2 = { domain: [0, 0.46], title: { text: "accel. / peak" }, gridcolor: "#eceff3" };
+    clear(templateDiv);
+    await draw(templateDiv, traces, lay);
+  }
+
+  function hook(div) {
+    // Zoom on either plot loads that window at full detail into both.
+    if (div.dataset.hooked) return;
+    div.dataset.hooked = "1";
+    div.on("plotly_relayout", onRelayout);
+  }
+
+  function fact(k, v) {
+    return h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v" }, v));
+  }
+
+  function drawLifts(analysis) {
+    clear(liftsBox);
+    if (!analysis.lifts.length) {
+      liftsBox.append(h("p", { class: "muted" }, "No lift found."));
+      return;
+    }
+    const dur = (lift, name) => {
+      const p = lift.phases.find((x) => x.name === name && x.part !== "eccentric");
+      return p ? fmt(p.end_s - p.start_s, 3) : "–";
+    };
+    liftsBox.append(
+      h("div", { class: "table-wrap" },
+        h("table", { id: "lifts-table" },
+          h("thead", {}, h("tr", {}, ["#", "start [s]", "top [s]", "end [s]", "A [s]", "B [s]", "C [s]", "v-peak [deg]", "onset order"].map((c, i) => h("th", { class: i > 0 && i < 8 ? "num" : "" }, c)))),
+          h("tbody", {}, analysis.lifts.map((l) =>
+            h("tr", {},
+              h("td", {}, `${l.index}`, h("div", { class: "small muted" }, l.source)),
+              h("td", { class: "num" }, fmt(l.start_s)),
+              h("td", { class: "num" }, fmt(l.top_s)),
+              h("td", { class: "num" }, fmt(l.end_s)),
+              h("td", { class: "num" }, dur(l, "A")),
+              h("td", { class: "num" }, dur(l, "B")),
+              h("td", { class: "num" }, dur(l, "C")),
+              h("td", { class: "num" }, fmt(l.peak_velocity_angle_deg, 3)),
+              h("td", { class: "small" }, l.activation_order.join(" → ")),
+            ))),
+        ),
+      ),
+    );
+    if (analysis.warnings.length) liftsBox.append(h("details", { class: "small" }, h("summary", {}, `${analysis.warnings.length} note(s) from the analysis`), h("ul", {}, analysis.warnings.map((w) => h("li", {}, w)))));
+  }
+
+  let analysisFailed = false;
+  async function load({ initial = false } = {}) {
+    const rawPromise = fetchRaw();
+    const analysisPromise = analysisFailed ? Promise.resolve(null) : fetchAnalysis().catch((err) => {
+      analysisFailed = true;
+      clear(analysisNote).append(banner("warn", `The analysis of this recording failed: ${messageOf(err)}`));
+      clear(angleDiv).append(h("p", { class: "muted" }, "No analysis: raw signals only."));
+      return null;
+    });
+    // Raw signals first: they arrive quickly even for long recordings.
+    const raw = await rawPromise;
+    await drawEmg(raw, state.analysis);
+    const analysis = await analysisPromise;
+    if (!analysis) return;
+    state.analysis = analysis;
+    clear(analysisNote);
+    await drawEmg(raw, analysis);
+    await drawAngles(analysis);
+    if (initial) {
+      await drawTemplate(analysis.template);
+      drawLifts(analysis);
+    }
+  }
+
+  const reload = debounce(() => load().catch((err) => clear(analysisNote).append(banner("error", messageOf(err)))), 200);
+  function onRelayout(ev) {
+    const keys = Object.keys(ev);
+    if (keys.some((k) => /^xaxis\d*\.autorange$/.test(k))) {
+      if (state.window[0] === null) return;
+      state.window = [null, null];
+      reload();
+      return;
+    }
+    const k0 = keys.find((k) => /^xaxis\d*\.range\[0\]$/.test(k));
+    if (!k0) return;
+    const t0 = Number(ev[k0]);
+    const t1 = Number(ev[k0.replace("[0]", "[1]")]);
+    if (!(t1 > t0)) return;
+    state.window = [Math.max(0, t0), t1];
+    reload();
+  }
+
+  async function runAnalysis() {
+    analyseButton.disabled = true;
+    clear(analysisStatus);
+    const bar = h("div", {});
+    const text = h("span", { class: "small" }, "queued");
+    analysisStatus.append(h("div", { class: "card" }, h("div", { class: "row" }, h("strong", {}, "Analysis job "), text), h("div", { class: "progress" }, bar)));
+    try {
+      const job = await api("/api/analyses", { method: "POST", body: { recording_id: id } });
+      const follow = followJob(job, (j) => {
+        bar.style.width = `${Math.round(100 * j.progress)}%`;
+        text.textContent = `#${j.id} ${j.state}: ${j.error || j.message}`;
+      });
+      state.stop.push(follow.stop);
+      const final = await follow.done;
+      if (final.state === "succeeded") {
+        bar.parentElement.classList.add("done");
+        text.append(" · ", h("a", { href: `#/plan?analysis=${final.id}` }, "plan with this template"));
+      } else bar.parentElement.classList.add("failed");
+    } catch (err) {
+      clear(analysisStatus).append(banner("error", messageOf(err)));
+    } finally {
+      analyseButton.disabled = false;
+    }
+  }
+
+  // Analyses already run on this recording.
+  api(`/api/analyses${qs({ state: "succeeded", limit: 200 })}`).then((page) => {
+    const mine = page.items.filter((a) => a.recording_id === id);
+    if (mine.length) {
+      analysisStatus.append(h("p", { class: "small muted" }, "Finished analyses: ", mine.map((a, i) => [i ? ", " : "", h("a", { href: `#/plan?analysis=${a.id}` }, `#${a.id}`)]), " (use as planning template)"));
+    }
+  }).catch(() => {});
+
+  await plotly();
+  try {
+    await load({ initial: true });
+  } catch (err) {
+    main.append(banner("error", messageOf(err)));
+  }
+  return () => state.stop.forEach((f) => f());
+}
+

@@ -1,0 +1,240 @@
+// Recordings: drag-and-drop upload of a session (one or more files) and the list.
+
+import { api, qs, upload } from "./api.js";
+import { banner, bytes, clear, debounce, h, messageOf, when } from "./ui.js";
+
+const SITES = ["deltoid", "triceps", "biceps", "forearm"];
+
+export function render(main) {
+  const files = []; // {file, li, status}
+  let busy = false;
+
+  // ---- upload card --------------------------------------------------------------------
+  const input = h("input", { type: "file", multiple: true, hidden: true, id: "file-input", "aria-label": "Recording files" });
+  const drop = h(
+    "div",
+    { class: "drop", id: "drop", tabindex: "0", role: "button", "aria-controls": "file-input" },
+    h("strong", {}, "Drop recording files here"),
+    h("div", { class: "small" }, "or click to choose · CSV, Noraxon, Vicon, C3D, EDF, MAT, MediaPipe, OpenSim"),
+  );
+  const list = h("ul", { class: "files", id: "upload-files" });
+  const topError = h("div", { id: "upload-error" });
+  const bar = h("div", {});
+  const progress = h("div", { class: "progress", hidden: true, id: "upload-progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100" }, bar);
+  const subject = h("input", { id: "subject", maxlength: "200", placeholder: "e.g. S01" });
+  const task = h("input", { id: "task", maxlength: "200", placeholder: "e.g. dumbbell curl" });
+  const load = h("input", { id: "load", type: "number", min: "0", max: "500", step: "0.1", placeholder: "kg" });
+  const notes = h("textarea", { id: "notes", rows: "2", maxlength: "10000" });
+  const rate = h("input", { id: "rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
+  const emgRate = h("input", { id: "emg-rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
+  const maps = h("div", { id: "muscle-map" });
+  const addMap = (label = "", site = "biceps") => {
+    const row = h(
+      "div",
+      { class: "map-row" },
+      h("input", { placeholder: "channel label, e.g. Biceps.EMG4", value: label, "aria-label": "Channel label" }),
+      h("select", { "aria-label": "EMG site" }, SITES.map((s) => h("option", { value: s, selected: s === site }, s))),
+      h("button", { type: "button", class: "small", title: "Remove", onclick: () => row.remove() }, "×"),
+    );
+    maps.append(row);
+  };
+  const submit = h("button", { class: "primary", type: "submit", id: "upload-button", disabled: true }, "Upload");
+
+  function setBusy(value) {
+    busy = value;
+    submit.disabled = value || files.length === 0;
+  }
+
+  function addFiles(fileList) {
+    if (busy) return;
+    for (const file of fileList) {
+      if (files.some((f) => f.file.name === file.name && f.file.size === file.size)) continue;
+      const status = h("div", {});
+      const li = h(
+        "li",
+        { dataset: { name: file.name } },
+        h("div", { class: "row" },
+          h("span", { class: "name" }, file.name),
+          h("span", { class: "meta" }, bytes(file.size)),
+          h("button", { type: "button", class: "small", style: "margin-left:auto", title: "Remove", onclick: () => {
+            if (busy) return;
+            files.splice(files.findIndex((f) => f.li === li), 1);
+            li.remove();
+            setBusy(false);
+          } }, "×"),
+        ),
+        status,
+      );
+      files.push({ file, li, status });
+      list.append(li);
+    }
+    setBusy(false);
+  }
+
+  input.addEventListener("change", () => {
+    addFiles(input.files);
+    input.value = "";
+  });
+  drop.addEventListener("click", () => input.click());
+  drop.addEventListener("keydown", (e) => {
+    if (e.key === "Enter" || e.key === " ") {
+      e.preventDefault();
+      input.click();
+    }
+  });
+  drop.addEventListener("dragover", (e) => {
+    e.preventDefault();
+    drop.classList.add("over");
+  });
+  drop.addEventListener("dragleave", () => drop.classList.remove("over"));
+  drop.addEventListener("drop", (e) => {
+    e.preventDefault();
+    drop.classList.remove("over");
+    addFiles(e.dataTransfer.files);
+  });
+
+  function muscleMap() {
+    const out = {};
+    for (const row of maps.querySelectorAll(".map-row")) {
+      const [labelInput, siteSelect] = row.querySelectorAll("input, select");
+      const label = labelInput.value.trim();
+      if (label) out[label] = siteSelect.value;
+    }
+    return Object.keys(out).length ? JSON.stringify(out) : null;
+  }
+
+  async function onSubmit(e) {
+    e.preventDefault();
+    if (!files.length || busy) return;
+    setBusy(true);
+    clear(topError);
+    files.forEach((f) => clear(f.status));
+    const form = new FormData();
+    files.forEach((f) => form.append("files", f.file, f.file.name));
+    const fields = { subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, rate: rate.value, emg_rate: emgRate.value, muscle_map: muscleMap() };
+    for (const [k, v] of Object.entries(fields)) if (v !== null && String(v).trim() !== "") form.append(k, String(v).trim());
+    progress.hidden = false;
+    progress.className = "progress";
+    bar.style.width = "0%";
+    try {
+      const rec = await upload("/api/recordings", form, (f) => {
+        bar.style.width = `${Math.round(100 * f)}%`;
+        progress.setAttribute("aria-valuenow", String(Math.round(100 * f)));
+      });
+      bar.style.width = "100%";
+      progress.classList.add("done");
+      files.forEach((f) => f.status.append(h("div", { class: "file-ok" }, "stored")));
+      topError.append(banner("info", `Stored as recording #${rec.id}. `), );
+      topError.firstChild.append(h("a", { href: `#/recordings/${rec.id}` }, "Open it"));
+      files.length = 0;
+      setTimeout(() => clear(list), 2500);
+      refresh();
+    } catch (err) {
+      progress.classList.add("failed");
+      bar.style.width = "100%";
+      const problem = err.problem || {};
+      const culprit = problem.file ? files.find((f) => f.file.name === problem.file) : null;
+      if (culprit) {
+        // The server names the file: show its message next to it, the others were not stored.
+        culprit.status.append(h("div", { class: "file-error", role: "alert" }, messageOf(err)));
+        files.filter((f) => f !== culprit).forEach((f) => f.status.append(h("div", { class: "meta" }, "not stored: a session is stored whole or not at all")));
+      } else {
+        topError.append(banner("error", messageOf(err)));
+      }
+    } finally {
+      setBusy(false);
+    }
+  }
+
+  const uploadCard = h(
+    "form",
+    { class: "card", id: "upload-form", onsubmit: onSubmit, novalidate: true },
+    h("h2", {}, "Upload a recording session"),
+    drop,
+    input,
+    list,
+    progress,
+    topError,
+    h("div", { class: "fields" },
+      h("div", {}, h("label", { for: "subject" }, "Subject"), subject),
+      h("div", {}, h("label", { for: "task" }, "Task"), task),
+      h("div", {}, h("label", { for: "load" }, "Load ", h("span", { class: "hint" }, "[kg]")), load),
+      h("div", { class: "wide" }, h("label", { for: "notes" }, "Notes"), notes),
+    ),
+    h("details", {},
+      h("summary", {}, "Muscle mapping and rate overrides"),
+      h("p", { class: "small muted" }, "Map channel labels to the four EMG sites when the file's names are not recognised; override a sampling rate the file states wrongly."),
+      maps,
+      h("button", { type: "button", class: "small", style: "margin-top:6px", onclick: () => addMap() }, "+ mapping"),
+      h("div", { class: "fields" },
+        h("div", {}, h("label", { for: "rate" }, "Sampling rate ", h("span", { class: "hint" }, "[Hz]")), rate),
+        h("div", {}, h("label", { for: "emg-rate" }, "EMG rate ", h("span", { class: "hint" }, "[Hz]")), emgRate),
+      ),
+    ),
+    h("div", { class: "row", style: "margin-top:14px" }, submit, h("span", { class: "small muted" }, "All files of a session are stored together.")),
+  );
+
+  // ---- list card ----------------------------------------------------------------------
+  const search = h("input", { type: "search", id: "search", placeholder: "Search subject, task, notes, file names", "aria-label": "Search recordings" });
+  const tbody = h("tbody", { id: "recordings-body" });
+  const total = h("span", { class: "muted small" });
+  const listError = h("div", {});
+  const listCard = h(
+    "section",
+    { class: "card" },
+    h("div", { class: "page-head" }, h("h2", {}, "Recordings"), total),
+    search,
+    listError,
+    h("div", { class: "table-wrap", style: "margin-top:10px" },
+      h("table", { id: "recordings-table" },
+        h("thead", {}, h("tr", {}, ["#", "Subject", "Task", "Load", "Files", "Created", ""].map((c, i) => h("th", { class: i === 3 ? "num" : "" }, c)))),
+        tbody,
+      ),
+    ),
+  );
+
+  async function remove(rec) {
+    if (!confirm(`Delete recording #${rec.id} (${rec.file_names.join(", ")})? Its files are removed too.`)) return;
+    try {
+      await api(`/api/recordings/${rec.id}`, { method: "DELETE" });
+      refresh();
+    } catch (err) {
+      clear(listError).append(banner("error", messageOf(err)));
+    }
+  }
+
+  async function refresh() {
+    try {
+      const page = await api(`/api/recordings${qs({ q: search.value.trim(), limit: 100 })}`);
+      clear(listError);
+      clear(tbody);
+      total.textContent = `${page.total} in all`;
+      if (!page.items.length) {
+        tbody.append(h("tr", {}, h("td", { colspan: "7", class: "muted" }, search.value ? "No recording matches." : "No recordings yet: drop files on the left.")));
+      }
+      for (const rec of page.items) {
+        const open = () => (location.hash = `#/recordings/${rec.id}`);
+        tbody.append(
+          h("tr", { class: "click", dataset: { id: rec.id } },
+            h("td", { class: "mono", onclick: open }, rec.id),
+            h("td", { onclick: open }, rec.subject || h("span", { class: "muted" }, "–")),
+            h("td", { onclick: open }, rec.task || h("span", { class: "muted" }, "–")),
+            h("td", { class: "num", onclick: open }, rec.load_kg === null ? "–" : `${rec.load_kg} kg`),
+            h("td", { onclick: open }, h("div", { class: "mono" }, rec.file_names.join(", ")), h("div", { class: "small muted" }, rec.formats.join(", "))),
+            h("td", { class: "nowrap small", onclick: open }, when(rec.created_at)),
+            h("td", { class: "nowrap" },
+              h("a", { class: "button small", href: `#/recordings/${rec.id}` }, "Open"), " ",
+              h("button", { type: "button", class: "small danger", onclick: () => remove(rec), "aria-label": `Delete recording ${rec.id}` }, "Delete"),
+            ),
+          ),
+        );
+      }
+    } catch (err) {
+      clear(listError).append(banner("error", `The list could not be loaded: ${messageOf(err)}`));
+    }
+  }
+  search.addEventListener("input", debounce(refresh, 250));
+
+  main.append(h("div", { class: "grid-2" }, uploadCard, listCard));
+  refresh();
+}

@@ -1,0 +1,162 @@
+"""The comparison scene: built once, then only posed; geometry checked against Pinocchio."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from app.viewer.comparison import Comparison
+from app.viewer.scene import GHOST_OPACITY, ComparisonScene, PreparedCache, PreparedComparison
+
+
+class Handle:
+    """Records every property assignment, like a viser scene-node handle would send it."""
+
+    def __init__(self, log: list[tuple[str, str]], name: str, **props: Any) -> None:
+        object.__setattr__(self, "_log", log)
+        object.__setattr__(self, "name", name)
+        for k, v in props.items():
+            object.__setattr__(self, k, v)
+
+    def __setattr__(self, key: str, value: Any) -> None:
+        self._log.append((self.name, key))
+        object.__setattr__(self, key, value)
+
+
+class FakeScene:
+    def __init__(self) -> None:
+        self.nodes: dict[str, Handle] = {}
+        self.updates: list[tuple[str, str]] = []
+
+    def _add(self, name: str, **props: Any) -> Handle:
+        assert name not in self.nodes, f"node {name} added twice"
+        handle = Handle(self.updates, name, **props)
+        self.nodes[name] = handle
+        return handle
+
+    def __getattr__(self, method: str) -> Any:
+        if not method.startswith("add_"):
+            raise AttributeError(method)
+
+        def add(name: str, *args: Any, **props: Any) -> Handle:
+            props.setdefault("visible", True)
+            return self._add(name, kind=method, args=args, **props)
+
+        return add
+
+
+class FakeTarget:
+    def __init__(self) -> None:
+        self.scene = FakeScene()
+
+
+@pytest.fixture(scope="module")
+def prepared(plan_comparison: Comparison) -> PreparedComparison:
+    return PreparedComparison(plan_comparison)
+
+
+def test_payload_path_matches_pinocchio(prepared: PreparedComparison) -> None:
+    import pinocchio as pin
+
+    from app.planning.robots import load_robot
+
+    c = prepared.comparison
+    robot = load_robot(c.robot)
+    model = pin.buildModelFromUrdf(str(robot.urdf_path))
+    data = model.createData()
+    frame = model.getFrameId(c.payload_body)
+    for i in (0, 250, 500, 999):
+        pin.framesForwardKinematics(model, data, c.q["optimized"][i])
+        expected = data.oMf[frame].act(c.payload_com)
+        np.testing.assert_allclose(prepared.payload_path["optimized"][i], expected, atol=1e-12)
+    assert 0.3 < prepared.reach < 1.2  # upper arm 0.495 m + forearm 0.45 m + wrist
+
+
+def test_only_moving_links_form_the_ghost(prepared: PreparedComparison) -> None:
+    # The curl turns J2 and J3 only: the pedestal and turret stay put.
+    assert {"pedestal", "turret"}.isdisjoint(prepared.moving_links)
+    assert {"upper_arm", "forearm", "flange"} <= prepared.moving_links
+
+
+def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -> None:
+    target = FakeTarget()
+    scene = ComparisonScene(target, prepared)
+    nodes = dict(target.scene.nodes)
+    joints = [j.name for j in prepared.chain.joints]
+    for label in ("standard", "optimized"):
+        assert f"/bioplan/{label}/trace" in nodes
+        payload = [n for n in nodes if n.endswith("/flange/payload") and f"/{label}/" in n]
+        assert len(payload) == 1
+        np.testing.assert_allclose(nodes[payload[0]].dimensions, prepared.comparison.payload_size)
+    target.scene.updates.clear()
+    for index in (1, 400, 400, 999, 0):
+        phases = scene.show(index)
+        frames = scene._frames
+        for label in ("standard", "optimized"):
+            for joint, handle in frames[label].items():
+                np.testing.assert_array_equal(handle.wxyz, prepared.joint_wxyz[label][joint][index])
+                np.testing.assert_array_equal(
+                    handle.position, prepared.joint_position[label][joint][index]
+                )
+            assert phases[label] == prepared.comparison.phase_at(label, index)
+    assert target.scene.nodes.keys() == nodes.keys()  # nothing added while playing
+    # Per new index: wxyz and position of every joint frame of both robots, plus the labels'
+    # positions; the repeated index 400 moves no frame.
+    frame_updates = [u for u in target.scene.updates if u[1] in ("wxyz", "position")]
+    per_index = 2 * 2 * len(joints) + 2
+    assert len(frame_updates) == 4 * per_index + 2
+
+
+def test_layouts(prepared: PreparedComparison) -> None:
+    target = FakeTarget()
+    scene = ComparisonScene(target, prepared)
+    nodes = target.scene.nodes
+    ghosts = [
+        h for n, h in nodes.items() if n.startswith("/bioplan/optimized/") and "/visual_" in n
+    ]
+    # The mesh's link is its parent node: /bioplan/optimized/<link path>/visual_k.
+    static = [h for h in ghosts if h.name.split("/")[-2] not in prepared.moving_links]
+    moving = [h for h in ghosts if h not in static]
+    assert len(static) == 4  # pedestal column and plate, turret body and shoulder housing
+    assert all(h.opacity == GHOST_OPACITY for h in ghosts)
+    assert not any(h.visible for h in static) and all(h.visible for h in moving)
+    scene.set_layout("side_by_side")
+    half = 0.5 * prepared.side_offset
+    assert nodes["/bioplan/standard"].position == (0.0, half, 0.0)
+    assert nodes["/bioplan/optimized"].position == (0.0, -half, 0.0)
+    assert all(h.opacity == 1.0 for h in ghosts) and all(h.visible for h in static)
+    with pytest.raises(ValueError, match="unknown layout"):
+        scene.set_layout("stacked")  # type: ignore[arg-type]
+
+
+def test_scene_on_a_real_viser_server(prepared: PreparedComparison) -> None:
+    import viser
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        with server.atomic():
+            scene = ComparisonScene(server, prepared, layout="side_by_side")
+        for i in range(0, 1000, 97):
+            with server.atomic():
+                scene.show(i)
+        assert scene.index == 970
+    finally:
+        server.stop()
+
+
+def test_prepared_cache_reuses_and_evicts(plan_comparison: Comparison) -> None:
+    calls: list[tuple[str, int]] = []
+
+    def loader(kind: str, result_id: int) -> Comparison:
+        calls.append((kind, result_id))
+        return plan_comparison
+
+    cache = PreparedCache(loader, size=2)
+    first = cache("plan", 1)
+    assert cache("plan", 1) is first
+    cache("plan", 2)
+    cache("plan", 3)  # evicts plan 1
+    cache("plan", 1)
+    assert calls == [("plan", 1), ("plan", 2), ("plan", 3), ("plan", 1)]
