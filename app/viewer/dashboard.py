@@ -71,7 +71,7 @@ def viewer_hook(
     *,
     state: DashboardState | None = None,
     start_viewer: bool = True,
-    fps: float = 50.0,
+    fps: float = 60.0,
 ) -> Callable[[Services], Callable[[], None] | None]:
     """A ``StartupHook`` that starts the viewer on the running services.
 
@@ -124,7 +124,7 @@ def attach_dashboard(
     *,
     start_viewer: bool = True,
     frontend_dir: Path | None = None,
-    fps: float = 50.0,
+    fps: float = 60.0,
 ) -> None:
     """Serve the dashboard from ``app``.
 

@@ -16,7 +16,13 @@ from typing import Any
 import numpy as np
 
 from app.viewer.comparison import LABELS, PHASES, Comparison
-from app.viewer.scene import COLORS, ComparisonScene, Layout, PreparedComparison
+from app.viewer.scene import (
+    COLORS,
+    ComparisonScene,
+    Layout,
+    PreparedComparison,
+    configure_lighting,
+)
 
 #: Frames per second of the recorded animation (a 1 s plan records 30 poses).
 EXPORT_FPS = 30.0
@@ -47,6 +53,7 @@ def scene_html(
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
         server.scene.set_up_direction("+z")
+        configure_lighting(server.scene)
         scene = ComparisonScene(server, prepared, layout=layout)
         position, look_at = scene.camera()
         server.initial_camera.position = position

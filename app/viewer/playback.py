@@ -7,9 +7,11 @@ thread for all tabs keeps the cost flat: a tick only assigns precomputed poses.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -109,18 +111,25 @@ def _check_speed(speed: float) -> float:
 
 @dataclass
 class TickStats:
-    """How often a session was redrawn (for the benchmark and ``/api/viewer/stats``)."""
+    """How often a session's poses were sent (``/api/viewer/sessions``, the benchmark).
+
+    ``fps`` is the rate while the robots move: one over the median interval between the last
+    frames (pauses and the hold at the end of a loop do not count).
+    """
 
     frames: int = 0
-    started: float = field(default_factory=time.monotonic)
+    times: deque[float] = field(default_factory=lambda: deque(maxlen=121))
+
+    def frame(self, now: float | None = None) -> None:
+        self.frames += 1
+        self.times.append(time.monotonic() if now is None else now)
 
     def fps(self) -> float:
-        elapsed = time.monotonic() - self.started
-        return self.frames / elapsed if elapsed > 0 else 0.0
-
-    def reset(self) -> None:
-        self.frames = 0
-        self.started = time.monotonic()
+        if len(self.times) < 3:
+            return 0.0
+        gaps = sorted(b - a for a, b in itertools.pairwise(self.times))
+        median = gaps[len(gaps) // 2]
+        return 1.0 / median if median > 0 else 0.0
 
 
 class Player:
@@ -130,7 +139,7 @@ class Player:
         fps: ticks per second.
     """
 
-    def __init__(self, fps: float = 40.0) -> None:
+    def __init__(self, fps: float = 60.0) -> None:
         if not 1.0 <= fps <= 240.0:
             raise ValueError(f"player rate must lie in [1, 240] fps, got {fps}")
         self.period = 1.0 / fps

@@ -101,6 +101,19 @@ class PreparedComparison:
             label: [comparison.phase_at(label, i) for i in range(len(comparison.t))]
             for label in LABELS
         }
+        #: label -> (joint, property) pairs that change along the trajectory: all a playback
+        #: frame sends (a revolute joint's frame turns but never moves its origin).
+        self.animated: dict[str, list[tuple[str, str]]] = {}
+        for label in LABELS:
+            pairs = []
+            for joint in self.joint_wxyz[label]:
+                for prop, values in (
+                    ("wxyz", self.joint_wxyz[label][joint]),
+                    ("position", self.joint_position[label][joint]),
+                ):
+                    if np.ptp(values, axis=0).max() > 1e-12:
+                        pairs.append((joint, prop))
+            self.animated[label] = pairs
 
     @property
     def side_offset(self) -> float:
@@ -142,6 +155,21 @@ def _link_meshes(urdf: Any) -> list[LinkMesh]:
     return meshes
 
 
+def configure_lighting(scene: Any) -> None:
+    """Server-wide lighting: a hemisphere and a key light, no environment map, no shadows.
+
+    The environment map and shadow maps cost a software-rendered WebGL canvas (a browser without
+    a GPU, the headless tests) about four fifths of its frame rate; flat lights keep playback
+    fluid there and look alike on a GPU.
+    """
+    scene.configure_environment_map(None)
+    scene.configure_default_lights(False, cast_shadow=False)
+    scene.add_light_hemisphere(
+        "/lights/sky", sky_color=(255, 255, 255), ground_color=(125, 125, 135), intensity=2.2
+    )
+    scene.add_light_directional("/lights/key", intensity=1.6, wxyz=(0.88, 0.28, -0.36, 0.1))
+
+
 class ComparisonScene:
     """The scene of one comparison on one viser target; built once, then only posed.
 
@@ -163,12 +191,14 @@ class ComparisonScene:
         self._phase: dict[str, str] = {}
         self.index = -1
         chain = prepared.chain
+        floor = 2.0 * prepared.side_offset + 1.0
         scene.add_grid(
             f"{ROOT}/floor",
-            width=4.0 * prepared.side_offset,
-            height=4.0 * prepared.side_offset,
+            width=floor,
+            height=floor,
             cell_size=0.25,
             section_size=1.0,
+            shadow_opacity=0.0,
         )
         for label in LABELS:
             root = scene.add_frame(f"{ROOT}/{label}", show_axes=False)
@@ -184,7 +214,8 @@ class ComparisonScene:
                     mesh.faces,
                     color=COLORS["optimized"] if optimized else mesh.color,
                     opacity=GHOST_OPACITY if optimized else None,
-                    cast_shadow=not optimized,
+                    cast_shadow=False,
+                    receive_shadow=False,
                 )
                 if optimized:
                     self._ghost_meshes.append(handle)
@@ -192,12 +223,14 @@ class ComparisonScene:
                         self._static_ghost.append(handle)
             self._add_payload(scene, label)
             self._add_trace(scene, label)
-            # Standard's label above the payload, the optimised one's below: no overlap.
+            # On the payload body, so it moves with it at no cost; the standard's label above
+            # the payload, the optimised one's below, so the two never overlap.
             self._labels[label] = scene.add_label(
-                f"{ROOT}/{label}/phase_label",
+                f"{self._link_node(label, prepared.comparison.payload_body)}/phase_label",
                 "",
                 font_screen_scale=0.9,
                 anchor="top-center" if optimized else "bottom-center",
+                position=tuple(float(v) for v in prepared.comparison.payload_com),
             )
         self.layout: Layout = "ghost"
         self.set_layout(layout)
@@ -276,13 +309,19 @@ class ComparisonScene:
         """
         p = self.prepared
         index = int(min(max(index, 0), len(p.comparison.t) - 1))
-        if index != self.index:
+        if self.index < 0:
+            # First pose: every frame, so the scene is right whatever it showed before.
             for label in LABELS:
-                wxyz, pos = p.joint_wxyz[label], p.joint_position[label]
                 for joint, frame in self._frames[label].items():
-                    frame.wxyz = wxyz[joint][index]
-                    frame.position = pos[joint][index]
-            self.index = index
+                    frame.wxyz = p.joint_wxyz[label][joint][index]
+                    frame.position = p.joint_position[label][joint][index]
+        elif index != self.index:
+            for label in LABELS:
+                frames = self._frames[label]
+                for joint, prop in p.animated[label]:
+                    source = p.joint_wxyz if prop == "wxyz" else p.joint_position
+                    setattr(frames[joint], prop, source[label][joint][index])
+        self.index = index
         phases = {label: p.phases[label][index] for label in LABELS}
         for label, phase in phases.items():
             # Labels change only at a phase boundary: no message per frame.
@@ -290,10 +329,6 @@ class ComparisonScene:
                 self._phase[label] = phase
                 handle = self._labels[label]
                 handle.text = f"{'standard' if label == 'standard' else 'optimised'}: {phase}"
-        for label in LABELS:
-            lift = -0.12 if label == "optimized" else 0.12
-            spot = p.payload_path[label][index] + np.array([0.0, 0.0, lift])
-            self._labels[label].position = tuple(float(v) for v in spot)
         return phases
 
     def camera(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:

@@ -24,7 +24,7 @@ from typing import Any
 from app.viewer.comparison import LABELS, PHASES, Comparison
 from app.viewer.playback import SPEEDS, PlaybackClock, Player, TickStats
 from app.viewer.plots import power_plot
-from app.viewer.scene import ComparisonScene, Layout, PreparedComparison
+from app.viewer.scene import ComparisonScene, Layout, PreparedComparison, configure_lighting
 
 logger = logging.getLogger(__name__)
 
@@ -86,7 +86,7 @@ class ViewerSession:
             if moved or self.dirty:
                 with self.client.atomic():
                     phases = self.scene.show(index)
-                self.stats.frames += 1
+                self.stats.frame()
             now = time.monotonic()
             if self.dirty or (moved and now - self.last_gui >= GUI_PERIOD):
                 self._refresh_gui(t, phases if moved or self.dirty else None)
@@ -166,7 +166,7 @@ class ViewerServer:
         *,
         host: str = "127.0.0.1",
         port: int = 8080,
-        fps: float = 50.0,
+        fps: float = 60.0,
         autoplay: bool = True,
     ) -> None:
         self.prepare = prepare
@@ -197,6 +197,7 @@ class ViewerServer:
             brand_color=(37, 99, 235),
         )
         server.scene.set_up_direction("+z")
+        configure_lighting(server.scene)
         server.on_client_connect(self._on_connect)
         server.on_client_disconnect(self._on_disconnect)
         self._server = server

@@ -197,7 +197,7 @@ export async function render(main, [query]) {
     });
     stops.push(follow.stop);
     follow.done.then(async (final) => {
-      cancel.disabled = true;
+      cancel.hidden = true;
       refreshJobs();
       if (final.state === "succeeded") {
         prog.classList.add("done");

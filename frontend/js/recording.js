@@ -157,10 +157,10 @@ export async function render(main, [idText]) {
       const env = envByChannel.get(ch.name);
       const label = info.site || (env ? env.muscle : ch.name);
       const color = muscleColor(label, i);
-      traces.push({ x: s.t, y: s.y.map((v) => (v === null ? null : v * scale.k)), type: "scattergl", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, xaxis: `x${axis}`, yaxis: `y${axis}`, showlegend: false, hoverinfo: "skip" });
+      traces.push({ x: s.t, y: s.y.map((v) => (v === null ? null : v * scale.k)), type: "scatter", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, xaxis: `x${axis}`, yaxis: `y${axis}`, showlegend: false, hoverinfo: "skip" });
       if (env) {
         const es = emgScale(env.unit);
-        traces.push({ x: env.envelope.t, y: env.envelope.y.map((v) => (v === null ? null : v * es.k)), type: "scattergl", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, xaxis: `x${axis}`, yaxis: `y${axis}` });
+        traces.push({ x: env.envelope.t, y: env.envelope.y.map((v) => (v === null ? null : v * es.k)), type: "scatter", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, xaxis: `x${axis}`, yaxis: `y${axis}` });
         for (const [on, off] of env.onsets) {
           shapes.push({ type: "rect", xref: `x${axis}`, yref: `y${axis} domain`, x0: on, x1: off, y0: 0.9, y1: 1, fillcolor: color, opacity: 0.45, line: { width: 0 } });
         }
@@ -181,7 +181,7 @@ export async function render(main, [idText]) {
       return;
     }
     const a = analysis.angles;
-    const line = (s, name, color, axis, dash) => ({ x: s.t, y: s.y, type: "scattergl", mode: "lines", name, line: { color, width: 2, dash }, xaxis: "x", yaxis: axis });
+    const line = (s, name, color, axis, dash) => ({ x: s.t, y: s.y, type: "scatter", mode: "lines", name, line: { color, width: 2, dash }, xaxis: "x", yaxis: axis });
     const traces = [
       line(a.elbow_deg, "elbow flexion", "#cf222e", "y"),
       line(a.shoulder_deg, "shoulder flexion", "#8250df", "y"),

@@ -101,3 +101,18 @@ def test_player_ticks_at_its_rate_and_drops_a_failing_session() -> None:
     assert len(player) == 1  # the broken one was removed, the other kept
     # 100 fps for 0.5 s: about 50 ticks (loose: the machine is shared).
     assert 15 <= ticks["ok"] <= 60
+
+
+def test_tick_stats_rate_ignores_pauses() -> None:
+    from app.viewer.playback import TickStats
+
+    stats = TickStats()
+    t = 0.0
+    for loop in range(3):
+        for _ in range(40):
+            t += 0.02  # 50 frames per second while moving
+            stats.frame(t)
+        t += 0.6 * (loop + 1)  # the hold at the end of each loop sends nothing
+    assert stats.frames == 120
+    assert stats.fps() == pytest.approx(50.0)
+    assert TickStats().fps() == 0.0

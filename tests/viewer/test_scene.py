@@ -102,11 +102,16 @@ def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -
                 )
             assert phases[label] == prepared.comparison.phase_at(label, index)
     assert target.scene.nodes.keys() == nodes.keys()  # nothing added while playing
-    # Per new index: wxyz and position of every joint frame of both robots, plus the labels'
-    # positions; the repeated index 400 moves no frame.
+    # The curl turns the shoulder and elbow pitch joints only: per new index, one rotation of
+    # each for both robots; the repeated index 400 sends nothing; labels ride on the flange.
+    for label in ("standard", "optimized"):
+        assert prepared.animated[label] == [
+            ("j2_shoulder_pitch", "wxyz"),
+            ("j3_elbow_pitch", "wxyz"),
+        ]
     frame_updates = [u for u in target.scene.updates if u[1] in ("wxyz", "position")]
-    per_index = 2 * 2 * len(joints) + 2
-    assert len(frame_updates) == 4 * per_index + 2
+    assert len(frame_updates) == 4 * 2 * 2
+    assert len(joints) == 6
 
 
 def test_layouts(prepared: PreparedComparison) -> None:

@@ -1,0 +1,299 @@
+"""The dashboard in a real browser: upload, plots, errors, planning, comparing, the 3-D viewer."""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+import urllib.error
+import urllib.request
+import uuid
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.conftest import shared_file
+from tests.frontend.conftest import LiveServer, screenshot
+
+C3D = "pyomeca_upperlimb_c3d_emg/markers_analogs.c3d"
+NORAXON_CSV = "noraxon_curls_biceps_brachioradialis/2023-04-20-15-06_BR_posredni.csv"
+
+
+def wait_for(predicate: Any, timeout: float = 30.0, what: str = "condition") -> Any:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.2)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def post_files(server: LiveServer, files: list[tuple[str, bytes]]) -> tuple[int, dict[str, Any]]:
+    """Upload through the API directly (the reference for what the page must show)."""
+    boundary = uuid.uuid4().hex
+    body = io.BytesIO()
+    for name, data in files:
+        body.write(f"--{boundary}\r\n".encode())
+        body.write(
+            f'Content-Disposition: form-data; name="files"; filename="{name}"\r\n'
+            "Content-Type: application/octet-stream\r\n\r\n".encode()
+        )
+        body.write(data + b"\r\n")
+    body.write(f"--{boundary}--\r\n".encode())
+    request = urllib.request.Request(
+        f"{server.url}/api/recordings",
+        data=body.getvalue(),
+        headers={"Content-Type": f"multipart/form-data; boundary={boundary}"},
+    )
+    try:
+        with urllib.request.urlopen(request, timeout=30) as response:
+            return response.status, json.load(response)
+    except urllib.error.HTTPError as exc:
+        return exc.code, json.load(exc)
+
+
+def demo_ids(server: LiveServer) -> dict[str, int]:
+    jobs = server.api("/api/jobs?limit=200")["items"]
+    first = {}
+    for j in sorted(jobs, key=lambda j: j["id"]):
+        if j["state"] == "succeeded":
+            first.setdefault(j["kind"], j["id"])
+    return first
+
+
+def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any) -> None:
+    path = shared_file(C3D)
+    page.goto(f"{live_server.url}/#/recordings")
+    page.wait_for_selector("#recordings-table")
+    screenshot(page, "recordings")
+    page.set_input_files("#file-input", str(path))
+    page.fill("#subject", "pyomeca S1")
+    page.fill("#task", "box handling")
+    page.click("#upload-button")
+    link = page.wait_for_selector("#upload-error a", timeout=60_000)
+    assert page.locator("#upload-progress").get_attribute("aria-valuenow") == "100"
+    assert "Stored as recording #" in page.inner_text("#upload-error")
+    rec_id = int(link.get_attribute("href").rsplit("/", 1)[1])
+    detail = live_server.api(f"/api/recordings/{rec_id}")
+    assert detail["subject"] == "pyomeca S1" and detail["file_names"] == [path.name]
+    # The new recording is in the list, found by the search box.
+    page.fill("#search", "pyomeca S1")
+    page.wait_for_selector(f'#recordings-body tr[data-id="{rec_id}"]')
+
+    link.click()
+    page.wait_for_selector("#emg-plot .main-svg", timeout=30_000)
+    # One raw trace per EMG channel mapped to a site (deltoid, biceps, triceps sites).
+    mapped = [c for f in detail["files"] for c in f["channels"] if c["kind"] == "emg" and c["site"]]
+    assert len(mapped) >= 3
+    wait_for(
+        lambda: page.evaluate("document.getElementById('emg-plot').data.length") >= 2 * len(mapped),
+        what="raw EMG and envelopes",
+    )
+    raw = page.evaluate("document.getElementById('emg-plot').data.map(d => d.name)")
+    assert {f"{c['name']} raw" for c in mapped} <= set(raw)
+    # Angles and velocities from the markers, lifts with phases in the table.
+    page.wait_for_selector("#angle-plot .main-svg", timeout=30_000)
+    names = page.evaluate("document.getElementById('angle-plot').data.map(d => d.name)")
+    assert names == ["elbow flexion", "shoulder flexion", "elbow velocity", "shoulder velocity"]
+    page.wait_for_selector("#lifts-table tbody tr")
+    analysis = live_server.api(f"/api/viewer/recordings/{rec_id}/analysis?points=50")
+    assert page.locator("#lifts-table tbody tr").count() == len(analysis["lifts"]) > 0
+    screenshot(page, "recording-detail")
+
+
+def test_zoom_loads_the_window(live_server: LiveServer, page: Any) -> None:
+    rec = live_server.api("/api/recordings?subject=demo%20subject")["items"][0]["id"]
+    page.goto(f"{live_server.url}/#/recordings/{rec}")
+    page.wait_for_selector("#angle-plot .main-svg", timeout=30_000)
+    full = page.evaluate("document.getElementById('emg-plot').data[0].x.length")
+    page.evaluate(
+        "Plotly.relayout(document.getElementById('emg-plot'), "
+        "{'xaxis.range[0]': 6.0, 'xaxis.range[1]': 6.5})"
+    )
+
+    def zoomed() -> bool:
+        xs = page.evaluate("document.getElementById('emg-plot').data[0].x")
+        return bool(xs) and min(xs) >= 6.0 and max(xs) <= 6.5
+
+    wait_for(zoomed, what="the zoomed window to load")
+    # 0.5 s at 1 kHz: every sample of the window, more detail than the whole-file view had.
+    xs = np.asarray(page.evaluate("document.getElementById('emg-plot').data[0].x"))
+    assert len(xs) == 501 and np.allclose(np.diff(xs), 0.001)
+    assert full <= 1600
+
+
+def test_a_bad_file_shows_the_servers_message(
+    live_server: LiveServer, page: Any, tmp_path: Path
+) -> None:
+    good = shared_file(NORAXON_CSV)
+    bad = tmp_path / "truncated.c3d"
+    bad.write_bytes(shared_file(C3D).read_bytes()[:3000])
+    status, problem = post_files(
+        live_server, [(good.name, good.read_bytes()), (bad.name, bad.read_bytes())]
+    )
+    assert status == 422 and problem["file"] == bad.name
+    before = live_server.api("/api/recordings")["total"]
+
+    page.goto(f"{live_server.url}/#/recordings")
+    page.set_input_files("#file-input", [str(good), str(bad)])
+    page.click("#upload-button")
+    error = page.wait_for_selector(f'li[data-name="{bad.name}"] .file-error', timeout=30_000)
+    # The server's own words, next to the file at fault; the other file was not stored.
+    assert error.inner_text() == problem["detail"]
+    assert "not stored" in page.inner_text(f'li[data-name="{good.name}"]')
+    assert live_server.api("/api/recordings")["total"] == before
+    screenshot(page, "recordings-bad-file")
+
+
+def test_plan_progress_reaches_done(live_server: LiveServer, page: Any) -> None:
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#plan-form")
+    page.select_option("#kind", "plan")
+    page.fill("#particles", "16")
+    page.fill("#iterations", "40")
+    page.fill("#seed", "3")
+    page.click("#submit-plan")
+    page.wait_for_selector("#job-progress")
+    page.wait_for_function(
+        "document.querySelector('#job-state').innerText === 'succeeded'", timeout=90_000
+    )
+    assert page.get_attribute("#job-progress", "aria-valuenow") == "100"
+    page.wait_for_selector("#open-compare")
+    href = page.get_attribute("#open-compare", "href")
+    plan_id = int(href.rsplit("/", 1)[1])
+    result = live_server.api(f"/api/plans/{plan_id}")["result"]
+    assert result["optimizer"]["seed"] == 3
+    # The convergence curve ends with the optimiser's full history.
+    ys = page.evaluate("document.getElementById('convergence-plot').data[0].y")
+    assert ys == pytest.approx(result["optimizer"]["history"])
+    screenshot(page, "plan")
+
+
+def test_plan_can_be_cancelled(live_server: LiveServer, page: Any) -> None:
+    page.goto(f"{live_server.url}/#/plan")
+    page.select_option("#kind", "plan")
+    page.fill("#particles", "400")
+    page.fill("#iterations", "5000")
+    page.click("#submit-plan")
+    page.wait_for_function(
+        "document.querySelector('#job-state') && "
+        "document.querySelector('#job-state').innerText === 'running'",
+        timeout=60_000,
+    )
+    page.click("#cancel-job")
+    page.wait_for_function(
+        "document.querySelector('#job-state').innerText === 'cancelled'", timeout=30_000
+    )
+    assert "Cancelled" in page.inner_text("#job-result")
+
+
+def _cell(page: Any, metric: str, column: int) -> float:
+    text = page.inner_text(f'#metrics-table tr[data-metric="{metric}"] td:nth-child({column})')
+    return float(text.replace(",", "").replace("+", "").replace("%", "").strip())
+
+
+def test_compare_shows_the_metrics_table(live_server: LiveServer, page: Any) -> None:
+    sim = demo_ids(live_server)["simulation"]
+    result = live_server.api(f"/api/simulations/{sim}")["result"]
+    page.goto(f"{live_server.url}/#/compare/simulation/{sim}")
+    page.wait_for_selector("#metrics-table")
+    rows = page.locator("#metrics-table tbody tr")
+    assert rows.count() == 5
+    for metric in ("abs_work", "pos_work", "peak_power"):
+        assert _cell(page, metric, 3) == pytest.approx(result["standard"][metric], rel=1e-3)
+        assert _cell(page, metric, 4) == pytest.approx(result["optimized"][metric], rel=1e-3)
+        assert _cell(page, metric, 5) == pytest.approx(result["improvement_pct"][metric], abs=0.051)
+    floor = page.inner_text('#metrics-table tr[data-metric="abs_work"] td:nth-child(7)')
+    assert f"{result['floors']['delta_potential']:.4g}" in floor.replace(",", "")
+    page.wait_for_selector("#plot-power .main-svg")
+    # Per-joint curves: both trajectories, phases shaded (three rectangles of the optimised).
+    layout = page.evaluate("document.getElementById('plot-qd').layout.shapes.length")
+    assert layout >= 3
+    screenshot(page, "compare")
+
+
+def _frame_pixels(page: Any) -> np.ndarray:
+    from PIL import Image
+
+    png = page.locator("#viewer-frame").screenshot()
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+
+
+def test_viewer_connects_renders_and_each_tab_has_its_own_scene(
+    live_server: LiveServer, browser: Any
+) -> None:
+    ids = demo_ids(live_server)
+    context = browser.new_context(viewport={"width": 1280, "height": 800})
+    try:
+        tab1 = context.new_page()
+        tab1.goto(f"{live_server.url}/#/compare/simulation/{ids['simulation']}")
+        tab1.wait_for_selector("#viewer-frame")
+        tab1.locator("#viewer-frame").scroll_into_view_if_needed()
+
+        def session(kind: str, rid: int) -> Any:
+            for s in live_server.api("/api/viewer/sessions"):
+                if s["kind"] == kind and s["id"] == rid and s["frames"] > 20:
+                    return s
+            return None
+
+        wait_for(lambda: session("simulation", ids["simulation"]), 60, "the viewer session")
+        frame = tab1.frame_locator("#viewer-frame")
+        frame.locator("canvas").first.wait_for(timeout=30_000)
+        time.sleep(1.5)  # a few frames drawn
+        pixels = _frame_pixels(tab1)
+        screenshot(tab1, "viewer", full_page=False)
+        r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+        drawn = (np.abs(pixels - pixels[5, 5]).sum(axis=2) > 30).mean()
+        blue = ((b > r + 60) & (b > g + 25)).sum()  # the standard robot and its trace
+        amber = ((r > 170) & (g > 90) & (g < 200) & (b < 120)).sum()  # the optimised ghost
+        assert drawn > 0.05, f"the viewer looks blank ({100 * drawn:.1f}% drawn)"
+        assert blue > 300 and amber > 100, (blue, amber)
+
+        # A second tab shows another comparison at the same time.
+        tab2 = context.new_page()
+        tab2.goto(f"{live_server.url}/#/compare/plan/{ids['plan']}")
+        tab2.wait_for_selector("#viewer-frame")
+        tab2.locator("#viewer-frame").scroll_into_view_if_needed()
+        wait_for(lambda: session("plan", ids["plan"]), 60, "the second tab's session")
+        assert session("simulation", ids["simulation"]) is not None
+    finally:
+        context.close()
+
+
+def test_scene_export_opens_offline(live_server: LiveServer, browser: Any, tmp_path: Path) -> None:
+    from PIL import Image
+
+    plan = demo_ids(live_server)["plan"]
+    url = f"{live_server.url}/api/viewer/comparisons/plan/{plan}/export?format=scene"
+    with urllib.request.urlopen(url, timeout=60) as response:
+        path = tmp_path / "scene.html"
+        path.write_bytes(response.read())
+    context = browser.new_context(viewport={"width": 900, "height": 600}, offline=True)
+    try:
+        page = context.new_page()
+        page.goto(path.as_uri())
+        page.locator("canvas").first.wait_for(timeout=30_000)
+        time.sleep(2.0)
+        pixels = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
+        drawn = (np.abs(pixels - pixels[300, 5]).sum(axis=2) > 30).mean()
+        assert drawn > 0.05
+    finally:
+        context.close()
+
+
+@pytest.mark.parametrize("route", ["recordings", "plan", "compare"])
+def test_usable_on_a_narrow_window(live_server: LiveServer, browser: Any, route: str) -> None:
+    context = browser.new_context(viewport={"width": 400, "height": 860})
+    try:
+        page = context.new_page()
+        page.goto(f"{live_server.url}/#/{route}")
+        page.wait_for_selector("main .card")
+        page.wait_for_timeout(1500)
+        width = page.evaluate("document.documentElement.scrollWidth")
+        assert width <= 400, f"{route} is {width} px wide on a 400 px window"
+        screenshot(page, f"{route}-narrow")
+    finally:
+        context.close()
