@@ -33,6 +33,12 @@ class SignalsError(LookupError):
 def _window(
     t: FloatArray, y: FloatArray, points: int, t0: float | None, t1: float | None
 ) -> dict[str, list[Any]]:
+    """Min/max-downsampled samples of ``y(t)`` in [t0, t1], with a null where data is missing.
+
+    Downsampling drops missing (NaN) samples; a plot would then draw a straight line across
+    a gap in the pose (a hidden arm, skipped video frames). One null in the middle of every
+    run of missing samples keeps the gap visible.
+    """
     from app.api.downsample import minmax_downsample
 
     keep = np.ones(t.shape, dtype=bool)
@@ -40,8 +46,18 @@ def _window(
         keep &= t >= t0
     if t1 is not None:
         keep &= t <= t1
-    ts, ys = minmax_downsample(t[keep], np.where(np.isfinite(y[keep]), y[keep], np.nan), points)
-    return {"t": ts.tolist(), "y": ys.tolist()}
+    tw, yw = t[keep], np.where(np.isfinite(y[keep]), y[keep], np.nan)
+    ts, ys = minmax_downsample(tw, yw, points)
+    missing = np.isnan(yw)
+    if not missing.any():
+        return {"t": ts.tolist(), "y": ys.tolist()}
+    edges = np.diff(missing.astype(np.int8), prepend=0, append=0)
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    gaps = 0.5 * (tw[starts] + tw[ends - 1])
+    t_all = np.concatenate([ts, gaps])
+    y_all: list[float | None] = [*ys.tolist(), *([None] * len(gaps))]
+    order = np.argsort(t_all, kind="stable")
+    return {"t": t_all[order].tolist(), "y": [y_all[i] for i in order]}
 
 
 def _deg(x: float) -> float | None:

@@ -84,7 +84,7 @@ export async function render(main, [kindArg, idArg]) {
       ),
       warnings.length ? h("details", { class: "small", style: "margin-top:8px" }, h("summary", {}, `${warnings.length} warning(s)`), h("ul", {}, warnings.map((w) => h("li", {}, w)))) : null,
     ),
-    metricsCard(kind, result),
+    metricsCard(kind, result, data.joint_names),
   );
 
   // ---- curves -----------------------------------------------------------------------
@@ -192,7 +192,7 @@ function legendBox() {
   );
 }
 
-function metricsCard(kind, result) {
+function metricsCard(kind, result, jointNames) {
   const floors = result.floors || {};
   const imp = result.improvement_pct || {};
   const planned = result.planned ? result.planned.improvement_pct || {} : null;
@@ -213,7 +213,7 @@ function metricsCard(kind, result) {
       h("td", {}, floor === null || floor === undefined ? "" : below ? h("span", { class: "worse" }, "below floor!") : h("span", { class: "small muted" }, "≥ floor")),
     );
   });
-  const joints = (result.conditions && result.conditions.joint_names) || result.standard.peak_torque.map((_, i) => `J${i + 1}`);
+  const joints = jointNames || result.standard.peak_torque.map((_, i) => `J${i + 1}`);
   const torque = h("table", { id: "torque-table" },
     h("thead", {}, h("tr", {}, h("th", {}, "peak torque [Nm]"), joints.map((j) => h("th", { class: "num mono" }, j)))),
     h("tbody", {}, LABELS.map((l) => h("tr", {}, h("td", {}, NAMES[l]), result[l].peak_torque.map((v) => h("td", { class: "num" }, fmt(v)))))),

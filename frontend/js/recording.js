@@ -172,11 +172,13 @@ export async function render(main, [idText]) {
     });
     lay.shapes = shapes;
     await draw(emgDiv, traces, lay);
+    emgDiv.style.minHeight = "0";
     hook(emgDiv);
   }
 
   async function drawAngles(analysis) {
     if (!analysis || !analysis.angles) {
+      angleDiv.style.minHeight = "0";
       clear(angleDiv).append(h("p", { class: "muted" }, analysis ? "No shoulder or elbow angle in this recording (EMG only): lifts come from EMG bursts." : "Waiting for the analysis…"));
       return;
     }
@@ -194,6 +196,7 @@ export async function render(main, [idText]) {
     lay.yaxis2 = { domain: [0, 0.47], title: { text: "velocity [deg/s]" }, gridcolor: "#eceff3", zerolinecolor: "#c9ced6" };
     lay.shapes = liftShapes(analysis.lifts);
     if (!angleDiv.on) clear(angleDiv);
+    angleDiv.style.minHeight = "";
     await draw(angleDiv, traces, lay);
     hook(angleDiv);
   }

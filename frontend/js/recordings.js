@@ -27,6 +27,8 @@ export function render(main) {
   const notes = h("textarea", { id: "notes", rows: "2", maxlength: "10000" });
   const rate = h("input", { id: "rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
   const emgRate = h("input", { id: "emg-rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
+  const frameRate = h("input", { id: "frame-rate", type: "number", min: "0", step: "any", placeholder: "video landmarks" });
+  const imageSize = h("input", { id: "image-size", pattern: "\\d+x\\d+", placeholder: "e.g. 1280x720" });
   const maps = h("div", { id: "muscle-map" });
   const addMap = (label = "", site = "biceps") => {
     const row = h(
@@ -111,7 +113,7 @@ export function render(main) {
     files.forEach((f) => clear(f.status));
     const form = new FormData();
     files.forEach((f) => form.append("files", f.file, f.file.name));
-    const fields = { subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, rate: rate.value, emg_rate: emgRate.value, muscle_map: muscleMap() };
+    const fields = { subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, rate: rate.value, emg_rate: emgRate.value, frame_rate: frameRate.value, image_size: imageSize.value, muscle_map: muscleMap() };
     for (const [k, v] of Object.entries(fields)) if (v !== null && String(v).trim() !== "") form.append(k, String(v).trim());
     progress.hidden = false;
     progress.className = "progress";
@@ -162,13 +164,15 @@ export function render(main) {
       h("div", { class: "wide" }, h("label", { for: "notes" }, "Notes"), notes),
     ),
     h("details", {},
-      h("summary", {}, "Muscle mapping and rate overrides"),
-      h("p", { class: "small muted" }, "Map channel labels to the four EMG sites when the file's names are not recognised; override a sampling rate the file states wrongly."),
+      h("summary", {}, "Muscle mapping, rates, video size"),
+      h("p", { class: "small muted" }, "Map channel labels to the four EMG sites when the file's names are not recognised; override a sampling rate the file states wrongly; give the frame rate and image size of pose landmarks exported without them."),
       maps,
       h("button", { type: "button", class: "small", style: "margin-top:6px", onclick: () => addMap() }, "+ mapping"),
       h("div", { class: "fields" },
         h("div", {}, h("label", { for: "rate" }, "Sampling rate ", h("span", { class: "hint" }, "[Hz]")), rate),
         h("div", {}, h("label", { for: "emg-rate" }, "EMG rate ", h("span", { class: "hint" }, "[Hz]")), emgRate),
+        h("div", {}, h("label", { for: "frame-rate" }, "Frame rate ", h("span", { class: "hint" }, "[fps]")), frameRate),
+        h("div", {}, h("label", { for: "image-size" }, "Image size ", h("span", { class: "hint" }, "[px]")), imageSize),
       ),
     ),
     h("div", { class: "row", style: "margin-top:14px" }, submit, h("span", { class: "small muted" }, "All files of a session are stored together.")),

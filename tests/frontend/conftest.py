@@ -14,6 +14,7 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.parse
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
@@ -124,18 +125,35 @@ def browser(live_server: LiveServer) -> Iterator[Any]:
             instance.close()
 
 
+def offline_guard(context: Any) -> list[str]:
+    """Abort and record every request that leaves loopback (the dashboard works offline)."""
+    outside: list[str] = []
+
+    def handle(route: Any) -> None:
+        host = urllib.parse.urlsplit(route.request.url).hostname or ""
+        if route.request.url.startswith(("data:", "blob:")) or host in ("127.0.0.1", "localhost"):
+            route.continue_()
+        else:
+            outside.append(route.request.url)
+            route.abort()
+
+    context.route("**/*", handle)
+    return outside
+
+
 @pytest.fixture
 def page(browser: Any) -> Iterator[Any]:
     context = browser.new_context(viewport={"width": 1280, "height": 800})
+    outside = offline_guard(context)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.errors = errors
     try:
         yield page
     finally:
         context.close()
     assert not errors, f"JavaScript errors on the page: {errors}"
+    assert not outside, f"the page asked for resources off this machine: {outside}"
 
 
 def screenshot(page: Any, name: str, *, full_page: bool = True) -> Path:

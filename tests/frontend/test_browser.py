@@ -52,7 +52,8 @@ def post_files(server: LiveServer, files: list[tuple[str, bytes]]) -> tuple[int,
         with urllib.request.urlopen(request, timeout=30) as response:
             return response.status, json.load(response)
     except urllib.error.HTTPError as exc:
-        return exc.code, json.load(exc)
+        with exc:
+            return exc.code, json.load(exc)
 
 
 def demo_ids(server: LiveServer) -> dict[str, int]:
@@ -148,6 +149,22 @@ def test_a_bad_file_shows_the_servers_message(
     screenshot(page, "recordings-bad-file")
 
 
+def test_delete_from_the_list(live_server: LiveServer, page: Any) -> None:
+    data = shared_file(NORAXON_CSV).read_bytes()
+    status, rec = post_files(live_server, [("to_delete.csv", data)])
+    assert status == 201
+    page.on("dialog", lambda dialog: dialog.accept())
+    page.goto(f"{live_server.url}/#/recordings")
+    row = page.wait_for_selector(f'#recordings-body tr[data-id="{rec["id"]}"]')
+    assert "to_delete.csv" in row.inner_text()
+    page.click(f'button[aria-label="Delete recording {rec["id"]}"]')
+    page.wait_for_selector(f'#recordings-body tr[data-id="{rec["id"]}"]', state="detached")
+    with pytest.raises(urllib.error.HTTPError) as err:
+        live_server.api(f"/api/recordings/{rec['id']}")
+    err.value.close()
+    assert err.value.code == 404
+
+
 def test_plan_progress_reaches_done(live_server: LiveServer, page: Any) -> None:
     page.goto(f"{live_server.url}/#/plan")
     page.wait_for_selector("#plan-form")
@@ -213,6 +230,35 @@ def test_compare_shows_the_metrics_table(live_server: LiveServer, page: Any) -> 
     layout = page.evaluate("document.getElementById('plot-qd').layout.shapes.length")
     assert layout >= 3
     screenshot(page, "compare")
+
+
+def test_compare_shows_the_sweep_heat_map(live_server: LiveServer, page: Any) -> None:
+    body = {
+        "robot": "curtain_wall_6dof",
+        "durations": [1.0, 1.5],
+        "payloads": [0.0, 4.0],
+        "objectives": ["abs_work"],
+        "particles": 6,
+        "iterations": 5,
+    }
+    request = urllib.request.Request(
+        f"{live_server.url}/api/sweeps",
+        data=json.dumps(body).encode(),
+        headers={"Content-Type": "application/json"},
+    )
+    with urllib.request.urlopen(request, timeout=30) as response:
+        job = json.load(response)
+    wait_for(
+        lambda: live_server.api(f"/api/jobs/{job['id']}")["state"] == "succeeded",
+        120,
+        "the sweep",
+    )
+    table = live_server.api(f"/api/sweeps/{job['id']}")["result"]["tables"]["abs_work"]
+    page.goto(f"{live_server.url}/#/compare")
+    page.wait_for_selector("#sweep-plot .main-svg", timeout=30_000)
+    z = page.evaluate("document.getElementById('sweep-plot').data[0].z")
+    assert z == table["abs_work"]["change_pct"]
+    screenshot(page, "compare-sweep")
 
 
 def _frame_pixels(page: Any) -> np.ndarray:

@@ -73,3 +73,19 @@ def test_windows_cut_the_series(signals: RecordingSignals) -> None:
         signals.series(t0=3.0, t1=2.0)
     with pytest.raises(ValueError, match="points must be >= 2"):
         signals.series(points=1)
+
+
+def test_gaps_stay_gaps() -> None:
+    from app.viewer.signals import _window
+
+    t = np.arange(1000) / 100.0
+    y = np.sin(t)
+    y[300:420] = np.nan  # 1.2 s without data
+    out = _window(t, y, 200, None, None)
+    nulls = [i for i, v in enumerate(out["y"]) if v is None]
+    assert len(nulls) == 1
+    i = nulls[0]
+    assert out["t"][i - 1] < 3.0 and out["t"][i + 1] >= 4.2
+    assert out["t"] == sorted(out["t"])
+    # Without missing samples nothing is added.
+    assert None not in _window(t, np.sin(t), 200, None, None)["y"]
