@@ -184,6 +184,11 @@ class Player:
                 except Exception:  # one broken tab must not stop the others
                     logger.exception("viewer session %s failed to update; dropping it", key)
                     self.remove(key)
+            if not callbacks:
+                # No tab open: wake rarely instead of 60 times a second.
+                self._stop.wait(0.2)
+                next_tick = time.monotonic()
+                continue
             next_tick += self.period
             delay = next_tick - time.monotonic()
             if delay < 0:
