@@ -26,8 +26,10 @@ browser:
 	  echo "installing Debian's chromium for the browser tests"; \
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; }
 
+# The dashboard on the embedded defaults (SQLite in ./data, local job runner), with a demo
+# recording session and a finished comparison already stored; prints the URL.
 run: $(STAMP)
-	$(VENV)/bin/bioplan demo
+	$(VENV)/bin/bioplan serve --demo
 
 lint: $(TSTAMP)
 	$(VENV)/bin/ruff check app tests benchmarks

@@ -20,6 +20,7 @@ SCRIPTS = (
     ["bench_emg.py"],
     ["bench_simulation.py"],
     ["bench_api.py"],
+    ["bench_frontend.py"],
 )
 
 

@@ -26,14 +26,22 @@ EXIT_OK, EXIT_JOB_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 # ---------------------------------------------------------------------------------- serve
 
 
-def serve(host: str | None = None, port: int | None = None, data_dir: str | None = None) -> int:
-    """Migrate the database (``alembic upgrade head``), then serve the API until stopped.
+def serve(
+    host: str | None = None,
+    port: int | None = None,
+    data_dir: str | None = None,
+    *,
+    demo: bool = False,
+) -> int:
+    """Migrate the database (``alembic upgrade head``), then serve the API and dashboard.
 
     Args:
         host: bind address (default ``BIOPLAN_HOST`` or 127.0.0.1); a non-loopback address
             needs ``BIOPLAN_API_TOKEN``.
         port: TCP port (default ``BIOPLAN_PORT`` or 8000).
         data_dir: database and file store folder (default ``BIOPLAN_DATA_DIR`` or ./data).
+        demo: when the database has no recordings, store a demo recording session and run its
+            analysis, a plan and a simulation first, so the dashboard has something to show.
 
     Returns:
         Exit code: 0 after a clean stop, 2 for bad settings.
@@ -66,11 +74,18 @@ def serve(host: str | None = None, port: int | None = None, data_dir: str | None
 
     from app.db.session import upgrade
     from app.main import create_app
+    from app.viewer import attach_dashboard, seed_demo
 
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     upgrade(settings.db_url)  # before binding, so a broken database fails fast and loudly
+    if demo:
+        print("preparing the demo session (analysis, plan, simulation)...", flush=True)
+        seed_demo(settings)
+    app = create_app(settings)
+    attach_dashboard(app, settings)
+    print(f"BioPlan dashboard: http://{settings.host}:{settings.port}/", flush=True)
     uvicorn.run(
-        create_app(settings),
+        app,
         host=settings.host,
         port=settings.port,
         workers=1,  # one process: it owns the job runner (and the viewer)
@@ -302,7 +317,10 @@ def add_service_subcommands(subparsers: Any) -> None:
     p.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
     p.add_argument("--port", type=int, default=None, help="TCP port (default 8000)")
     p.add_argument("--data-dir", default=None, help="database and uploads (default ./data)")
-    p.set_defaults(handler=lambda a: serve(a.host, a.port, a.data_dir))
+    p.add_argument(
+        "--demo", action="store_true", help="seed a demo recording and comparison when empty"
+    )
+    p.set_defaults(handler=lambda a: serve(a.host, a.port, a.data_dir, demo=a.demo))
 
     p = subparsers.add_parser(
         "submit", help="run a job on a running server (upload, submit, wait, print the result)"
