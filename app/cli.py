@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from app.planning.jsonsafe import json_safe
+
 EXIT_BAD_INPUT = 2
 
 
@@ -49,17 +51,6 @@ def _json_default(value: Any) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-def _finite(value: Any) -> Any:
-    """Replace NaN/inf by None so the JSON is strict."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _progress_printer(enabled: bool) -> Callable[[float, str], None] | None:
@@ -168,7 +159,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         peak_angle_deg=args.peak_angle_deg,
         progress=_progress_printer(not args.json),
     )
-    payload = _finite(result.to_dict())
+    payload = json_safe(result.to_dict())
     imp = payload["improvement_pct"]
     text = "\n".join(
         [
@@ -202,7 +193,7 @@ def cmd_profiles(args: argparse.Namespace) -> int:
 
     _positive("duration", args.duration)
     robot = _load_robot(args)
-    payload = _finite(
+    payload = json_safe(
         compare_profiles(robot, task=_task(args, robot), duration=args.duration).to_dict()
     )
     rows = [(name, m) for name, m in payload["profiles"].items()]
@@ -237,7 +228,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         if not Path(f).is_file():
             raise CliError(f"{f}: no such file")
     result = analyze_files(args.files, emg_rate=args.emg_rate, muscle_map=_muscle_map(args.muscle))
-    payload = _finite(result.to_dict())
+    payload = json_safe(result.to_dict())
     if args.plot:
         from app.analysis import write_analysis_plots
 
@@ -272,7 +263,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress=_progress_printer(not args.json),
     )
-    payload = _finite(result.to_dict())
+    payload = json_safe(result.to_dict())
     _emit(args, payload, result.summary())
     return 0
 
@@ -304,7 +295,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress=_progress_printer(not args.json),
     )
-    _emit(args, _finite(result.to_dict()), result.summary())
+    _emit(args, json_safe(result.to_dict()), result.summary())
     return 0
 
 

@@ -7,7 +7,6 @@ and a deletion removes the rows first and only then the blobs nobody refers to a
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -29,26 +28,10 @@ from app.db.models import (
     RobotRecord,
     utcnow,
 )
+from app.planning.jsonsafe import json_safe
 
 #: A SELECT of any columns (SQLAlchemy 2.1 types Select by its column tuple).
 AnySelect = Select[*tuple[Any, ...]]
-
-
-def json_safe(value: Any) -> Any:
-    """``value`` with NumPy scalars/arrays turned into Python ones and NaN/inf into None."""
-    if isinstance(value, dict):
-        return {str(k): json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return json_safe(value.tolist())
-    if isinstance(value, np.generic):
-        return json_safe(value.item())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if value is None or isinstance(value, str | int | bool):
-        return value
-    return str(value)
 
 
 # --------------------------------------------------------------------------------- recordings

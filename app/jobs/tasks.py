@@ -13,7 +13,6 @@ Robot specs in payloads are ``{"name": str}`` for a built-in robot, or ``{"name"
 from __future__ import annotations
 
 import contextlib
-import math
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -21,6 +20,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from app.planning.jsonsafe import json_safe
 
 Progress = Callable[[float, str], None]
 TaskFn = Callable[[dict[str, Any], Progress], dict[str, Any]]
@@ -35,22 +36,6 @@ def _entry(module: str, name: str) -> Any:
 
 def _no_progress(fraction: float, message: str) -> None:
     del fraction, message
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _json_safe(value.tolist())
-    if isinstance(value, np.generic):
-        return _json_safe(value.item())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if value is None or isinstance(value, str | int | bool):
-        return value
-    return str(value)
 
 
 def preload() -> None:
@@ -114,7 +99,7 @@ def parse_recording(data: bytes, filename: str, options: dict[str, Any]) -> dict
                 "time": None if ch.time is None else np.asarray(ch.time),
             }
         )
-    return {"format": rec.format, "metadata": _json_safe(rec.metadata), "channels": channels}
+    return {"format": rec.format, "metadata": json_safe(rec.metadata), "channels": channels}
 
 
 def analyse(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
@@ -142,7 +127,7 @@ def analyse(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[
         options["phase_bounds_deg"] = tuple(options["phase_bounds_deg"])
     result = analyze_recordings(recordings, **options)
     progress(1.0, "analysed")
-    return {"result": _json_safe(result.to_dict()), "template": result.template.to_dict()}
+    return {"result": json_safe(result.to_dict()), "template": result.template.to_dict()}
 
 
 # ----------------------------------------------------------------------------------- robots
@@ -179,7 +164,7 @@ def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
         ValueError (``RobotError``): the model cannot be loaded; one-line message.
     """
     with _robot(spec) as robot:
-        described: dict[str, Any] = _json_safe(
+        described: dict[str, Any] = json_safe(
             {
                 "name": spec["name"],
                 "joint_names": list(robot.joint_names),
@@ -248,7 +233,7 @@ def plan(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str
             progress=progress,
         )
     arrays = {k: np.asarray(v, dtype=np.float64) for k, v in result.arrays().items()}
-    return {"result": _json_safe(result.to_dict()), "arrays": arrays}
+    return {"result": json_safe(result.to_dict()), "arrays": arrays}
 
 
 def _arrays_of(result: Any) -> dict[str, Any] | None:
@@ -280,7 +265,7 @@ def simulate(payload: dict[str, Any], progress: Progress = _no_progress) -> dict
             template=_template(payload),
             progress=progress,
         )
-    return {"result": _json_safe(result.to_dict()), "arrays": _arrays_of(result)}
+    return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
 
 
 def sweep(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
@@ -303,7 +288,7 @@ def sweep(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[st
             workers=payload.get("workers"),
             **budget,
         )
-    return {"result": _json_safe(result.to_dict())}
+    return {"result": json_safe(result.to_dict())}
 
 
 TASKS: dict[str, TaskFn] = {

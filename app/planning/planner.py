@@ -40,6 +40,7 @@ from app.planning.energy import (
     power_curve,
 )
 from app.planning.human_template import HumanTemplate
+from app.planning.jsonsafe import json_safe
 from app.planning.profiles import (
     Trajectory,
     check_limits,
@@ -151,7 +152,7 @@ class PlanResult:
             "standard": self.standard.to_dict(),
             "optimized": self.optimized.to_dict(),
             "floors": self.floors.to_dict(),
-            "improvement_pct": _json_safe(self.improvement_pct),
+            "improvement_pct": json_safe(self.improvement_pct),
             "peak_velocity_angle_deg": self.optimized.peak_velocity_angle_deg,
             "target_peak_velocity_angle_deg": self.target_peak_angle_deg,
             "optimizer": {
@@ -203,16 +204,6 @@ class PlanResult:
         return phase_boundary_times(
             ev.trajectory, self.elbow_joint, self.task, self.phase_bounds_deg
         )
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def elbow_flexion_deg(q_elbow: FloatArray, task: PlanTask, elbow_joint: int) -> FloatArray:

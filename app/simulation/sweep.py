@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.planning.energy import Floors, improvement_pct
+from app.planning.jsonsafe import json_safe
 from app.simulation.tracking import (
     DEFAULT_DAMPING_RATIO,
     DEFAULT_NATURAL_FREQUENCY_HZ,
@@ -233,7 +234,7 @@ class SimulationResult:
             "conditions": dict(self.conditions),
             "warnings": list(self.warnings),
         }
-        return dict(_json_safe(out))
+        return dict(json_safe(out))
 
     def arrays(self) -> dict[str, FloatArray]:
         """Curves for plots: ``t`` and ``<standard|optimized>_<name>`` for every recorded array."""
@@ -503,7 +504,7 @@ class SweepCell:
         d = dataclasses.asdict(self)
         d["warnings"] = list(self.warnings)
         d["classification"] = self.classification
-        return dict(_json_safe(d))
+        return dict(json_safe(d))
 
 
 @dataclass(frozen=True)
@@ -611,17 +612,6 @@ class SweepResult:
 
 def _none_if_nan(v: float) -> float | None:
     return float(v) if math.isfinite(v) else None
-
-
-def _json_safe(value: Any) -> Any:
-    """NaN/inf -> None, recursively, so ``json.dumps(..., allow_nan=False)`` works."""
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _cell_text(cell: SweepCell, metric: str) -> str:
