@@ -33,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _emit(args: argparse.Namespace, payload: dict[str, Any], text: str) -> None:
     """Print JSON or text, and write the JSON to ``--out`` when asked."""
-    blob = json.dumps(payload, indent=2, allow_nan=False, default=_json_default)
+    blob = json.dumps(payload, indent=2, allow_nan=False)
     out = getattr(args, "out", None)
     if out:
         Path(out).write_text(blob + "\n", encoding="utf-8")
@@ -41,16 +41,6 @@ def _emit(args: argparse.Namespace, payload: dict[str, Any], text: str) -> None:
         print(blob)
     else:
         print(text)
-
-
-def _json_default(value: Any) -> Any:
-    import numpy as np
-
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 def _progress_printer(enabled: bool) -> Callable[[float, str], None] | None:
@@ -237,7 +227,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if args.out:
         Path(args.out).write_text(result.template.to_json() + "\n", encoding="utf-8")
     if args.json:
-        print(json.dumps(payload, indent=2, allow_nan=False, default=_json_default))
+        print(json.dumps(payload, indent=2, allow_nan=False))
     else:
         print(result.summary())
         if args.plot:

@@ -207,6 +207,27 @@ def _template(payload: dict[str, Any]) -> Any:
     return None if template is None else HumanTemplate.from_dict(template)
 
 
+def _arrays_of(result: Any) -> dict[str, Any] | None:
+    arrays = getattr(result, "arrays", None)
+    if not callable(arrays):
+        return None
+    return {k: np.asarray(v, dtype=np.float64) for k, v in arrays().items()}
+
+
+def _planning_options(robot: Any, payload: dict[str, Any]) -> dict[str, Any]:
+    """The keyword options ``plan`` and ``simulate_comparison`` share, from a job payload."""
+    return {
+        "task": _task(robot, payload.get("start_deg"), payload.get("goal_deg")),
+        "duration": float(payload["duration"]),
+        "objective": payload.get("objective", "abs_work"),
+        "seed": int(payload.get("seed", 0)),
+        "particles": int(payload.get("particles", 40)),
+        "iterations": int(payload.get("iterations", 100)),
+        "peak_angle_deg": payload.get("peak_angle_deg"),
+        "template": _template(payload),
+    }
+
+
 def plan(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
     """Plan standard and bio-inspired trajectories (``bioplan plan``).
 
@@ -221,26 +242,11 @@ def plan(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str
     with _robot(payload["robot"], payload.get("payload")) as robot:
         result = run_plan(
             robot,
-            task=_task(robot, payload.get("start_deg"), payload.get("goal_deg")),
-            duration=float(payload["duration"]),
-            objective=payload.get("objective", "abs_work"),
-            seed=int(payload.get("seed", 0)),
-            particles=int(payload.get("particles", 40)),
-            iterations=int(payload.get("iterations", 100)),
             n_samples=int(payload.get("n_samples", 100)),
-            peak_angle_deg=payload.get("peak_angle_deg"),
-            template=_template(payload),
             progress=progress,
+            **_planning_options(robot, payload),
         )
-    arrays = {k: np.asarray(v, dtype=np.float64) for k, v in result.arrays().items()}
-    return {"result": json_safe(result.to_dict()), "arrays": arrays}
-
-
-def _arrays_of(result: Any) -> dict[str, Any] | None:
-    arrays = getattr(result, "arrays", None)
-    if not callable(arrays):
-        return None
-    return {k: np.asarray(v, dtype=np.float64) for k, v in arrays().items()}
+    return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
 
 
 def simulate(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
@@ -253,18 +259,7 @@ def simulate(payload: dict[str, Any], progress: Progress = _no_progress) -> dict
     """
     simulate_comparison = _entry("app.simulation", "simulate_comparison")
     with _robot(payload["robot"], payload.get("payload")) as robot:
-        result = simulate_comparison(
-            robot,
-            task=_task(robot, payload.get("start_deg"), payload.get("goal_deg")),
-            duration=float(payload["duration"]),
-            objective=payload.get("objective", "abs_work"),
-            seed=int(payload.get("seed", 0)),
-            particles=int(payload.get("particles", 40)),
-            iterations=int(payload.get("iterations", 100)),
-            peak_angle_deg=payload.get("peak_angle_deg"),
-            template=_template(payload),
-            progress=progress,
-        )
+        result = simulate_comparison(robot, progress=progress, **_planning_options(robot, payload))
     return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
 
 
