@@ -5,6 +5,7 @@ A plain library (numpy/scipy; the human arm model from ``app.planning``). ``anal
 work on plain arrays.
 """
 
+from app.analysis.downsample import minmax_downsample
 from app.analysis.emg import (
     activation_order,
     detect_onsets,
@@ -23,6 +24,7 @@ from app.analysis.energetics import (
     human_arm_dynamics,
     lift_energetics,
 )
+from app.analysis.overlays import AnalysisOverlays, OverlaysError
 from app.analysis.pipeline import (
     AnalysisResult,
     LiftReport,
@@ -40,6 +42,7 @@ from app.analysis.sync import estimate_offset, event_offset, resample
 from app.analysis.template import LiftProfile, build_template, lift_profile
 
 __all__ = [
+    "AnalysisOverlays",
     "AnalysisResult",
     "ArmAngles",
     "Energetics",
@@ -47,6 +50,7 @@ __all__ = [
     "LiftProfile",
     "LiftReport",
     "MuscleSeries",
+    "OverlaysError",
     "Phase",
     "PhaseEnergetics",
     "PhaseStats",
@@ -70,6 +74,7 @@ __all__ = [
     "lift_energetics",
     "lift_profile",
     "merge_recordings",
+    "minmax_downsample",
     "moving_rms",
     "normalize_amplitude",
     "peak_times",

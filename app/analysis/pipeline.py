@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Literal
 
@@ -70,8 +71,9 @@ class MuscleSeries:
     def rate(self) -> float:
         return float(1.0 / (self.t[1] - self.t[0])) if len(self.t) > 1 else 0.0
 
-    @property
+    @cached_property
     def peak(self) -> float:
+        # Cached: every phase of every lift divides by it (hundreds of passes over 1 M samples).
         return float(np.max(self.envelope))
 
 
@@ -441,24 +443,36 @@ def _has_positions(recording: Recording) -> bool:
     return any(c.kind in ("landmark", "marker") for c in recording.channels.values())
 
 
+def _span(t: NDArray[np.float64], t0: float, t1: float, tol: float = 0.0) -> slice:
+    """Indices of the sorted times ``t`` inside [t0 - tol, t1 + tol], as a slice.
+
+    Binary search instead of a boolean mask: a recording has hundreds of lifts and each lift
+    several phases, and a mask over the whole recording per phase made a 10-minute 2 kHz
+    session take minutes.
+    """
+    i0 = int(np.searchsorted(t, t0 - tol, side="left"))
+    i1 = int(np.searchsorted(t, t1 + tol, side="right"))
+    return slice(i0, max(i0, i1))
+
+
 def _interval_stats(
     emg: Sequence[MuscleSeries], t0: float, t1: float
 ) -> tuple[dict[str, float], dict[str, float]]:
     means: dict[str, float] = {}
     peaks: dict[str, float] = {}
     for m in emg:
-        sel = (m.t >= t0) & (m.t <= t1)
-        if not sel.any() or m.peak <= 0:
+        seg = m.envelope[_span(m.t, t0, t1)]
+        if not seg.size or m.peak <= 0:
             continue
-        seg = m.envelope[sel] / m.peak
-        means[m.muscle] = float(seg.mean())
-        peaks[m.muscle] = float(seg.max())
+        means[m.muscle] = float(seg.mean() / m.peak)
+        peaks[m.muscle] = float(seg.max() / m.peak)
     return means, peaks
 
 
 def _abs_peak(t: NDArray[np.float64], x: NDArray[np.float64], t0: float, t1: float) -> float:
-    sel = (t >= t0 - 1e-9) & (t <= t1 + 1e-9) & np.isfinite(x)
-    return float(np.max(np.abs(x[sel]))) if sel.any() else float("nan")
+    seg = x[_span(t, t0, t1, tol=1e-9)]
+    seg = seg[np.isfinite(seg)]
+    return float(np.max(np.abs(seg))) if seg.size else float("nan")
 
 
 def _analyze_one(
@@ -534,22 +548,27 @@ def _analyze_one(
     onsets = {m.muscle: m.onsets for m in emg}
     reports: list[LiftReport] = []
     prev_end = -np.inf
+    # Envelope peak time of every muscle in every lift's concentric part, one pass per muscle.
+    rising = [[lift.start, lift.top] for lift in lifts]
+    peak_table = {
+        m.muscle: peak_times(m.envelope, m.rate, rising, start=float(m.t[0])) if lifts else None
+        for m in emg
+    }
+    # ArmAngles stacks q, qd and qdd on every access: once here, not once per lift.
+    q, qd, qdd = (angles.q, angles.qd, angles.qdd) if angles is not None else (None, None, None)
     for i, lift in enumerate(lifts, start=1):
         window = (max(lift.start - ONSET_LEAD, prev_end), lift.top)
         prev_end = lift.end
         order = activation_order(onsets, window)
         onset_rel = {m: t - lift.start for m, t in order}
         peaks = {
-            m.muscle: float(
-                peak_times(m.envelope, m.rate, [[lift.start, lift.top]], start=float(m.t[0]))[0]
-            )
-            for m in emg
+            muscle: float(table[i - 1])
+            for muscle, table in peak_table.items()
+            if table is not None and np.isfinite(table[i - 1])
         }
-        peaks = {k: v for k, v in peaks.items() if np.isfinite(v)}
         phases: list[PhaseStats] = []
         energetics: Energetics | None = None
         if angles is not None and lift.source == "angle":
-            tc = angles.t + shift
             for ph in split_phases(angles.elbow, tc, lift, bounds=bounds):
                 means, pk = _interval_stats(emg, ph.start, ph.end)
                 phases.append(
@@ -572,13 +591,15 @@ def _analyze_one(
                 activation_order=[m for m, _ in order],
                 emg_peak_times=peaks,
             )
-            if dyn is not None:
+            if dyn is not None and q is not None and qd is not None and qdd is not None:
+                # Only the lift's samples go in: the whole recording per lift is O(lifts x N).
+                span = _span(tc, lift.start, lift.end, tol=1e-9)
                 try:
                     energetics = lift_energetics(
-                        tc,
-                        angles.q,
-                        angles.qd,
-                        angles.qdd,
+                        tc[span],
+                        q[span],
+                        qd[span],
+                        qdd[span],
                         dyn,
                         interval=(lift.start, lift.end),
                         phases=[p.phase for p in phases],

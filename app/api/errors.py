@@ -1,7 +1,7 @@
 """One error shape for every failure: ``application/problem+json`` (RFC 9457).
 
-``{"type", "title", "status", "detail", "field"?, "file"?, "errors"?}``. Bad requests are 4xx:
-validation errors and unreadable recordings or robot models are 422, unknown resources 404,
+``{"type", "title", "status", "detail", "field"?, "file"?, "errors"?, "job"?}``. Bad requests are
+4xx: validation errors and unreadable recordings or robot models are 422, unknown resources 404,
 conflicts 409, oversized bodies 413. Anything unexpected is logged with its traceback and
 answered with a plain 500 problem that never contains the traceback.
 """
@@ -14,6 +14,7 @@ from http import HTTPStatus
 from typing import Any
 
 from fastapi import FastAPI, Request
+from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
@@ -33,6 +34,7 @@ class ApiError(Exception):
         title: short summary (default: the status phrase).
         field: the request field at fault.
         file: the uploaded file at fault.
+        extra: more members of the problem (e.g. the ``job`` a 409 is waiting for).
     """
 
     def __init__(
@@ -44,6 +46,7 @@ class ApiError(Exception):
         field: str | None = None,
         file: str | None = None,
         headers: dict[str, str] | None = None,
+        extra: dict[str, Any] | None = None,
     ) -> None:
         super().__init__(detail)
         self.status = status
@@ -52,6 +55,7 @@ class ApiError(Exception):
         self.field = field
         self.file = file
         self.headers = headers
+        self.extra = extra or {}
 
 
 def problem(
@@ -60,11 +64,14 @@ def problem(
     detail: str | None,
     *,
     headers: dict[str, str] | None = None,
+    members: dict[str, Any] | None = None,
     **extra: Any,
 ) -> JSONResponse:
+    """A problem response; ``extra`` members are left out when None, ``members`` never are."""
     body: dict[str, Any] = {"type": "about:blank", "title": title, "status": status}
     body["detail"] = detail
     body.update({k: v for k, v in extra.items() if v is not None})
+    body.update(jsonable_encoder(members or {}))  # e.g. a job's datetimes
     return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON, headers=headers)
 
 
@@ -78,7 +85,13 @@ def _phrase(status: int) -> str:
 async def _api_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, ApiError)
     return problem(
-        exc.status, exc.title, exc.detail, field=exc.field, file=exc.file, headers=exc.headers
+        exc.status,
+        exc.title,
+        exc.detail,
+        field=exc.field,
+        file=exc.file,
+        headers=exc.headers,
+        members=exc.extra,
     )
 
 

@@ -196,6 +196,8 @@ class Analysis(_ResultMixin, Base):
         ForeignKey("recording_sessions.id", ondelete="SET NULL"), index=True
     )
     template: Mapped[dict[str, Any] | None] = mapped_column(JSON)
+    #: The plot overlays (``app.analysis.AnalysisOverlays.to_arrays``) as ``.npz`` bytes.
+    arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
 
     job: Mapped[JobRecord] = relationship()
 

@@ -110,7 +110,9 @@ def analyse(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[
     body_height, load_mass``.
 
     Returns:
-        ``{"result": AnalysisResult.to_dict(), "template": HumanTemplate.to_dict()}``.
+        ``{"result": AnalysisResult.to_dict(), "template": HumanTemplate.to_dict(), "arrays":
+        AnalysisOverlays.to_arrays()}``: the overlays are what the recording detail page
+        plots, decimated here once so the page never runs the analysis itself.
     """
     analyze_recordings = _entry("app.analysis", "analyze_recordings")
     read_bytes = _entry("app.recordings", "read_bytes")
@@ -126,8 +128,14 @@ def analyse(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[
     if "phase_bounds_deg" in options:
         options["phase_bounds_deg"] = tuple(options["phase_bounds_deg"])
     result = analyze_recordings(recordings, **options)
+    progress(0.95, "decimating the plot overlays")
+    overlays = _entry("app.analysis", "AnalysisOverlays").from_result(result)
     progress(1.0, "analysed")
-    return {"result": json_safe(result.to_dict()), "template": result.template.to_dict()}
+    return {
+        "result": json_safe(result.to_dict()),
+        "template": result.template.to_dict(),
+        "arrays": overlays.to_arrays(),
+    }
 
 
 # ----------------------------------------------------------------------------------- robots

@@ -17,9 +17,10 @@ from app.viewer.kinematics import KinematicsError, UrdfChain
 from app.viewer.playback import PlaybackClock, Player
 from app.viewer.scene import ComparisonScene, PreparedCache, PreparedComparison
 from app.viewer.server import ViewerServer
-from app.viewer.signals import RecordingSignals, SignalsCache
+from app.viewer.signals import AnalysisPending, SignalsCache
 
 __all__ = [
+    "AnalysisPending",
     "Comparison",
     "ComparisonError",
     "ComparisonScene",
@@ -29,7 +30,6 @@ __all__ = [
     "Player",
     "PreparedCache",
     "PreparedComparison",
-    "RecordingSignals",
     "SignalsCache",
     "UrdfChain",
     "ViewerServer",

@@ -165,10 +165,14 @@ def recording_analysis(
     t0: Annotated[float | None, Query(description="window start [s]")] = None,
     t1: Annotated[float | None, Query(description="window end [s]")] = None,
 ) -> dict[str, Any]:
-    """Envelopes with onsets, shoulder/elbow angles and velocities [deg, deg/s], lifts with
-    their A/B/C phases and the human template of a stored recording, downsampled to
-    ``points`` samples per series within the window [t0, t1]."""
-    from app.viewer.signals import SignalsError
+    """The plot overlays of the newest finished analysis of a recording: envelopes with onsets,
+    shoulder/elbow angles and velocities [deg, deg/s], lifts with their A/B/C phases and the
+    human template, downsampled to ``points`` samples per series within the window [t0, t1].
+
+    409 while the recording has no finished analysis; the problem's ``job`` is the analysis job
+    to follow (queued or running), the one that failed, or null when none was submitted.
+    """
+    from app.viewer.signals import AnalysisPending, SignalsError
 
     state = _state(request)
     for name, value in (("t0", t0), ("t1", t1)):
@@ -177,12 +181,16 @@ def recording_analysis(
     if t0 is not None and t1 is not None and t1 <= t0:
         raise ApiError(422, f"t1 ({t1}) must be after t0 ({t0})", field="t1")
     try:
-        signals = state.signals.get(state.services(), recording_id)
+        analysis_id, overlays = state.signals.get(state.services(), recording_id)
     except SignalsError as exc:
         raise ApiError(404, str(exc)) from None
-    except ValueError as exc:  # the analysis refuses the recording: say why
-        raise ApiError(422, f"recording {recording_id} cannot be analysed: {exc}") from None
-    return signals.series(points=points, t0=t0, t1=t1)
+    except AnalysisPending as exc:
+        raise ApiError(409, str(exc), title="No analysis yet", extra={"job": exc.job}) from None
+    return {
+        "recording_id": recording_id,
+        "analysis_id": analysis_id,
+        **overlays.window(points=points, t0=t0, t1=t1),
+    }
 
 
 @router.get("/sessions", response_model=list[dict[str, Any]])

@@ -2,7 +2,7 @@
 // their A/B/C phases, the human template. Zooming fetches the window again (server-side
 // min/max downsampling), so long recordings stay light.
 
-import { api, followJob, qs } from "./api.js";
+import { ApiError, api, followJob, qs } from "./api.js";
 import { PHASE_FILL, draw, layout, plotly } from "./plots.js";
 import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
 
@@ -274,28 +274,54 @@ export async function render(main, [idText]) {
     if (analysis.warnings.length) liftsBox.append(h("details", { class: "small" }, h("summary", {}, `${analysis.warnings.length} note(s) from the analysis`), h("ul", {}, analysis.warnings.map((w) => h("li", {}, w)))));
   }
 
-  let analysisFailed = false;
+  // The overlays come from the newest finished analysis job; "ready" once one was loaded,
+  // "waiting" while a job runs, "failed" when the last one failed (the button runs it again).
+  let analysisState = "unknown";
   async function load({ initial = false } = {}) {
     const rawPromise = fetchRaw();
-    const analysisPromise = analysisFailed ? Promise.resolve(null) : fetchAnalysis().catch((err) => {
-      analysisFailed = true;
-      clear(analysisNote).append(banner("warn", `The analysis of this recording failed: ${messageOf(err)}`));
-      clear(angleDiv).append(h("p", { class: "muted" }, "No analysis: raw signals only."));
-      return null;
-    });
+    const analysisPromise = analysisState === "ready" || analysisState === "unknown"
+      ? fetchAnalysis().catch((err) => {
+        noAnalysis(err);
+        return null;
+      })
+      : Promise.resolve(null);
     // Raw signals first: they arrive quickly even for long recordings.
     const raw = await rawPromise;
     await drawEmg(raw, state.analysis);
     const analysis = await analysisPromise;
     if (!analysis) return;
+    const first = state.analysis === null || state.analysis.analysis_id !== analysis.analysis_id;
+    analysisState = "ready";
     state.analysis = analysis;
     clear(analysisNote);
     await drawEmg(raw, analysis);
     await drawAngles(analysis);
-    if (initial) {
+    if (initial || first) {
       await drawTemplate(analysis.template);
       drawLifts(analysis);
     }
+  }
+
+  /** No overlays yet (409): follow the running job, report the failed one, or start one. */
+  function noAnalysis(err) {
+    const job = err instanceof ApiError && err.status === 409 ? err.problem.job : undefined;
+    if (job === undefined) {
+      analysisState = "failed";
+      clear(analysisNote).append(banner("warn", `The analysis of this recording could not be loaded: ${messageOf(err)}`));
+      clear(angleDiv).append(h("p", { class: "muted" }, "No analysis: raw signals only."));
+      return;
+    }
+    if (job && job.state !== "queued" && job.state !== "running") {
+      analysisState = "failed";
+      clear(analysisNote).append(banner("warn", `${messageOf(err)}. Raw signals only; “Run analysis job” tries again.`));
+      clear(angleDiv).append(h("p", { class: "muted" }, "No analysis: raw signals only."));
+      return;
+    }
+    analysisState = "waiting";
+    clear(analysisNote).append(h("p", { class: "muted small" }, job
+      ? `Analysis job #${job.id} is ${job.state}: envelopes, onsets, angles and lifts appear when it ends.`
+      : "This recording has not been analysed yet: starting the analysis job…"));
+    runAnalysis(job);
   }
 
   const reload = debounce(() => load().catch((err) => clear(analysisNote).append(banner("error", messageOf(err)))), 200);
@@ -316,14 +342,15 @@ export async function render(main, [idText]) {
     reload();
   }
 
-  async function runAnalysis() {
+  /** Submit an analysis job (or follow `existing`), with its progress; then load its overlays. */
+  async function runAnalysis(existing = null) {
     analyseButton.disabled = true;
     clear(analysisStatus);
     const bar = h("div", {});
     const text = h("span", { class: "small" }, "queued");
     analysisStatus.append(h("div", { class: "card" }, h("div", { class: "row" }, h("strong", {}, "Analysis job "), text), h("div", { class: "progress" }, bar)));
     try {
-      const job = await api("/api/analyses", { method: "POST", body: { recording_id: id } });
+      const job = existing || await api("/api/analyses", { method: "POST", body: { recording_id: id } });
       const follow = followJob(job, (j) => {
         bar.style.width = `${Math.round(100 * j.progress)}%`;
         text.textContent = `#${j.id} ${j.state}: ${j.error || j.message}`;
@@ -333,7 +360,13 @@ export async function render(main, [idText]) {
       if (final.state === "succeeded") {
         bar.parentElement.classList.add("done");
         text.append(" · ", h("a", { href: `#/plan?analysis=${final.id}` }, "plan with this template"));
-      } else bar.parentElement.classList.add("failed");
+        analysisState = "unknown";
+        await load({ initial: true });
+      } else {
+        bar.parentElement.classList.add("failed");
+        analysisState = "failed";
+        clear(analysisNote).append(banner("warn", `Analysis job #${final.id} ${final.state}: ${final.error || final.message}`));
+      }
     } catch (err) {
       clear(analysisStatus).append(banner("error", messageOf(err)));
     } finally {
@@ -342,8 +375,8 @@ export async function render(main, [idText]) {
   }
 
   // Analyses already run on this recording.
-  api(`/api/analyses${qs({ state: "succeeded", limit: 200 })}`).then((page) => {
-    const mine = page.items.filter((a) => a.recording_id === id);
+  api(`/api/analyses${qs({ state: "succeeded", recording_id: id, limit: 50 })}`).then((page) => {
+    const mine = page.items;
     if (mine.length) {
       analysisStatus.append(h("p", { class: "small muted" }, "Finished analyses: ", mine.map((a, i) => [i ? ", " : "", h("a", { href: `#/plan?analysis=${a.id}` }, `#${a.id}`)]), " (use as planning template)"));
     }

@@ -128,6 +128,10 @@ export function render(main) {
       files.forEach((f) => f.status.append(h("div", { class: "file-ok" }, "stored")));
       topError.append(banner("info", `Stored as recording #${rec.id}. `), );
       topError.firstChild.append(h("a", { href: `#/recordings/${rec.id}` }, "Open it"));
+      // Analyse it in the background now: its detail page then opens with the overlays ready.
+      api("/api/analyses", { method: "POST", body: { recording_id: rec.id } })
+        .then((job) => topError.firstChild.append(` · analysis job #${job.id} started`))
+        .catch((err) => topError.append(banner("warn", `The analysis could not be started: ${messageOf(err)}`)));
       files.length = 0;
       setTimeout(() => clear(list), 2500);
       refresh();

@@ -40,3 +40,30 @@ def test_sqlite_runs_in_wal_mode_with_foreign_keys(tmp_path: object) -> None:
             assert conn.execute(text("PRAGMA foreign_keys")).scalar() == 1
     finally:
         engine.dispose()
+
+
+def test_0002_keeps_existing_analyses(db_url: str) -> None:
+    """An analysis stored before overlays existed survives the upgrade, with no arrays."""
+    engine = make_engine(db_url)
+    try:
+        upgrade(db_url, "0001")
+        with engine.begin() as conn:
+            conn.execute(
+                text(
+                    "INSERT INTO jobs (id, kind, state, progress, message, params, attempts,"
+                    " created_at, updated_at) VALUES (7, 'analysis', 'succeeded', 1.0, 'done',"
+                    " '{}', 1, CURRENT_TIMESTAMP, CURRENT_TIMESTAMP)"
+                )
+            )
+            conn.execute(text("INSERT INTO analyses (id, result) VALUES (7, '{\"n_lifts\": 3}')"))
+        assert "arrays" not in {c["name"] for c in inspect(engine).get_columns("analyses")}
+        upgrade(db_url)
+        with engine.connect() as conn:
+            row = conn.execute(text("SELECT id, result, arrays FROM analyses")).one()
+        assert row[0] == 7 and "n_lifts" in str(row[1]) and row[2] is None
+        downgrade(db_url, "0001")
+        assert "arrays" not in {c["name"] for c in inspect(engine).get_columns("analyses")}
+        with engine.connect() as conn:
+            assert conn.execute(text("SELECT count(*) FROM analyses")).scalar() == 1
+    finally:
+        engine.dispose()

@@ -105,6 +105,24 @@ def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any
     screenshot(page, "recording-detail")
 
 
+def test_detail_page_runs_a_missing_analysis(live_server: LiveServer, page: Any) -> None:
+    """A recording stored by REST without an analysis: its page starts the job, follows it and
+    then draws the overlays the job stored."""
+    from app.viewer.demo_seed import synthetic_curls_csv
+
+    status, rec = post_files(live_server, [("three_curls.csv", synthetic_curls_csv(lifts=3))])
+    assert status == 201, rec
+    assert live_server.api(f"/api/analyses?recording_id={rec['id']}")["total"] == 0
+    page.goto(f"{live_server.url}/#/recordings/{rec['id']}")
+    page.wait_for_selector("#analysis-status .progress", timeout=30_000)
+    page.wait_for_selector("#lifts-table tbody tr", timeout=60_000)
+    jobs = live_server.api(f"/api/analyses?recording_id={rec['id']}")["items"]
+    assert len(jobs) == 1 and jobs[0]["job"]["state"] == "succeeded"
+    assert page.locator("#lifts-table tbody tr").count() == 3
+    names = page.evaluate("document.getElementById('angle-plot').data.map(d => d.name)")
+    assert "elbow flexion" in names
+
+
 def test_zoom_loads_the_window(live_server: LiveServer, page: Any) -> None:
     rec = live_server.api("/api/recordings?subject=demo%20subject")["items"][0]["id"]
     page.goto(f"{live_server.url}/#/recordings/{rec}")

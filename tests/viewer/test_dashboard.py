@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import socket
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from starlette.exceptions import StarletteDeprecationWarning
 
@@ -20,6 +22,9 @@ from app.viewer.routes import plotly_js_path
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", StarletteDeprecationWarning)
     from fastapi.testclient import TestClient
+
+
+TERMINAL = ("succeeded", "failed", "cancelled")
 
 
 def free_port() -> int:
@@ -150,6 +155,67 @@ def test_seed_is_idempotent(dashboard: tuple[TestClient, Any]) -> None:
     jobs = client.get("/api/jobs").json()["items"]
     kinds = sorted(j["kind"] for j in jobs if j["state"] == "succeeded")
     assert kinds == ["analysis", "plan", "simulation"]
+
+
+def test_analysis_overlays_wait_for_the_analysis_job(dashboard: tuple[TestClient, Any]) -> None:
+    """A new recording has no overlays (409, no job); its analysis job stores them."""
+    import time
+
+    from app.viewer.demo_seed import DEMO_MUSCLES, synthetic_curls_csv
+
+    client, _ = dashboard
+    data = synthetic_curls_csv(lifts=2, seed=11)
+    r = client.post(
+        "/api/recordings",
+        files={"files": ("two_lifts.csv", data, "text/csv")},
+        data={"muscle_map": json.dumps(DEMO_MUSCLES)},
+    )
+    assert r.status_code == 201, r.text
+    rec = r.json()["id"]
+    r = client.get(f"/api/viewer/recordings/{rec}/analysis")
+    assert r.status_code == 409
+    assert r.json()["job"] is None and "no analysis" in r.json()["detail"]
+
+    job = client.post("/api/analyses", json={"recording_id": rec}).json()
+    r = client.get(f"/api/viewer/recordings/{rec}/analysis")
+    if r.status_code == 409:  # queued or running: the problem names the job to follow
+        assert r.json()["job"]["id"] == job["id"]
+    deadline = time.monotonic() + 60
+    while client.get(f"/api/jobs/{job['id']}").json()["state"] not in TERMINAL:
+        assert time.monotonic() < deadline, "the analysis job did not finish in 60 s"
+        time.sleep(0.2)
+    body = client.get(f"/api/viewer/recordings/{rec}/analysis", params={"points": 300}).json()
+    assert body["analysis_id"] == job["id"] and len(body["lifts"]) == 2
+    assert all(len(e["envelope"]["t"]) <= 300 for e in body["emg"])
+    mine = client.get("/api/analyses", params={"recording_id": rec}).json()
+    assert [a["id"] for a in mine["items"]] == [job["id"]]
+
+    client.delete(f"/api/recordings/{rec}")
+    assert client.get(f"/api/viewer/recordings/{rec}/analysis").status_code == 404
+
+
+def test_a_failed_analysis_is_reported(dashboard: tuple[TestClient, Any]) -> None:
+    """A force-only file uploads but cannot be analysed: the 409 carries the failed job."""
+    import time
+
+    client, _ = dashboard
+    t = np.arange(4000) / 1000.0
+    force = "\n".join(["time,Force_N"] + [f"{x:.3f},{np.sin(x):.4f}" for x in t]).encode()
+    r = client.post("/api/recordings", files={"files": ("force.csv", force, "text/csv")})
+    assert r.status_code == 201, r.text
+    rec = r.json()["id"]
+    job = client.post("/api/analyses", json={"recording_id": rec}).json()
+    deadline = time.monotonic() + 60
+    while client.get(f"/api/jobs/{job['id']}").json()["state"] not in TERMINAL:
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+    r = client.get(f"/api/viewer/recordings/{rec}/analysis")
+    assert r.status_code == 409
+    problem = r.json()
+    assert problem["job"]["id"] == job["id"] and problem["job"]["state"] == "failed"
+    assert "nothing to analyse" in problem["job"]["error"]
+    assert "failed" in problem["detail"] and "nothing to analyse" in problem["detail"]
+    client.delete(f"/api/recordings/{rec}")
 
 
 def test_seed_demo_on_its_own(tmp_path: Path) -> None:

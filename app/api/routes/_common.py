@@ -67,6 +67,7 @@ def list_results(
     offset: int,
     state: str | None = None,
     robot: str | None = None,
+    recording_id: int | None = None,
 ) -> tuple[list[dict[str, Any]], int]:
     model: Any = RESULT_MODELS[kind]
     stmt = select(model, JobRecord).join(JobRecord, JobRecord.id == model.id)
@@ -75,6 +76,9 @@ def list_results(
         stmt, count = stmt.where(JobRecord.state == state), count.where(JobRecord.state == state)
     if robot is not None and hasattr(model, "robot"):
         stmt, count = stmt.where(model.robot == robot), count.where(model.robot == robot)
+    if recording_id is not None and hasattr(model, "recording_id"):
+        mine = model.recording_id == recording_id
+        stmt, count = stmt.where(mine), count.where(mine)
     rows = session.execute(stmt.order_by(model.id.desc()).limit(limit).offset(offset)).all()
     items = []
     for row, job in rows:

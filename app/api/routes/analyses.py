@@ -43,8 +43,19 @@ def list_analyses(
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
     state: JobState | None = None,
+    recording_id: Annotated[
+        int | None, Query(ge=1, le=2**31 - 1, description="only this recording's analyses")
+    ] = None,
 ) -> dict[str, Any]:
-    items, total = list_results(session, "analysis", limit=limit, offset=offset, state=state)
+    """Analyses, newest first; filter by job state and by recording."""
+    items, total = list_results(
+        session,
+        "analysis",
+        limit=limit,
+        offset=offset,
+        state=state,
+        recording_id=recording_id,
+    )
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 

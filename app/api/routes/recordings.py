@@ -12,8 +12,8 @@ from fastapi import APIRouter, File, Form, Query, Response, UploadFile
 from pydantic import Field, TypeAdapter
 from starlette.concurrency import run_in_threadpool
 
+from app.analysis.downsample import minmax_downsample
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
-from app.api.downsample import minmax_downsample
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, utc
 from app.api.schemas import Page, RecordingDetail, RecordingSummary, Signals, Site
