@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from app.api.downsample import minmax_downsample
+from app.analysis.downsample import minmax_downsample
 
 
 def brute_force(y: np.ndarray, points: int) -> set[float]:
