@@ -19,20 +19,43 @@ function muscleColor(name, i) {
   return MUSCLE_COLORS[name] || EXTRA_COLORS[i % EXTRA_COLORS.length];
 }
 
-/** Phase rectangles of every lift (yref paper: across all subplots). */
-function liftShapes(lifts) {
-  const shapes = [];
-  for (const lift of lifts) {
-    if (lift.phases.length) {
-      for (const p of lift.phases) {
-        shapes.push({ type: "rect", xref: "x", yref: "paper", x0: p.start_s, x1: p.end_s, y0: 0, y1: 1, fillcolor: PHASE_FILL[p.name] || "rgba(0,0,0,0.04)", line: { width: 0 }, layer: "below" });
-      }
-    } else {
-      shapes.push({ type: "rect", xref: "x", yref: "paper", x0: lift.start_s, x1: lift.top_s, y0: 0, y1: 1, fillcolor: "rgba(37,99,235,0.06)", line: { width: 0 }, layer: "below" });
-    }
-    shapes.push({ type: "line", xref: "x", yref: "paper", x0: lift.top_s, x1: lift.top_s, y0: 0, y1: 1, line: { color: "#9ca3af", width: 1, dash: "dot" } });
+/**
+ * Rectangles [x0, x1] x [y0, y1] as one filled trace (null-separated polygons). A few traces
+ * draw far faster than layout shapes: a 10-minute session has over a thousand phase and onset
+ * rectangles, which as shapes cost Plotly about half a second per plot.
+ */
+function rectTrace(spans, y0, y1, style) {
+  const x = [];
+  const y = [];
+  for (const [a, b] of spans) {
+    x.push(a, b, b, a, a, null);
+    y.push(y0, y0, y1, y1, y0, null);
   }
-  return shapes;
+  return { x, y, type: "scatter", mode: "lines", fill: "toself", line: { width: 0 }, hoverinfo: "skip", showlegend: false, ...style };
+}
+
+/** The A/B/C phases (or the rising part when a lift has none) and lift tops on one subplot. */
+function liftTraces(lifts, [y0, y1], axes) {
+  const spans = new Map();
+  const add = (key, a, b) => (spans.get(key) || spans.set(key, []).get(key)).push([a, b]);
+  const tops = { x: [], y: [] };
+  for (const lift of lifts) {
+    if (lift.phases.length) lift.phases.forEach((p) => add(p.name, p.start_s, p.end_s));
+    else add("rising", lift.start_s, lift.top_s);
+    tops.x.push(lift.top_s, lift.top_s, null);
+    tops.y.push(y0, y1, null);
+  }
+  const traces = [...spans].map(([name, list]) => rectTrace(list, y0, y1, { ...axes, name: `phase ${name}`, fillcolor: PHASE_FILL[name] || (name === "rising" ? "rgba(37,99,235,0.06)" : "rgba(0,0,0,0.04)") }));
+  if (lifts.length) traces.push({ ...tops, ...axes, type: "scatter", mode: "lines", name: "lift tops", line: { color: "#9ca3af", width: 1, dash: "dot" }, hoverinfo: "skip", showlegend: false });
+  return traces;
+}
+
+/** [min, max] of the finite values of several series (null when there is none). */
+function extent(...series) {
+  let lo = Infinity;
+  let hi = -Infinity;
+  for (const ys of series) for (const v of ys) if (v !== null && Number.isFinite(v)) { if (v < lo) lo = v; if (v > hi) hi = v; }
+  return lo <= hi ? [lo, hi] : null;
 }
 
 export async function render(main, [idText]) {
@@ -144,25 +167,32 @@ export async function render(main, [idText]) {
       return;
     }
     const n = raw.channels.length;
+    const under = [];
     const traces = [];
-    const shapes = analysis ? liftShapes(analysis.lifts) : [];
     const lay = layout({ height: Math.max(260, 150 * n + 60), showlegend: true, uirevision: "emg", hovermode: "x", margin: { l: 78, r: 12, t: 30, b: 40 } });
     const gap = 0.04;
     const envByChannel = new Map((analysis ? analysis.emg : []).map((e) => [e.channel, e]));
     raw.channels.forEach((ch, i) => {
       const axis = i === 0 ? "" : String(i + 1);
+      const axes = { xaxis: `x${axis}`, yaxis: `y${axis}` };
       const info = state.emgChannels.find((c) => c.id === ch.channel_id) || {};
       const scale = emgScale(ch.unit);
       const s = ch.series[0];
       const env = envByChannel.get(ch.name);
       const label = info.site || (env ? env.muscle : ch.name);
       const color = muscleColor(label, i);
-      traces.push({ x: s.t, y: s.y.map((v) => (v === null ? null : v * scale.k)), type: "scatter", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, xaxis: `x${axis}`, yaxis: `y${axis}`, showlegend: false, hoverinfo: "skip" });
-      if (env) {
-        const es = emgScale(env.unit);
-        traces.push({ x: env.envelope.t, y: env.envelope.y.map((v) => (v === null ? null : v * es.k)), type: "scatter", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, xaxis: `x${axis}`, yaxis: `y${axis}` });
-        for (const [on, off] of env.onsets) {
-          shapes.push({ type: "rect", xref: `x${axis}`, yref: `y${axis} domain`, x0: on, x1: off, y0: 0.9, y1: 1, fillcolor: color, opacity: 0.45, line: { width: 0 } });
+      const rawY = s.y.map((v) => (v === null ? null : v * scale.k));
+      traces.push({ x: s.t, y: rawY, type: "scatter", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, ...axes, showlegend: false, hoverinfo: "skip" });
+      const es = env ? emgScale(env.unit) : null;
+      const envY = env ? env.envelope.y.map((v) => (v === null ? null : v * es.k)) : [];
+      if (env) traces.push({ x: env.envelope.t, y: envY, type: "scatter", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, ...axes });
+      const span = extent(rawY, envY);
+      if (analysis && span) {
+        // Shading first, so that the signals are drawn over it.
+        under.push(...liftTraces(analysis.lifts, span, axes));
+        if (env && env.onsets.length) {
+          const top = span[1] - 0.1 * (span[1] - span[0]);
+          under.push(rectTrace(env.onsets, top, span[1], { ...axes, name: `${label} onsets`, fillcolor: color, opacity: 0.45 }));
         }
       }
       const top = 1 - i / n;
@@ -170,8 +200,7 @@ export async function render(main, [idText]) {
       lay[`yaxis${axis}`] = { domain: [bottom + gap / 2, top - gap / 2], title: { text: `${ch.name.length > 14 ? `${ch.name.slice(0, 13)}…` : ch.name}<br>${label !== ch.name ? `${label} ` : ""}[${scale.unit}]`, font: { size: 10.5 } }, gridcolor: "#eceff3", zeroline: false };
       lay[`xaxis${axis}`] = { anchor: `y${axis}`, matches: i === 0 ? undefined : "x", showticklabels: i === n - 1, gridcolor: "#eceff3", range: range(), title: i === n - 1 ? { text: "t [s]" } : undefined };
     });
-    lay.shapes = shapes;
-    await draw(emgDiv, traces, lay);
+    await draw(emgDiv, [...under, ...traces], lay);
     emgDiv.style.minHeight = "0";
     hook(emgDiv);
   }
@@ -190,14 +219,18 @@ export async function render(main, [idText]) {
       line(a.elbow_velocity_deg_s, "elbow velocity", "#cf222e", "y2", "dot"),
       line(a.shoulder_velocity_deg_s, "shoulder velocity", "#8250df", "y2", "dot"),
     ];
+    const under = [];
+    const angles = extent(a.elbow_deg.y, a.shoulder_deg.y);
+    const velocities = extent(a.elbow_velocity_deg_s.y, a.shoulder_velocity_deg_s.y);
+    if (angles) under.push(...liftTraces(analysis.lifts, angles, { xaxis: "x", yaxis: "y" }));
+    if (velocities) under.push(...liftTraces(analysis.lifts, velocities, { xaxis: "x", yaxis: "y2" }));
     const lay = layout({ height: 400, uirevision: "angles", hovermode: "x" });
     lay.xaxis = { anchor: "y2", range: range(), title: { text: "t [s]" }, gridcolor: "#eceff3" };
     lay.yaxis = { domain: [0.53, 1], title: { text: "angle [deg]" }, gridcolor: "#eceff3" };
     lay.yaxis2 = { domain: [0, 0.47], title: { text: "velocity [deg/s]" }, gridcolor: "#eceff3", zerolinecolor: "#c9ced6" };
-    lay.shapes = liftShapes(analysis.lifts);
     if (!angleDiv.on) clear(angleDiv);
     angleDiv.style.minHeight = "";
-    await draw(angleDiv, traces, lay);
+    await draw(angleDiv, [...under, ...traces], lay);
     hook(angleDiv);
   }
 
@@ -285,16 +318,15 @@ export async function render(main, [idText]) {
         return null;
       })
       : Promise.resolve(null);
-    // Raw signals first: they arrive quickly even for long recordings.
-    const raw = await rawPromise;
-    await drawEmg(raw, state.analysis);
-    const analysis = await analysisPromise;
+    // Both arrive in a fraction of a second (the overlays are stored by the analysis job):
+    // draw each plot once, with its overlays.
+    const [raw, analysis] = await Promise.all([rawPromise, analysisPromise]);
+    await drawEmg(raw, analysis || state.analysis);
     if (!analysis) return;
     const first = state.analysis === null || state.analysis.analysis_id !== analysis.analysis_id;
     analysisState = "ready";
     state.analysis = analysis;
     clear(analysisNote);
-    await drawEmg(raw, analysis);
     await drawAngles(analysis);
     if (initial || first) {
       await drawTemplate(analysis.template);

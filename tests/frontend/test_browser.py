@@ -31,6 +31,13 @@ def wait_for(predicate: Any, timeout: float = 30.0, what: str = "condition") -> 
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
+def signal_names(page: Any, plot: str) -> list[str]:
+    """Names of a plot's signal traces (leaving out the phase, lift-top and onset overlays)."""
+    names: list[str] = page.evaluate(f"document.getElementById('{plot}').data.map(d => d.name)")
+    overlay = ("phase ", "lift tops")
+    return [n for n in names if not n.startswith(overlay) and not n.endswith(" onsets")]
+
+
 def post_files(server: LiveServer, files: list[tuple[str, bytes]]) -> tuple[int, dict[str, Any]]:
     """Upload through the API directly (the reference for what the page must show)."""
     boundary = uuid.uuid4().hex
@@ -90,18 +97,28 @@ def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any
     mapped = [c for f in detail["files"] for c in f["channels"] if c["kind"] == "emg" and c["site"]]
     assert len(mapped) >= 3
     wait_for(
-        lambda: page.evaluate("document.getElementById('emg-plot').data.length") >= 2 * len(mapped),
+        lambda: len(signal_names(page, "emg-plot")) >= 2 * len(mapped),
         what="raw EMG and envelopes",
     )
-    raw = page.evaluate("document.getElementById('emg-plot').data.map(d => d.name)")
-    assert {f"{c['name']} raw" for c in mapped} <= set(raw)
+    assert {f"{c['name']} raw" for c in mapped} <= set(signal_names(page, "emg-plot"))
     # Angles and velocities from the markers, lifts with phases in the table.
     page.wait_for_selector("#angle-plot .main-svg", timeout=30_000)
-    names = page.evaluate("document.getElementById('angle-plot').data.map(d => d.name)")
-    assert names == ["elbow flexion", "shoulder flexion", "elbow velocity", "shoulder velocity"]
+    assert signal_names(page, "angle-plot") == [
+        "elbow flexion",
+        "shoulder flexion",
+        "elbow velocity",
+        "shoulder velocity",
+    ]
     page.wait_for_selector("#lifts-table tbody tr")
     analysis = live_server.api(f"/api/viewer/recordings/{rec_id}/analysis?points=50")
     assert page.locator("#lifts-table tbody tr").count() == len(analysis["lifts"]) > 0
+    # Every A phase of the analysis is shaded on the angle plot (angles and velocities).
+    shaded = page.evaluate(
+        "document.getElementById('angle-plot').data.filter(d => d.name === 'phase A')"
+        ".map(d => d.x.filter(v => v !== null).length / 5)"
+    )
+    phases_a = sum(p["name"] == "A" for lift in analysis["lifts"] for p in lift["phases"])
+    assert shaded == [phases_a, phases_a] and phases_a > 0
     screenshot(page, "recording-detail")
 
 
@@ -127,19 +144,20 @@ def test_zoom_loads_the_window(live_server: LiveServer, page: Any) -> None:
     rec = live_server.api("/api/recordings?subject=demo%20subject")["items"][0]["id"]
     page.goto(f"{live_server.url}/#/recordings/{rec}")
     page.wait_for_selector("#angle-plot .main-svg", timeout=30_000)
-    full = page.evaluate("document.getElementById('emg-plot').data[0].x.length")
+    first_raw = "document.getElementById('emg-plot').data.find(d => d.name.endsWith(' raw'))"
+    full = page.evaluate(f"{first_raw}.x.length")
     page.evaluate(
         "Plotly.relayout(document.getElementById('emg-plot'), "
         "{'xaxis.range[0]': 6.0, 'xaxis.range[1]': 6.5})"
     )
 
     def zoomed() -> bool:
-        xs = page.evaluate("document.getElementById('emg-plot').data[0].x")
+        xs = page.evaluate(f"{first_raw}.x")
         return bool(xs) and min(xs) >= 6.0 and max(xs) <= 6.5
 
     wait_for(zoomed, what="the zoomed window to load")
     # 0.5 s at 1 kHz: every sample of the window, more detail than the whole-file view had.
-    xs = np.asarray(page.evaluate("document.getElementById('emg-plot').data[0].x"))
+    xs = np.asarray(page.evaluate(f"{first_raw}.x"))
     assert len(xs) == 501 and np.allclose(np.diff(xs), 0.001)
     assert full <= 1600
 
