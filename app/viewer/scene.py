@@ -33,6 +33,10 @@ COLORS = {"standard": (37, 99, 235), "optimized": (234, 140, 20)}
 PAYLOAD_COLOR = (120, 170, 200)
 PHASE_COLORS = {"A": (46, 160, 67), "B": (212, 160, 23), "C": (207, 34, 46)}
 GHOST_OPACITY = 0.4
+#: End-effector trace: a thin tube of at most this many rings of TRACE_SIDES vertices [m].
+TRACE_SAMPLES = 120
+TRACE_SIDES = 6
+TRACE_RADIUS = 0.004
 
 
 @dataclass(frozen=True)
@@ -57,6 +61,7 @@ class PreparedComparison:
         joint_wxyz, joint_position: label -> joint -> (T, 4) / (T, 3) pose of the joint's child
             link in its parent link's frame.
         payload_path: label -> (T, 3) world position of the payload's centre [m].
+        traces: label -> (vertices (V, 3), faces (F, 3)) of the tube along the payload path.
         reach: largest distance of the payload from the base over both trajectories [m].
     """
 
@@ -97,6 +102,7 @@ class PreparedComparison:
         stacked = np.concatenate(list(self.payload_path.values()))
         self.reach = float(np.max(np.linalg.norm(stacked[:, :2], axis=1), initial=0.3))
         self.height = float(np.max(stacked[:, 2], initial=1.0))
+        self.traces = {label: trace_tube(self.payload_path[label]) for label in LABELS}
         self.phases = {
             label: [comparison.phase_at(label, i) for i in range(len(comparison.t))]
             for label in LABELS
@@ -129,6 +135,70 @@ class PreparedComparison:
                 out.append((phase, self.payload_path[label][i]))
                 previous = phase
         return out
+
+
+def trace_tube(
+    path: FloatArray,
+    *,
+    samples: int = TRACE_SAMPLES,
+    radius: float = TRACE_RADIUS,
+    sides: int = TRACE_SIDES,
+) -> tuple[NDArray[np.float32], NDArray[np.uint32]]:
+    """A closed-sided tube along a path, for drawing a trace as one plain mesh.
+
+    viser's line segments are instanced fat lines (two passes with world-unit thickness); a
+    software WebGL renderer pays for every instance, and two 300-segment traces took a headless
+    SwiftShader canvas from about 55 to 18 frames per second. A tube of a few hundred triangles
+    is one ordinary draw.
+
+    Args:
+        path: (T, 3) points [m].
+        samples: most rings (the path is subsampled evenly, its last point kept).
+        radius: tube radius [m].
+        sides: vertices per ring.
+
+    Returns:
+        vertices (N * sides, 3) and faces (2 * sides * (N - 1), 3) for the N rings kept; both
+        empty when the path does not move.
+    """
+    path = np.asarray(path, dtype=np.float64)
+    step = max(1, -(-(len(path) - 1) // max(samples - 1, 1)))
+    picked = path[::step]
+    if len(path) and (len(picked) == 0 or not np.array_equal(picked[-1], path[-1])):
+        picked = np.vstack([picked, path[-1:]])
+    # Drop repeated points (a pose held still) so every tangent is defined.
+    keep = [0] if len(picked) else []
+    for i in range(1, len(picked)):
+        if np.linalg.norm(picked[i] - picked[keep[-1]]) > 1e-6:
+            keep.append(i)
+    pts = picked[keep]
+    if len(pts) < 2:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint32)
+    tangent = np.gradient(pts, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    # Parallel transport: each ring's normal is the previous one with its tangent part removed,
+    # so the tube does not twist.
+    seed = np.eye(3)[int(np.argmin(np.abs(tangent[0])))]
+    normals = np.empty_like(pts)
+    normal = seed - tangent[0] * (seed @ tangent[0])
+    for i, t in enumerate(tangent):
+        normal = normal - t * (normal @ t)
+        normal /= np.linalg.norm(normal)
+        normals[i] = normal
+    binormals = np.cross(tangent, normals)
+    angle = 2.0 * np.pi * np.arange(sides) / sides
+    ring = (
+        np.cos(angle)[None, :, None] * normals[:, None, :]
+        + np.sin(angle)[None, :, None] * binormals[:, None, :]
+    )
+    vertices = (pts[:, None, :] + radius * ring).reshape(-1, 3)
+    rings, around = np.meshgrid(np.arange(len(pts) - 1), np.arange(sides), indexing="ij")
+    a = rings * sides + around
+    b = rings * sides + (around + 1) % sides
+    faces = np.stack(
+        [np.stack([a, b, a + sides], -1), np.stack([b, b + sides, a + sides], -1)], axis=2
+    ).reshape(-1, 3)
+    return vertices.astype(np.float32), faces.astype(np.uint32)
 
 
 def _link_meshes(urdf: Any) -> list[LinkMesh]:
@@ -191,11 +261,12 @@ class ComparisonScene:
         self._phase: dict[str, str] = {}
         self.index = -1
         chain = prepared.chain
-        floor = 2.0 * prepared.side_offset + 1.0
+        # Just under both robots in either layout: the grid's shader costs a software renderer
+        # per pixel it covers.
         scene.add_grid(
             f"{ROOT}/floor",
-            width=floor,
-            height=floor,
+            width=2.0 * prepared.reach + 1.0,
+            height=prepared.side_offset + 2.0 * prepared.reach + 1.0,
             cell_size=0.25,
             section_size=1.0,
             shadow_opacity=0.0,
@@ -266,19 +337,17 @@ class ComparisonScene:
             self._ghost_meshes.append(handle)
 
     def _add_trace(self, scene: Any, label: str) -> None:
-        path = self.prepared.payload_path[label]
-        # At most ~300 segments: the trace is smooth, more only costs bandwidth.
-        step = max(1, len(path) // 300)
-        pts = path[::step]
-        if len(pts) < 2:
-            return
-        segments = np.stack([pts[:-1], pts[1:]], axis=1).astype(np.float32)
-        scene.add_line_segments(
-            f"{ROOT}/{label}/trace",
-            points=segments,
-            colors=np.array(COLORS[label], dtype=np.uint8),
-            thickness=0.008,
-        )
+        vertices, faces = self.prepared.traces[label]
+        if len(faces):
+            scene.add_mesh_simple(
+                f"{ROOT}/{label}/trace",
+                vertices,
+                faces,
+                color=COLORS[label],
+                flat_shading=False,
+                cast_shadow=False,
+                receive_shadow=False,
+            )
         for k, (phase, pos) in enumerate(self.prepared.phase_points(label)):
             scene.add_icosphere(
                 f"{ROOT}/{label}/phase_start_{k}",

@@ -8,7 +8,15 @@ import numpy as np
 import pytest
 
 from app.viewer.comparison import Comparison
-from app.viewer.scene import GHOST_OPACITY, ComparisonScene, PreparedCache, PreparedComparison
+from app.viewer.scene import (
+    GHOST_OPACITY,
+    TRACE_RADIUS,
+    TRACE_SIDES,
+    ComparisonScene,
+    PreparedCache,
+    PreparedComparison,
+    trace_tube,
+)
 
 
 class Handle:
@@ -86,7 +94,9 @@ def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -
     nodes = dict(target.scene.nodes)
     joints = [j.name for j in prepared.chain.joints]
     for label in ("standard", "optimized"):
-        assert f"/bioplan/{label}/trace" in nodes
+        trace = nodes[f"/bioplan/{label}/trace"]
+        assert trace.kind == "add_mesh_simple"  # one plain mesh, not instanced fat lines
+        assert trace.args[0] is prepared.traces[label][0]
         payload = [n for n in nodes if n.endswith("/flange/payload") and f"/{label}/" in n]
         assert len(payload) == 1
         np.testing.assert_allclose(nodes[payload[0]].dimensions, prepared.comparison.payload_size)
@@ -112,6 +122,49 @@ def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -
     frame_updates = [u for u in target.scene.updates if u[1] in ("wxyz", "position")]
     assert len(frame_updates) == 4 * 2 * 2
     assert len(joints) == 6
+
+
+def test_trace_is_a_tube_around_the_payload_path(prepared: PreparedComparison) -> None:
+    import trimesh
+
+    path = prepared.payload_path["standard"]
+    vertices, faces = prepared.traces["standard"]
+    rings = vertices.reshape(-1, TRACE_SIDES, 3).astype(np.float64)
+    centres = rings.mean(axis=1)
+    assert 2 <= len(rings) <= 120
+    # Ring centres are points of the path (Pinocchio-checked above), first and last included.
+    gaps = np.linalg.norm(centres[:, None, :] - path[None, :, :], axis=2).min(axis=1)
+    assert gaps.max() < 1e-6
+    np.testing.assert_allclose(centres[[0, -1]], path[[0, -1]], atol=1e-6)
+    # Every vertex lies one radius from its centre, in the plane across the path.
+    spoke = rings - centres[:, None, :]
+    np.testing.assert_allclose(np.linalg.norm(spoke, axis=2), TRACE_RADIUS, rtol=1e-4)
+    direction = np.gradient(centres, axis=0)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    # (within 0.6 degrees: the direction here comes from float32 centres of tiny end steps)
+    assert np.abs(np.einsum("rsk,rk->rs", spoke, direction)).max() < 1e-2 * TRACE_RADIUS
+    # A closed side wall: only the two end rings are open edges; faces point outwards.
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    assert len(faces) == 2 * TRACE_SIDES * (len(rings) - 1)
+    open_edges = trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)
+    assert len(open_edges) == 2 * TRACE_SIDES
+    ring_of_face = faces.min(axis=1) // TRACE_SIDES
+    outward = mesh.triangles_center - centres[ring_of_face]
+    assert (np.einsum("fk,fk->f", mesh.face_normals, outward) > 0).all()
+
+
+def test_trace_of_a_still_or_short_path() -> None:
+    still = np.tile([0.3, 0.1, 0.9], (50, 1))
+    vertices, faces = trace_tube(still)
+    assert vertices.shape == (0, 3) and faces.shape == (0, 3)
+    # Held poses (repeated points) are skipped; the rings keep to the moving part.
+    line = np.vstack([np.zeros((5, 3)), np.linspace([0, 0, 0], [1, 0, 0], 11), np.ones((3, 3))])
+    vertices, faces = trace_tube(line, samples=1000, sides=4, radius=0.01)
+    centres = vertices.reshape(-1, 4, 3).mean(axis=1)
+    assert len(centres) == 12  # ten distinct steps along x, then the jump to (1, 1, 1)
+    assert np.isfinite(vertices).all() and faces.max() < len(vertices)
+    vertices, _ = trace_tube(np.linspace([0, 0, 0], [0, 0, 1], 1000), samples=50)
+    assert len(vertices) // TRACE_SIDES <= 50
 
 
 def test_layouts(prepared: PreparedComparison) -> None:
