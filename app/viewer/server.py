@@ -1,10 +1,23 @@
 """The 3-D viewer: one viser server, one comparison scene per browser tab.
 
 The Compare page embeds ``http://HOST:PORT/?websocket=ws://HOST:PORT/bioplan/<kind>/<id>`` in
-an iframe. viser ignores the websocket's path; this module reads it from the handshake when
-the tab connects and builds that tab's own scene (``client.scene``), GUI (play, pause, speed,
-scrub, layout, the phase of the moment, the power curve in uPlot) and playback clock. So two tabs
-can show two comparisons at once. One ``Player`` thread advances every playing tab.
+an iframe. When a tab connects, this module finds out which comparison it wants and builds that
+tab's own scene (``client.scene``), GUI (play, pause, speed, scrub, layout, the phase of the
+moment, the power curve in uPlot) and playback clock. So two tabs can show two comparisons at
+once. One ``Player`` thread advances every playing tab.
+
+Which comparison a tab wants: viser 1.1 has no public API for a client's URL (``ClientHandle``
+offers its id, camera, GUI, scene and localStorage, none of which the embedding page can set).
+So there are two ways in, tried in order:
+
+1. The fast path reads the websocket handshake's request path from viser's private connection
+   table (``_handshake_path``). It tells tabs apart exactly. ``tests/viewer/test_server.py``
+   connects a real websocket and fails, naming this function, if a viser upgrade breaks it.
+2. The fallback uses only our own API: ``client_url(kind, id)`` is what the Compare page asks
+   for just before it loads the iframe, so each call records that request, and a client whose
+   path cannot be read takes the oldest request of the last ``PENDING_SECONDS``. A tab that
+   connects on the fast path takes its own request off that queue. Two tabs opened within the
+   same second could swap on the fallback; the log warns once that the fallback is in use.
 
 viser takes the next free port when the one asked for is busy: ``start()`` returns the real
 port and ``url`` reports it. Its websocket checks neither origin nor credentials, so it binds to
@@ -17,6 +30,7 @@ import logging
 import re
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -34,6 +48,8 @@ Prepare = Callable[[str, int], PreparedComparison]
 _PATH = re.compile(r"^/bioplan/(plan|simulation)/([1-9][0-9]{0,9})/?$")
 #: Seconds between updates of the slider, phase text and plot cursor while playing.
 GUI_PERIOD = 0.1
+#: Seconds a Compare page's request waits for a tab whose websocket path cannot be read.
+PENDING_SECONDS = 120.0
 _LAYOUT_NAMES: dict[str, Layout] = {"ghost overlay": "ghost", "side by side": "side_by_side"}
 _SPEED_NAMES = {f"{s:g}x": s for s in SPEEDS}
 
@@ -49,12 +65,15 @@ def parse_client_path(path: str | None) -> tuple[str, int] | None:
 
 
 def _handshake_path(server: Any, client_id: int) -> str | None:
-    """The request path of a client's websocket handshake (viser keeps the connection)."""
+    """The request path of a client's websocket handshake, or None when it cannot be read.
+
+    Private viser internals (viser 1.1 keeps each live ``websockets`` connection by client id);
+    see the module docstring for the fallback.
+    """
     try:
-        connection = server._websock_server._live_connections.get(client_id)
-        return None if connection is None else str(connection.request.path)
-    except AttributeError:  # another viser version: fall back to the tab's own choice
-        logger.warning("cannot read the viewer client's websocket path from this viser version")
+        connection = server._websock_server._live_connections[client_id]
+        return str(connection.request.path)
+    except (AttributeError, KeyError, TypeError):
         return None
 
 
@@ -177,6 +196,9 @@ class ViewerServer:
         self._server: Any = None
         self._sessions: dict[int, ViewerSession] = {}
         self._lock = threading.Lock()
+        #: (monotonic time, kind, id) the Compare page asked for, oldest first.
+        self._pending: deque[tuple[float, str, int]] = deque(maxlen=64)
+        self._warned_fallback = False
 
     # lifecycle ---------------------------------------------------------------------------
 
@@ -230,7 +252,12 @@ class ViewerServer:
         return f"http://{_url_host(self.host)}:{self.port}"
 
     def client_url(self, kind: str, result_id: int) -> str:
-        """The iframe address that shows comparison ``kind``/``result_id``."""
+        """The iframe address that shows comparison ``kind``/``result_id``.
+
+        Also records the request for a tab whose websocket path cannot be read (the fallback).
+        """
+        with self._lock:
+            self._pending.append((time.monotonic(), kind, int(result_id)))
         host = _url_host(self.host)
         return (
             f"http://{host}:{self.port}/?websocket=ws://{host}:{self.port}/bioplan/"
@@ -244,8 +271,30 @@ class ViewerServer:
 
     # clients -----------------------------------------------------------------------------
 
+    def _target(self, client_id: int) -> tuple[str, int] | None:
+        """The comparison a new client wants: its handshake path, else the oldest request."""
+        path = _handshake_path(self._server, client_id)
+        now = time.monotonic()
+        with self._lock:
+            while self._pending and now - self._pending[0][0] > PENDING_SECONDS:
+                self._pending.popleft()
+            if path is not None:
+                target = parse_client_path(path)
+                for entry in self._pending:
+                    if entry[1:] == target:
+                        self._pending.remove(entry)  # this tab's request is served
+                        break
+                return target
+            if not self._warned_fallback:
+                self._warned_fallback = True
+                logger.warning(
+                    "cannot read viewer clients' websocket paths from this viser version; "
+                    "matching tabs to the Compare page's requests in order instead"
+                )
+            return self._pending.popleft()[1:] if self._pending else None
+
     def _on_connect(self, client: Any) -> None:
-        target = parse_client_path(_handshake_path(self._server, client.client_id))
+        target = self._target(client.client_id)
         if target is None:
             client.gui.add_markdown(
                 "**No comparison selected.** Open one from the dashboard's Compare page."
