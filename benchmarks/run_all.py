@@ -18,6 +18,7 @@ SCRIPTS = (
     ["bench_planner.py"],
     ["bench_read.py"],
     ["bench_emg.py"],
+    ["bench_analysis.py"],
     ["bench_simulation.py"],
     ["bench_api.py"],
     ["bench_frontend.py"],

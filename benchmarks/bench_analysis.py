@@ -1,0 +1,101 @@
+"""The analysis job's work on a 10-minute 2 kHz session, and what the detail page then costs.
+
+Run:  .venv/bin/python benchmarks/bench_analysis.py [--minutes 10] [--repeats 3] [--json]
+
+The session is the demo's synthetic curl recording (``app.viewer.demo_seed``): four EMG sites
+and elbow and shoulder goniometers at 2 kHz, one curl every 4.9 s (122 lifts in 10 minutes),
+read from its CSV as an upload is. Timed, in one warm process, median of ``--repeats``:
+
+1. ``analyze_recordings`` (EMG envelopes and onsets, angles, lifts, A/B/C phases, energetics of
+   every lift, the template): what the analysis job computes;
+2. ``AnalysisOverlays.from_result`` and its ``.npz`` encoding: what the job adds for the page;
+3. decoding the stored overlays and cutting the whole-recording window at 1600 points per
+   series: what ``GET /api/viewer/recordings/{id}/analysis`` does on a cache miss.
+
+There is no target for (1) (it runs in the background); (2) and (3) must stay far below the
+page's 2 s budget.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def timed(fn: Any, repeats: int) -> tuple[float, Any]:
+    """Median wall time [s] of ``fn()`` and its last result."""
+    times, out = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), out
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--minutes", type=float, default=10.0)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    args = parser.parse_args()
+
+    from app.analysis import AnalysisOverlays, analyze_recordings
+    from app.db.arrays import decode_arrays, encode_arrays
+    from app.recordings import read_bytes
+    from app.viewer.demo_seed import DEMO_MUSCLES, synthetic_curls_csv
+
+    lifts = max(1, round(args.minutes * 60.0 / 4.9))
+    data = synthetic_curls_csv(lifts=lifts, rate=2000.0, seed=1)
+    recording = read_bytes(data, "long_session.csv")
+    analyze_recordings([recording], muscle_map=DEMO_MUSCLES)  # warm imports and caches
+
+    analyse_s, result = timed(
+        lambda: analyze_recordings([recording], muscle_map=DEMO_MUSCLES), args.repeats
+    )
+    overlays_s, stored = timed(
+        lambda: encode_arrays(AnalysisOverlays.from_result(result).to_arrays()), args.repeats
+    )
+    window_s, body = timed(
+        lambda: AnalysisOverlays.from_arrays(decode_arrays(stored)).window(points=1600),
+        args.repeats,
+    )
+    samples = sum(len(c.data) for c in recording.channels.values())
+    out = {
+        "machine": {"cpus": os.cpu_count(), "load": os.getloadavg()[0]},
+        "minutes": args.minutes,
+        "samples": samples,
+        "lifts_found": len(result.lifts),
+        "lifts_recorded": lifts,
+        "analyse_s": analyse_s,
+        "overlays_encode_s": overlays_s,
+        "stored_megabytes": len(stored) / 1e6,
+        "decode_and_window_s": window_s,
+        "response_kilobytes": len(json.dumps(body)) / 1e3,
+    }
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    m = out["machine"]
+    print(f"machine: {m['cpus']} CPUs, load {m['load']:.2f}; median of {args.repeats}")
+    print(
+        f"{args.minutes:g}-minute 2 kHz session ({samples / 1e6:.1f} M samples, "
+        f"{lifts} curls): analyze_recordings {analyse_s:.2f} s, {len(result.lifts)} lifts found"
+    )
+    print(
+        f"overlays: decimate + encode {overlays_s:.3f} s, {out['stored_megabytes']:.1f} MB stored; "
+        f"decode + whole-recording window at 1600 points {window_s:.3f} s "
+        f"({out['response_kilobytes']:.0f} kB of JSON)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
