@@ -7,11 +7,14 @@
    navigation until the EMG plot is drawn, and until the page is complete with the analysis
    overlays (envelopes, onsets, angles and velocities, the lifts table) (target < 2 s); median
    of ``--repeat`` fresh tabs. The analysis job's own run time is reported too.
-3. Viewer playback measured in the browser: pose updates per second that reach the page over
-   viser's websocket while a comparison plays (target >= 30), and the WebGL canvas's
-   ``requestAnimationFrame`` rate inside the viewer.
+3. Viewer playback measured in the browser (target >= 30 fps): pose updates per second that
+   reach the page over viser's websocket while a comparison plays, and the frames the WebGL
+   canvas presents (frames with draw calls, and those showing new poses) in the Compare page's
+   iframe at 1280x800, in the viewer alone at smaller sizes, and the floors of the same browser
+   (a plain page, a bare viser scene); median of ``--runs`` fresh tabs each.
 
     .venv/bin/python benchmarks/bench_frontend.py [--minutes 10] [--json]
+    .venv/bin/python benchmarks/bench_frontend.py --only playback [--runs 3]
 
 The server is ``tests/frontend/serve.py`` (create_app + attach_dashboard) with the demo data.
 Numbers depend on the machine: the script prints its CPU count and load with them.
@@ -135,45 +138,222 @@ def detail_page(browser: Any, url: str, recording_id: int, repeat: int) -> dict[
     }
 
 
-def playback(browser: Any, url: str, kind: str, rid: int, seconds: float) -> dict[str, Any]:
-    context = browser.new_context(viewport={"width": 1280, "height": 800})
+#: Injected into every frame before its own scripts. Counts requestAnimationFrame callbacks,
+#: frames in which WebGL drew (any draw call between two callbacks: a frame the canvas
+#: presented), and of those the frames drawn after viser's websocket worker delivered new data
+#: since the previous drawn frame (new poses made visible).
+FRAME_COUNTER = """(() => {
+  if (window.__frames) return;
+  const s = window.__frames = {raf: 0, drawn: 0, fresh: 0, drew: false, data: false};
+  for (const C of [window.WebGL2RenderingContext, window.WebGLRenderingContext]) {
+    if (!C) continue;
+    for (const n of ["drawElements", "drawArrays", "drawElementsInstanced",
+                     "drawArraysInstanced", "drawRangeElements"]) {
+      const f = C.prototype[n];
+      if (f) C.prototype[n] = function (...a) { s.drew = true; return f.apply(this, a); };
+    }
+  }
+  const W = window.Worker;
+  if (W) window.Worker = class extends W {
+    constructor(...a) { super(...a); this.addEventListener("message", () => { s.data = true; }); }
+  };
+  const tick = () => {
+    s.raf++;
+    if (s.drew) { s.drawn++; if (s.data) { s.fresh++; s.data = false; } }
+    s.drew = false;
+    requestAnimationFrame(tick);
+  };
+  requestAnimationFrame(tick);
+})();"""
+
+#: Rates of the counters above over ``ms`` milliseconds, and the WebGL renderer's name.
+FRAME_RATES = """async (ms) => {
+  const s = window.__frames, a = {...s}, t0 = performance.now();
+  await new Promise(r => setTimeout(r, ms));
+  const dt = (performance.now() - t0) / 1000;
+  const gl = document.createElement("canvas").getContext("webgl2");
+  const info = gl && gl.getExtension("WEBGL_debug_renderer_info");
+  return {raf: (s.raf - a.raf) / dt, drawn: (s.drawn - a.drawn) / dt,
+          fresh: (s.fresh - a.fresh) / dt, dpr: devicePixelRatio,
+          renderer: info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : "unknown"};
+}"""
+
+
+def _frame_rates(
+    browser: Any, url: str, viewport: tuple[int, int], seconds: float, *, iframe: bool = False
+) -> dict[str, Any]:
+    """Open ``url`` in a fresh tab; the frame rates of its viewer (in the Compare page's iframe
+    when ``iframe``) while the robots move, and the pose messages the websocket received."""
+    context = browser.new_context(viewport={"width": viewport[0], "height": viewport[1]})
+    context.add_init_script(FRAME_COUNTER)
     page = context.new_page()
-    frames: list[float] = []
+    received: list[float] = []
 
     def on_socket(ws: Any) -> None:
         if "/bioplan/" in ws.url:
-            ws.on("framereceived", lambda _: frames.append(time.perf_counter()))
+            ws.on("framereceived", lambda _: received.append(time.perf_counter()))
 
     page.on("websocket", on_socket)
-    page.goto(f"{url}/#/compare/{kind}/{rid}")
-    page.wait_for_selector("#viewer-frame")
-    page.locator("#viewer-frame").scroll_into_view_if_needed()
-    frame = page.frame_locator("#viewer-frame")
-    frame.locator("canvas").first.wait_for(timeout=60_000)
-    time.sleep(3.0)  # scene built, playing
-    viewer = next(f for f in page.frames if "/bioplan/" in f.url)
-    raf = viewer.evaluate(
-        """(ms) => new Promise(resolve => {
-            let n = 0; const t0 = performance.now();
-            const step = () => { n++; if (performance.now() - t0 < ms) requestAnimationFrame(step);
-                                 else resolve(n * 1000 / (performance.now() - t0)); };
-            requestAnimationFrame(step);
-        })""",
-        1000 * seconds,
-    )
-    t_end = time.perf_counter()
-    window = [t for t in frames if t >= t_end - seconds]
+    page.goto(url)
+    target = page
+    if iframe:
+        page.wait_for_selector("#viewer-frame")
+        page.locator("#viewer-frame").scroll_into_view_if_needed()  # viser skips hidden canvases
+        page.frame_locator("#viewer-frame").locator("canvas").first.wait_for(timeout=60_000)
+        target = next(f for f in page.frames if "/bioplan/" in f.url)
+    else:
+        page.locator("canvas").first.wait_for(timeout=60_000)
+    time.sleep(4.0)  # scene built, playing, viser's adaptive pixel ratio settled
+    start = time.perf_counter()
+    rates = target.evaluate(FRAME_RATES, 1000 * seconds)
+    window = [t for t in received if t >= start]
     gaps = sorted(b - a for a, b in itertools.pairwise(window))
-    sessions = json.load(urllib.request.urlopen(f"{url}/api/viewer/sessions", timeout=10))
     context.close()
     return {
-        "comparison": f"{kind}/{rid}",
+        **rates,
         # While the robots move (the loop holds its last pose 0.6 s, sending nothing).
-        "pose_updates_per_s_moving": 1.0 / gaps[len(gaps) // 2] if gaps else 0.0,
-        "websocket_messages_per_s_overall": len(window) / seconds,
-        "raf_fps_in_viewer": raf,
-        "server_pose_updates_per_s": [s["fps"] for s in sessions],
+        "pose_updates_per_s": 1.0 / gaps[len(gaps) // 2] if gaps else 0.0,
+        "messages_per_s": len(window) / seconds,
+        "load": os.getloadavg()[0],
     }
+
+
+def _medians(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    keys = ("raf", "drawn", "fresh", "pose_updates_per_s", "messages_per_s", "load")
+    return {k: statistics.median(r[k] for r in runs) for k in keys} | {"runs": len(runs)}
+
+
+def _empty_viser(browser: Any, viewport: tuple[int, int], seconds: float) -> dict[str, Any]:
+    """A bare viser scene whose one frame moves at 60 Hz: the viewer's own floor cost."""
+    import threading
+
+    import viser
+
+    from tests.frontend.conftest import free_port
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    frame = server.scene.add_frame("/moving", axes_length=0.2)
+    stop = threading.Event()
+
+    def move() -> None:
+        for k in itertools.count():
+            if stop.wait(1 / 60):
+                return
+            frame.position = (0.1 * (k % 60) / 60, 0.0, 0.0)
+
+    threading.Thread(target=move, daemon=True).start()
+    try:
+        return _frame_rates(browser, f"http://127.0.0.1:{server.get_port()}/", viewport, seconds)
+    finally:
+        stop.set()
+        server.stop()
+
+
+def playback(
+    browser: Any, url: str, kind: str, rid: int, seconds: float, runs: int = 3
+) -> dict[str, Any]:
+    """The viewer's frame rates in the browser while a comparison plays, median of ``runs``.
+
+    Measured in the Compare page's iframe at 1280x800 (what a user sees), in the viewer alone at
+    smaller viewports and a lower pixel ratio (where software WebGL can keep up), and against
+    two floors in the same browser: a plain page's requestAnimationFrame rate and a bare viser
+    scene with one moving frame.
+    """
+    compare = [
+        _frame_rates(browser, f"{url}/#/compare/{kind}/{rid}", (1280, 800), seconds, iframe=True)
+        for _ in range(runs)
+    ]
+    sessions = json.load(urllib.request.urlopen(f"{url}/api/viewer/sessions", timeout=10))
+    viewer = json.load(urllib.request.urlopen(f"{url}/api/viewer/comparisons/{kind}/{rid}"))
+    alone_url = viewer["viewer"]["url"]
+    variants = {
+        "1280x800": ((1280, 800), ""),
+        "1280x800 fixedDpr=0.5": ((1280, 800), "&fixedDpr=0.5"),
+        "640x400": ((640, 400), ""),
+        "320x200": ((320, 200), ""),
+    }
+    alone = {
+        name: _medians(
+            [_frame_rates(browser, alone_url + query, size, seconds) for _ in range(runs)]
+        )
+        for name, (size, query) in variants.items()
+    }
+    plain = browser.new_context(viewport={"width": 1280, "height": 800})
+    plain.add_init_script(FRAME_COUNTER)
+    page = plain.new_page()
+    page.set_content("<html><body>plain</body></html>")
+    plain_raf = page.evaluate(FRAME_RATES, 1000 * seconds)["raf"]
+    plain.close()
+    empty = {
+        f"{w}x{h}": _medians([_empty_viser(browser, (w, h), seconds) for _ in range(runs)])
+        for w, h in ((1280, 800), (640, 400))
+    }
+    m = _medians(compare)
+    return {
+        "comparison": f"{kind}/{rid}",
+        "renderer": compare[0]["renderer"],
+        "viewport": "1280x800, Compare page iframe",
+        "runs": runs,
+        "pose_updates_per_s_moving": m["pose_updates_per_s"],
+        "websocket_messages_per_s_overall": m["messages_per_s"],
+        "raf_fps_in_viewer": m["raf"],
+        # Frames the canvas drew, and those that showed new poses.
+        "canvas_fps_in_viewer": m["drawn"],
+        "new_pose_fps_in_viewer": m["fresh"],
+        "load_during": m["load"],
+        "server_pose_updates_per_s": [s["fps"] for s in sessions],
+        "viewer_alone": alone,
+        "floor_plain_page_raf": plain_raf,
+        "floor_empty_viser": empty,
+    }
+
+
+def playback_lines(pb: dict[str, Any]) -> list[str]:
+    """The benchmark's printed lines for ``playback()``."""
+    lines = [
+        f"viewer playback ({pb['comparison']}, {pb['viewport']}, {pb['renderer']}, median of "
+        f"{pb['runs']}, load {pb['load_during']:.1f}): {pb['pose_updates_per_s_moving']:.1f} pose "
+        f"updates/s received while moving ({pb['websocket_messages_per_s_overall']:.1f}/s "
+        f"overall); canvas drew {pb['canvas_fps_in_viewer']:.1f} fps, "
+        f"{pb['new_pose_fps_in_viewer']:.1f} with new poses (rAF {pb['raf_fps_in_viewer']:.1f}); "
+        f"server {[round(f, 1) for f in pb['server_pose_updates_per_s']]}",
+        "  viewer alone: "
+        + "; ".join(
+            f"{name} {v['drawn']:.1f} fps ({v['fresh']:.1f} new poses)"
+            for name, v in pb["viewer_alone"].items()
+        ),
+        f"  floors: plain page rAF {pb['floor_plain_page_raf']:.1f}; bare viser scene "
+        + "; ".join(f"{name} {v['drawn']:.1f} fps" for name, v in pb["floor_empty_viser"].items()),
+    ]
+    return lines
+
+
+def playback_only(args: argparse.Namespace) -> int:
+    """``--only playback``: the demo data and the viewer benchmark, nothing else."""
+    from playwright.sync_api import sync_playwright
+
+    machine = {"cpus": os.cpu_count(), "load": os.getloadavg()[0]}
+    with tempfile.TemporaryDirectory(prefix="bioplan-bench-") as tmp:
+        server = LiveServer(Path(tmp) / "data")
+        try:
+            server.wait_ready()
+            ids = {j["kind"]: j["id"] for j in server.api("/api/jobs?limit=50")["items"]}
+            with sync_playwright() as p:
+                browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+                try:
+                    pb = playback(
+                        browser, server.url, "simulation", ids["simulation"], 4.0, args.runs
+                    )
+                finally:
+                    browser.close()
+        finally:
+            server.stop()
+    if args.json:
+        print(json.dumps({"machine": machine, "playback": pb}, indent=2))
+    else:
+        print(f"machine: {machine['cpus']} CPUs, load {machine['load']:.2f}")
+        print("\n".join(playback_lines(pb)))
+    return 0
 
 
 def main() -> int:
@@ -181,10 +361,14 @@ def main() -> int:
     parser.add_argument("--minutes", type=float, default=10.0, help="long recording length")
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--only", choices=("playback",), help="run only this benchmark")
+    parser.add_argument("--runs", type=int, default=3, help="fresh tabs per playback variant")
     args = parser.parse_args()
     if not CHROMIUM.is_file():
         print(f"Chromium not found at {CHROMIUM}", file=sys.stderr)
         return 2
+    if args.only == "playback":
+        return playback_only(args)
     from playwright.sync_api import sync_playwright
 
     from app.viewer.demo_seed import DEMO_MUSCLES, synthetic_curls_csv
@@ -215,7 +399,7 @@ def main() -> int:
                     out["first_load"] = first_load(browser, server.url, args.repeat)
                     out["detail_10min"] = detail_page(browser, server.url, rid, args.repeat)
                     out["playback"] = playback(
-                        browser, server.url, "simulation", ids["simulation"], 5.0
+                        browser, server.url, "simulation", ids["simulation"], 4.0, args.runs
                     )
                 finally:
                     browser.close()
@@ -238,13 +422,7 @@ def main() -> int:
         f"complete with the analysis overlays ({d['lifts']} lifts) in {d['complete_s']:.2f} s "
         f"(max {d['complete_s_max']:.2f} s)"
     )
-    print(
-        f"viewer playback ({pb['comparison']}): {pb['pose_updates_per_s_moving']:.1f} pose "
-        f"updates/s received in the browser while moving "
-        f"({pb['websocket_messages_per_s_overall']:.1f}/s overall, with the end-of-loop holds), "
-        f"canvas {pb['raf_fps_in_viewer']:.1f} fps (requestAnimationFrame, software WebGL), "
-        f"server {[round(f, 1) for f in pb['server_pose_updates_per_s']]}"
-    )
+    print("\n".join(playback_lines(pb)))
     return 0
 
 
