@@ -225,13 +225,15 @@ def _medians(runs: list[dict[str, Any]]) -> dict[str, Any]:
 
 def _empty_viser(browser: Any, viewport: tuple[int, int], seconds: float) -> dict[str, Any]:
     """A bare viser scene whose one frame moves at 60 Hz: the viewer's own floor cost."""
+    import contextlib
     import threading
 
     import viser
 
     from tests.frontend.conftest import free_port
 
-    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    with contextlib.redirect_stdout(sys.stderr):  # viser's banner would spoil --json
+        server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     frame = server.scene.add_frame("/moving", axes_length=0.2)
     stop = threading.Event()
 
@@ -241,12 +243,15 @@ def _empty_viser(browser: Any, viewport: tuple[int, int], seconds: float) -> dic
                 return
             frame.position = (0.1 * (k % 60) / 60, 0.0, 0.0)
 
-    threading.Thread(target=move, daemon=True).start()
+    mover = threading.Thread(target=move, daemon=True)
+    mover.start()
     try:
         return _frame_rates(browser, f"http://127.0.0.1:{server.get_port()}/", viewport, seconds)
     finally:
         stop.set()
-        server.stop()
+        mover.join()
+        with contextlib.redirect_stdout(sys.stderr):
+            server.stop()
 
 
 def playback(
