@@ -3,6 +3,7 @@ each tab's comparison is found (real websocket clients)."""
 
 from __future__ import annotations
 
+import itertools
 import logging
 import socket
 import time
@@ -188,3 +189,62 @@ def test_old_requests_expire(viewer: ViewerServer, monkeypatch: pytest.MonkeyPat
     monkeypatch.setattr(server_module.time, "monotonic", lambda: later)
     assert viewer._target(99) is None
     assert not viewer._pending
+
+
+class _Recorder:
+    """A GUI handle that records every assignment (what viser would send to the browser)."""
+
+    def __init__(self, log: list[tuple[str, str, Any]], name: str, **props: Any) -> None:
+        object.__setattr__(self, "_log", log)
+        object.__setattr__(self, "_name", name)
+        for key, value in props.items():
+            object.__setattr__(self, key, value)
+
+    def __setattr__(self, key: str, value: Any) -> None:
+        self._log.append((self._name, key, value))
+        object.__setattr__(self, key, value)
+
+
+def test_playing_sends_the_phase_text_only_at_boundaries_and_the_gui_at_4_hz(
+    plan_comparison: Comparison, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from contextlib import nullcontext
+    from types import SimpleNamespace
+
+    from app.viewer.comparison import LABELS
+    from app.viewer.playback import PlaybackClock
+    from app.viewer.scene import ComparisonScene, PreparedComparison
+    from app.viewer.server import ViewerSession
+    from tests.viewer.test_scene import FakeTarget
+
+    now = [100.0]
+    monkeypatch.setattr(server_module.time, "monotonic", lambda: now[0])
+    target = FakeTarget()
+    client = SimpleNamespace(client_id=1, scene=target.scene, atomic=nullcontext)
+    scene = ComparisonScene(client, PreparedComparison(plan_comparison))
+    log: list[tuple[str, str, Any]] = []
+    gui = {
+        name: _Recorder(log, name, max=plan_comparison.duration)
+        for name in ("play", "time", "phase", "plot")
+    }
+    clock = PlaybackClock(plan_comparison.duration, loop=False, now=lambda: now[0])
+    session = ViewerSession(client=client, kind="plan", id=7, scene=scene, clock=clock, gui=gui)
+    clock.play()
+    shown = []
+    while now[0] < 100.0 + plan_comparison.duration + 0.1:  # 60 ticks a second, to the end
+        session.tick()
+        shown.append(scene.index)
+        now[0] += 1 / 60
+    assert shown[-1] == len(plan_comparison.t) - 1 and len(set(shown)) > 50
+    # The phase text is sent only when it changes: at most once per change of either
+    # trajectory's phase along what was shown, not with every GUI refresh.
+    seen = [tuple(plan_comparison.phase_at(label, i) for label in LABELS) for i in shown]
+    changes = 1 + sum(a != b for a, b in itertools.pairwise(seen))
+    texts = [v for name, key, v in log if name == "phase" and key == "content"]
+    assert 0 < len(texts) <= changes and len(set(texts)) == len(texts)
+    assert f"standard: **{seen[-1][0]}**" in texts[-1]
+    # Slider and plot cursor: at most 4 updates a second while moving, plus the first.
+    slider = [v for name, key, v in log if name == "time" and key == "value"]
+    assert 2 <= len(slider) <= 2 + 4 * plan_comparison.duration and slider == sorted(slider)
+    assert len(texts) < len(slider)
+    assert len([1 for name, key, _ in log if name == "plot" and key == "data"]) == len(slider)
