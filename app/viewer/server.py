@@ -166,10 +166,7 @@ class ViewerSession:
 
 def _phase_text(phases: dict[str, str]) -> str:
     std, opt = phases["standard"], phases["optimized"]
-    return (
-        f"standard: **{std}** ({PHASES[std]})  \n"
-        f"optimised: **{opt}** ({PHASES[opt]})"
-    )
+    return f"standard: **{std}** ({PHASES[std]})  \noptimised: **{opt}** ({PHASES[opt]})"
 
 
 class ViewerServer:
