@@ -290,7 +290,7 @@ class ViewerServer:
             if not self._warned_fallback:
                 self._warned_fallback = True
                 logger.warning(
-                    "cannot read viewer clients' websocket paths from this viser version; "
+                    "cannot read viewer clients' websocket paths (viser's internals changed?); "
                     "matching tabs to the Compare page's requests in order instead"
                 )
             return self._pending.popleft()[1:] if self._pending else None
