@@ -60,13 +60,12 @@ class SignalsCache:
         from sqlalchemy import select
 
         from app.analysis import AnalysisOverlays
-        from app.db import crud
         from app.db.arrays import decode_arrays
-        from app.db.models import Analysis, JobRecord
+        from app.db.models import Analysis, JobRecord, RecordingSession
         from app.jobs.service import job_to_dict
 
         with services.sessions() as session:
-            if crud.get_recording(session=session, recording_id=recording_id) is None:
+            if session.get(RecordingSession, recording_id) is None:
                 raise SignalsError(f"recording {recording_id} does not exist")
             mine = (
                 select(Analysis.id)
