@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from app.errors import BioPlanError
+
 FloatArray = NDArray[np.float64]
 
 
@@ -30,9 +32,9 @@ def minmax_downsample(t: FloatArray, y: FloatArray, points: int) -> tuple[FloatA
     t = np.asarray(t, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     if t.shape != y.shape or t.ndim != 1:
-        raise ValueError(f"t and y must be 1-D of equal length, got {t.shape} and {y.shape}")
+        raise BioPlanError(f"t and y must be 1-D of equal length, got {t.shape} and {y.shape}")
     if points < 2:
-        raise ValueError(f"points must be >= 2, got {points}")
+        raise BioPlanError(f"points must be >= 2, got {points}")
     n = y.shape[0]
     if n <= points:
         ok = ~np.isnan(y)

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.analysis.downsample import minmax_downsample
+from app.errors import BioPlanError
 from app.planning.jsonsafe import json_safe
 
 if TYPE_CHECKING:
@@ -36,7 +37,7 @@ _META_KEY = "meta.json"
 _ANGLE_SERIES = ("shoulder_deg", "elbow_deg", "shoulder_velocity_deg_s", "elbow_velocity_deg_s")
 
 
-class OverlaysError(ValueError):
+class OverlaysError(BioPlanError):
     """Stored overlays that this module did not write, or an impossible window."""
 
 

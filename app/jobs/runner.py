@@ -42,11 +42,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from app.errors import BioPlanError
+from app.progress import Progress, ProgressFn
+
 logger = logging.getLogger(__name__)
 
 EventType = Literal["started", "progress", "succeeded", "failed", "cancelled"]
-Progress = Callable[[float, str], None]
-Target = Callable[[str, dict[str, Any], Progress], dict[str, Any]]
+Target = Callable[[str, dict[str, Any], ProgressFn], dict[str, Any]]
 
 
 class JobCancelled(Exception):
@@ -66,6 +68,7 @@ class JobEvent:
         type: what happened.
         progress: fraction done in [0, 1] (``progress`` events).
         message: human-readable status.
+        detail: the structured progress, ``Progress.to_dict()`` (``progress`` events).
         result: the job function's return value (``succeeded``).
         error: one-line error message (``failed``).
     """
@@ -76,6 +79,7 @@ class JobEvent:
     message: str = ""
     result: dict[str, Any] | None = None
     error: str | None = None
+    detail: dict[str, Any] | None = None
 
 
 EventSink = Callable[[JobEvent], None]
@@ -86,9 +90,21 @@ def describe_error(exc: BaseException | None) -> str:
     if exc is None:
         return "unknown error"
     text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-    if isinstance(exc, ValueError | JobFailed) and text:
+    if isinstance(exc, BioPlanError | JobFailed) and text:
         return text
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _progress_event(job_id: int, detail: dict[str, Any]) -> JobEvent:
+    """A ``progress`` event from a job's ``Progress.to_dict()``."""
+    update = Progress.from_dict(detail)
+    return JobEvent(
+        job_id,
+        "progress",
+        progress=update.fraction,
+        message=update.message,
+        detail=update.to_dict(),
+    )
 
 
 def _default_target() -> Target:
@@ -142,13 +158,13 @@ def _child_main(target: Target, job_id: int, kind: str, payload: dict[str, Any],
     threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
     last = [0.0]
 
-    def progress(fraction: float, message: str) -> None:
+    def progress(update: Progress) -> None:
         now = time.monotonic()
         # The API throttles further; this only keeps a tight loop from flooding the pipe.
-        if fraction < 1.0 and now - last[0] < 0.02:
+        if update.fraction < 1.0 and now - last[0] < 0.02:
             return
         last[0] = now
-        conn.send(("progress", min(max(float(fraction), 0.0), 1.0), str(message)))
+        conn.send(("progress", update.to_dict()))
 
     try:
         result = target(kind, payload, progress)
@@ -338,7 +354,7 @@ class LocalRunner(JobRunner):
         tag = msg[0]
         if tag == "progress":
             if not run.cancel_requested:
-                self._emit(JobEvent(run.job_id, "progress", progress=msg[1], message=msg[2]))
+                self._emit(_progress_event(run.job_id, msg[1]))
         elif tag == "result":
             run.result, run.has_outcome = msg[1], True
         elif tag == "error":
@@ -428,17 +444,14 @@ def _dask_entry(
     cancel = distributed.Event(cancel_name)
     last = [0.0]
 
-    def progress(fraction: float, message: str) -> None:
+    def progress(update: Progress) -> None:
         now = time.monotonic()
-        if fraction < 1.0 and now - last[0] < 0.2:
+        if update.fraction < 1.0 and now - last[0] < 0.2:
             return
         last[0] = now
         if cancel.is_set():
             raise JobCancelled(f"job {job_id} cancelled")
-        frac = min(max(float(fraction), 0.0), 1.0)
-        worker.log_event(
-            topic, {"job": job_id, "type": "progress", "progress": frac, "message": str(message)}
-        )
+        worker.log_event(topic, {"job": job_id, "type": "progress", "detail": update.to_dict()})
 
     try:
         return target(kind, payload, progress)
@@ -569,9 +582,7 @@ class DaskRunner(JobRunner):
         if msg["type"] == "started":
             self._emit(JobEvent(job_id, "started", progress=0.0, message="running"))
         elif msg["type"] == "progress":
-            self._emit(
-                JobEvent(job_id, "progress", progress=msg["progress"], message=msg["message"])
-            )
+            self._emit(_progress_event(job_id, msg["detail"]))
 
     def _on_done(self, future: Any) -> None:
         with self._lock:

@@ -3,8 +3,8 @@
 These are the only places where the service layer calls the science packages, and they import
 them inside the functions, so the API process starts without loading NumPy-heavy code and a Dask
 worker only needs ``app`` on its path. Every job function has the signature
-``fn(payload: dict, progress: Callable[[float, str], None]) -> dict``; ``progress`` takes a
-fraction in [0, 1] and a message and may raise to stop the job (cancellation on Dask).
+``fn(payload: dict, progress: ProgressFn) -> dict``; ``progress`` takes a structured
+``app.progress.Progress`` and may raise to stop the job (cancellation on Dask).
 
 Robot specs in payloads are ``{"name": str}`` for a built-in robot, or ``{"name", "urdf",
 "urdf_name", "mjcf", "mjcf_name", "payload"}`` for an uploaded one (file contents as bytes).
@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 
 from app.planning.jsonsafe import json_safe
+from app.progress import ProgressFn, no_progress, report
 
-Progress = Callable[[float, str], None]
-TaskFn = Callable[[dict[str, Any], Progress], dict[str, Any]]
+TaskFn = Callable[[dict[str, Any], ProgressFn], dict[str, Any]]
 
 
 def _entry(module: str, name: str) -> Any:
@@ -32,10 +32,6 @@ def _entry(module: str, name: str) -> Any:
     import importlib
 
     return getattr(importlib.import_module(module), name)
-
-
-def _no_progress(fraction: float, message: str) -> None:
-    del fraction, message
 
 
 def preload() -> None:
@@ -102,7 +98,7 @@ def parse_recording(data: bytes, filename: str, options: dict[str, Any]) -> dict
     return {"format": rec.format, "metadata": json_safe(rec.metadata), "channels": channels}
 
 
-def analyse(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+def analyse(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
     """Analyse the files of one recording session.
 
     Payload: ``files`` [{"name", "data": bytes}], ``read_options`` (reader overrides), and the
@@ -121,16 +117,17 @@ def analyse(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[
     read_options = {k: v for k, v in payload.get("read_options", {}).items() if v is not None}
     recordings = []
     for i, f in enumerate(files):
-        progress(0.4 * i / max(len(files), 1), f"reading {f['name']}")
+        report(progress, "read", i, len(files), fraction=0.4 * i / max(len(files), 1),
+               message=f"reading {f['name']}")  # fmt: skip
         recordings.append(read_bytes(f["data"], f["name"], **read_options))
-    progress(0.4, "analysing")
+    report(progress, "analyse", 0, 1, fraction=0.4, message="analysing")
     options = {k: v for k, v in payload.get("options", {}).items() if v is not None}
     if "phase_bounds_deg" in options:
         options["phase_bounds_deg"] = tuple(options["phase_bounds_deg"])
     result = analyze_recordings(recordings, **options)
-    progress(0.95, "decimating the plot overlays")
+    report(progress, "analyse", 1, 1, fraction=0.95, message="decimating the plot overlays")
     overlays = _entry("app.analysis", "AnalysisOverlays").from_result(result)
-    progress(1.0, "analysed")
+    report(progress, "done", 1, 1, message="analysed")
     return {
         "result": json_safe(result.to_dict()),
         "template": result.template.to_dict(),
@@ -236,7 +233,7 @@ def _planning_options(robot: Any, payload: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def plan(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+def plan(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
     """Plan standard and bio-inspired trajectories (``bioplan plan``).
 
     Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
@@ -257,7 +254,7 @@ def plan(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str
     return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
 
 
-def simulate(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+def simulate(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
     """Simulate standard and optimised trajectories (``bioplan simulate``).
 
     Payload: as for :func:`plan` but without ``n_samples`` (the simulation grid is used).
@@ -271,7 +268,7 @@ def simulate(payload: dict[str, Any], progress: Progress = _no_progress) -> dict
     return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
 
 
-def sweep(payload: dict[str, Any], progress: Progress = _no_progress) -> dict[str, Any]:
+def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
     """Savings over a grid of durations, payloads and objectives (``bioplan sweep``).
 
     Payload: ``robot`` (spec), ``durations`` [s], ``payloads`` [kg], ``objectives``, ``seed``,
@@ -302,7 +299,7 @@ TASKS: dict[str, TaskFn] = {
 }
 
 
-def run_task(kind: str, payload: dict[str, Any], progress: Progress) -> dict[str, Any]:
+def run_task(kind: str, payload: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
     """Run the job function of ``kind`` (the runners' single entry point)."""
     try:
         fn = TASKS[kind]

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from app.errors import BioPlanError
 from app.planning.robots._types import Payload, RobotError
 
 if TYPE_CHECKING:
@@ -67,17 +68,19 @@ def _batch(name: str, value: ArrayLike, n: int, unit: str) -> FloatArray:
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} is not numeric: expected an array (..., {n}) [{unit}]") from None
+        raise BioPlanError(
+            f"{name} is not numeric: expected an array (..., {n}) [{unit}]"
+        ) from None
     if array.ndim == 0 or array.shape[-1] != n:
-        raise ValueError(f"{name} has shape {array.shape}: expected (..., {n}) [{unit}]")
+        raise BioPlanError(f"{name} has shape {array.shape}: expected (..., {n}) [{unit}]")
     if not np.isfinite(array).all():
-        raise ValueError(f"{name} contains NaN or inf: expected finite values [{unit}]")
+        raise BioPlanError(f"{name} contains NaN or inf: expected finite values [{unit}]")
     return array
 
 
 def _same_shape(reference: FloatArray, name: str, other: FloatArray) -> None:
     if other.shape != reference.shape:
-        raise ValueError(
+        raise BioPlanError(
             f"{name} has shape {other.shape} but q has shape {reference.shape}: "
             "expected equal shapes"
         )
@@ -124,17 +127,17 @@ class PlanarArm2DOF:
         for name in ("l1", "l2", "m1", "m2"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"PlanarArm2DOF {name}={value}: expected a finite value > 0")
+                raise BioPlanError(f"PlanarArm2DOF {name}={value}: expected a finite value > 0")
         for name in ("i1", "i2", "payload_mass", "payload_inertia", "gravity"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"PlanarArm2DOF {name}={value}: expected a finite value >= 0")
+                raise BioPlanError(f"PlanarArm2DOF {name}={value}: expected a finite value >= 0")
         for name in ("lc1", "lc2"):
             if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"PlanarArm2DOF {name}: expected a finite distance [m]")
+                raise BioPlanError(f"PlanarArm2DOF {name}: expected a finite distance [m]")
         armature = tuple(float(a) for a in self.armature)
         if len(armature) != 2 or not all(math.isfinite(a) and a >= 0.0 for a in armature):
-            raise ValueError(f"PlanarArm2DOF armature={self.armature}: expected two values >= 0")
+            raise BioPlanError(f"PlanarArm2DOF armature={self.armature}: expected two values >= 0")
         object.__setattr__(self, "armature", armature)
 
     @property
@@ -163,12 +166,12 @@ class PlanarArm2DOF:
                 )
             }
         except RobotError:
-            raise ValueError(
+            raise BioPlanError(
                 f"robot '{robot.name}' has no planar 2-link segment table: expected human_arm_2dof"
             ) from None
         payload = robot.payload
         if payload.mass > 0.0 and not np.allclose(payload.com, [0.0, 0.0, -values["l2"]]):
-            raise ValueError(
+            raise BioPlanError(
                 f"robot '{robot.name}' payload centre {payload.com.tolist()}: "
                 f"expected the grip (0, 0, {-values['l2']})"
             )
@@ -419,10 +422,10 @@ class PinocchioDynamics:
         if armature is not None:
             arm = np.asarray(armature, dtype=np.float64)
             if arm.shape != (n,) or not np.all(np.isfinite(arm)) or np.any(arm < 0.0):
-                raise ValueError(f"armature {arm.tolist()}: expected {n} finite values >= 0")
+                raise BioPlanError(f"armature {arm.tolist()}: expected {n} finite values >= 0")
             model.armature = arm.copy()
         if not (isinstance(num_threads, int) and num_threads >= 1):
-            raise ValueError(f"num_threads={num_threads}: expected an integer >= 1")
+            raise BioPlanError(f"num_threads={num_threads}: expected an integer >= 1")
 
         self._pin = pin
         self._model = model
@@ -526,7 +529,7 @@ class PinocchioDynamics:
         af, ashape = self._flat("qdd", qdd, "rad/s^2")
         if vshape != shape or ashape != shape:
             bad, other = ("qd", vshape) if vshape != shape else ("qdd", ashape)
-            raise ValueError(
+            raise BioPlanError(
                 f"{bad} has shape {other} but q has shape {shape}: expected equal shapes"
             )
         return self._rnea(self._pool, qf, vf, af).reshape(shape)
@@ -553,7 +556,7 @@ class PinocchioDynamics:
         qf, shape = self._flat("q", q, "rad")
         vf, vshape = self._flat("qd", qd, "rad/s")
         if vshape != shape:
-            raise ValueError(
+            raise BioPlanError(
                 f"qd has shape {vshape} but q has shape {shape}: expected equal shapes"
             )
         m_qd = self._rnea(self._pool0, qf, np.zeros_like(qf), vf)

@@ -34,17 +34,13 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from app import names
+from app.errors import BioPlanError
+
 FloatArray = NDArray[np.float64]
 
-#: The metrics PSO can minimise (see :func:`objective_values`).
-OBJECTIVES: tuple[str, ...] = (
-    "tau_sq",
-    "abs_work",
-    "pos_work",
-    "electrical_energy",
-    "peak_power",
-    "peak_torque",
-)
+#: The metrics PSO can minimise (see :func:`objective_values`); defined in ``app.names``.
+OBJECTIVES: tuple[str, ...] = names.OBJECTIVES
 
 #: ε in the smooth Coulomb friction c tanh(q̇ / ε) [rad/s]: above 3ε (0.03 rad/s, 1.7 deg/s)
 #: it is within 0.5 % of c sign(q̇).
@@ -140,9 +136,9 @@ def floors(delta_potential: float, duration: float) -> Floors:
     dpe = float(delta_potential)
     t = float(duration)
     if not math.isfinite(dpe):
-        raise ValueError(f"delta_potential must be a finite energy [J], got {delta_potential!r}")
+        raise BioPlanError(f"delta_potential must be a finite energy [J], got {delta_potential!r}")
     if not (math.isfinite(t) and t > 0.0):
-        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+        raise BioPlanError(f"duration must be a finite number of seconds > 0, got {duration!r}")
     return Floors(delta_potential=dpe, min_peak_power=max(dpe, 0.0) / t)
 
 
@@ -154,9 +150,9 @@ def floors(delta_potential: float, duration: float) -> Floors:
 def _check_time(t: ArrayLike) -> FloatArray:
     tt = np.asarray(t, dtype=np.float64)
     if tt.ndim != 1 or tt.size < 2:
-        raise ValueError(f"t must be a 1-D array of at least 2 times [s], got shape {tt.shape}")
+        raise BioPlanError(f"t must be a 1-D array of at least 2 times [s], got shape {tt.shape}")
     if not (np.all(np.isfinite(tt)) and np.all(np.diff(tt) > 0.0)):
-        raise ValueError("t must be finite and strictly increasing [s]")
+        raise BioPlanError("t must be finite and strictly increasing [s]")
     return tt
 
 
@@ -164,11 +160,11 @@ def _check_pair(qd: ArrayLike, tau: ArrayLike, n_t: int | None = None) -> tuple[
     v = np.asarray(qd, dtype=np.float64)
     f = np.asarray(tau, dtype=np.float64)
     if v.ndim < 2 or v.shape != f.shape:
-        raise ValueError(
+        raise BioPlanError(
             f"qd and tau must have the same shape (..., T, n), got {v.shape} and {f.shape}"
         )
     if n_t is not None and v.shape[-2] != n_t:
-        raise ValueError(
+        raise BioPlanError(
             f"qd and tau have {v.shape[-2]} samples along axis -2 but t has {n_t} "
             "(expected shape (..., T, n))"
         )
@@ -177,7 +173,7 @@ def _check_pair(qd: ArrayLike, tau: ArrayLike, n_t: int | None = None) -> tuple[
 
 def _motor_arrays(motors: Sequence[MotorModel], n: int) -> tuple[FloatArray, ...]:
     if len(motors) != n:
-        raise ValueError(f"expected one MotorModel per joint ({n}), got {len(motors)}")
+        raise BioPlanError(f"expected one MotorModel per joint ({n}), got {len(motors)}")
     gear = np.array([m.gear_ratio for m in motors], dtype=np.float64)
     kt = np.array([m.torque_constant for m in motors], dtype=np.float64)
     res = np.array([m.winding_resistance for m in motors], dtype=np.float64)
@@ -185,11 +181,11 @@ def _motor_arrays(motors: Sequence[MotorModel], n: int) -> tuple[FloatArray, ...
     coul = np.array([m.coulomb_friction for m in motors], dtype=np.float64)
     eta = np.array([m.regen_efficiency for m in motors], dtype=np.float64)
     if not (np.all(gear > 0) and np.all(kt > 0)):
-        raise ValueError("every motor needs gear_ratio > 0 and torque_constant > 0 [Nm/A]")
+        raise BioPlanError("every motor needs gear_ratio > 0 and torque_constant > 0 [Nm/A]")
     if np.any(res < 0) or np.any(visc < 0) or np.any(coul < 0):
-        raise ValueError("winding resistance and friction coefficients must be >= 0")
+        raise BioPlanError("winding resistance and friction coefficients must be >= 0")
     if np.any((eta < 0) | (eta > 1)):
-        raise ValueError(f"regen_efficiency must lie in [0, 1], got {eta.tolist()}")
+        raise BioPlanError(f"regen_efficiency must lie in [0, 1], got {eta.tolist()}")
     return gear, kt, res, visc, coul, eta
 
 
@@ -292,7 +288,7 @@ def cumulative_energy(t: ArrayLike, power: ArrayLike) -> FloatArray:
     tt = _check_time(t)
     p = np.asarray(power, dtype=np.float64)
     if p.ndim < 1 or p.shape[-1] != tt.size:
-        raise ValueError(f"power must have shape (..., {tt.size}) to match t, got {p.shape}")
+        raise BioPlanError(f"power must have shape (..., {tt.size}) to match t, got {p.shape}")
     steps = 0.5 * (p[..., 1:] + p[..., :-1]) * np.diff(tt)
     out = np.zeros(p.shape, dtype=np.float64)
     np.cumsum(steps, axis=-1, out=out[..., 1:])
@@ -341,7 +337,7 @@ def objective_values(
         ValueError: unknown objective (the message lists the valid ones) or bad shapes.
     """
     if objective not in OBJECTIVES:
-        raise ValueError(
+        raise BioPlanError(
             f"unknown objective {objective!r}; expected one of: {', '.join(OBJECTIVES)}"
         )
     tt = _check_time(t)
@@ -363,7 +359,7 @@ def objective_values(
         if tau_max is not None:
             lim = np.asarray(tau_max, dtype=np.float64)
             if lim.shape != (f.shape[-1],) or not np.all(lim > 0.0):
-                raise ValueError(
+                raise BioPlanError(
                     f"tau_max must be ({f.shape[-1]},) positive torque limits [Nm], got {lim}"
                 )
             mag = mag / lim
@@ -393,7 +389,7 @@ def energy_metrics(
     tt = _check_time(t)
     v, f = _check_pair(qd, tau, tt.size)
     if v.ndim != 2:
-        raise ValueError(f"qd and tau must have shape (T, n) for one trajectory, got {v.shape}")
+        raise BioPlanError(f"qd and tau must have shape (T, n) for one trajectory, got {v.shape}")
     p = v * f
     p_bus, eta = _electrical_power(v, f, motors)
     abs_power = _joint_sum(np.abs(p))
@@ -436,7 +432,7 @@ def improvement_pct(
         o_val = getattr(optimized, f.name)
         if isinstance(s_val, tuple):
             if len(s_val) != len(o_val):
-                raise ValueError(
+                raise BioPlanError(
                     f"{f.name} has {len(s_val)} joints in standard but {len(o_val)} in optimized"
                 )
             out[f.name] = [pct(a, b) for a, b in zip(s_val, o_val, strict=True)]

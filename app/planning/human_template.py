@@ -8,8 +8,15 @@ reads it. Defaults are the paper's: the elbow's velocity peaks at 62 deg, in the
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from app.errors import BioPlanError
+from app.names import HUMAN_CURL_SPAN_DEG
 
 
 @dataclass(frozen=True)
@@ -49,13 +56,26 @@ class HumanTemplate:
     def __post_init__(self) -> None:
         lo, hi = self.phase_bounds_deg
         if not 0.0 < lo < hi:
-            raise ValueError(
+            raise BioPlanError(
                 f"phase bounds must satisfy 0 < A/B < B/C, got {self.phase_bounds_deg}"
             )
         if not 0.0 < self.peak_velocity_angle_deg < 180.0:
-            raise ValueError(
+            raise BioPlanError(
                 f"peak velocity angle must lie in (0, 180) deg, got {self.peak_velocity_angle_deg}"
             )
+
+    @property
+    def is_paper_default(self) -> bool:
+        """True when no recorded lift shaped this template (the paper's values are used)."""
+        return self.n_lifts == 0
+
+    def peak_joint_angle(self, q0: float, q1: float) -> float:
+        """Where on a robot elbow stroke q0 -> q1 [rad] the elbow should be fastest [rad].
+
+        The template's peak-velocity angle is a human elbow flexion [deg]; it is placed on the
+        stroke by :func:`joint_on_stroke`.
+        """
+        return joint_on_stroke(self.peak_velocity_angle_deg, q0, q1)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -65,7 +85,7 @@ class HumanTemplate:
         known = set(cls.__dataclass_fields__)
         unknown = set(data) - known
         if unknown:
-            raise ValueError(f"unknown HumanTemplate fields: {sorted(unknown)}")
+            raise BioPlanError(f"unknown HumanTemplate fields: {sorted(unknown)}")
         kwargs = dict(data)
         for name in (
             "phase_bounds_deg",
@@ -86,3 +106,34 @@ class HumanTemplate:
     @classmethod
     def from_json(cls, text: str) -> HumanTemplate:
         return cls.from_dict(json.loads(text))
+
+
+def _stroke_is_human_like(q0: float, q1: float) -> bool:
+    lo, hi = np.radians(HUMAN_CURL_SPAN_DEG)
+    return bool(q1 > q0 and q0 >= lo - 1e-9 and q1 <= hi + np.radians(30.0))
+
+
+def flexion_on_stroke(q_elbow: ArrayLike, q0: float, q1: float) -> NDArray[np.float64]:
+    """Human-equivalent elbow flexion [deg] of robot elbow angles on a stroke q0 -> q1 [rad].
+
+    When the stroke covers the human curl's angles directly (it rises from about 0 and ends
+    within 30 deg past 150 deg, as the built-in tasks do), the joint angle is the flexion;
+    otherwise the stroke maps linearly onto the human curl span 0-150 deg.
+
+    Args:
+        q_elbow: (...,) elbow joint angles [rad].
+        q0, q1: the stroke's start and end [rad].
+    """
+    q = np.asarray(q_elbow, dtype=np.float64)
+    if _stroke_is_human_like(q0, q1):
+        return np.asarray(np.degrees(q), dtype=np.float64)
+    lo, hi = HUMAN_CURL_SPAN_DEG
+    return np.asarray(lo + (q - q0) / (q1 - q0) * (hi - lo), dtype=np.float64)
+
+
+def joint_on_stroke(flexion_deg: float, q0: float, q1: float) -> float:
+    """Inverse of :func:`flexion_on_stroke` for one flexion [deg] -> joint angle [rad]."""
+    if _stroke_is_human_like(q0, q1):
+        return math.radians(flexion_deg)
+    lo, hi = HUMAN_CURL_SPAN_DEG
+    return q0 + (flexion_deg - lo) / (hi - lo) * (q1 - q0)

@@ -21,13 +21,13 @@ peak between two coarse samples is not missed.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from app.errors import BioPlanError
 from app.planning.energy import (
     OBJECTIVES,
     EnergyMetrics,
@@ -39,7 +39,7 @@ from app.planning.energy import (
     objective_values,
     power_curve,
 )
-from app.planning.human_template import HumanTemplate
+from app.planning.human_template import HumanTemplate, flexion_on_stroke, joint_on_stroke
 from app.planning.jsonsafe import json_safe
 from app.planning.profiles import (
     Trajectory,
@@ -51,17 +51,15 @@ from app.planning.profiles import (
 )
 from app.planning.pso import PSOResult, pso_minimize
 from app.planning.robots import Robot
+from app.progress import ProgressFn, report
 
 FloatArray = NDArray[np.float64]
-ProgressCallback = Callable[[float, str], None]
 
-#: Elbow flexion span of the human curl the template's angles refer to [deg] (DESIGN.md).
-HUMAN_CURL_SPAN_DEG = (0.0, 150.0)
 #: Relative slack on limits and floors for round-off [-].
 _TOL = 1e-9
 
 
-class PlanningError(ValueError):
+class PlanningError(BioPlanError):
     """The task cannot be planned as asked (one-line message: what and what was expected)."""
 
 
@@ -175,6 +173,7 @@ class PlanResult:
                 "phase_bounds_deg": list(self.phase_bounds_deg),
                 "template": self.template.source,
                 "template_lifts": self.template.n_lifts,
+                "template_is_paper_default": self.template.is_paper_default,
             },
             "warnings": list(self.warnings),
         }
@@ -207,31 +206,10 @@ class PlanResult:
 
 
 def elbow_flexion_deg(q_elbow: FloatArray, task: PlanTask, elbow_joint: int) -> FloatArray:
-    """Human-equivalent elbow flexion [deg] along the elbow joint's stroke.
-
-    When the task's elbow stroke covers the human curl's angles directly (the default tasks), the
-    joint angle is the flexion; otherwise angles map linearly from the stroke onto 0-150 deg.
-    """
+    """Human-equivalent elbow flexion [deg] along the task's elbow stroke (see
+    :func:`app.planning.human_template.flexion_on_stroke`)."""
     q0, q1 = float(task.start[elbow_joint]), float(task.goal[elbow_joint])
-    if _stroke_is_human_like(q0, q1):
-        return np.asarray(np.degrees(q_elbow), dtype=np.float64)
-    lo, hi = HUMAN_CURL_SPAN_DEG
-    frac = (np.asarray(q_elbow, dtype=np.float64) - q0) / (q1 - q0)
-    return np.asarray(lo + frac * (hi - lo), dtype=np.float64)
-
-
-def _stroke_is_human_like(q0: float, q1: float) -> bool:
-    lo, hi = np.radians(HUMAN_CURL_SPAN_DEG)
-    return bool(q1 > q0 and q0 >= lo - 1e-9 and q1 <= hi + np.radians(30.0))
-
-
-def _elbow_joint_angle(flexion_deg: float, task: PlanTask, elbow_joint: int) -> float:
-    """Inverse of :func:`elbow_flexion_deg` for one angle [deg] -> [rad]."""
-    q0, q1 = float(task.start[elbow_joint]), float(task.goal[elbow_joint])
-    if _stroke_is_human_like(q0, q1):
-        return math.radians(flexion_deg)
-    lo, hi = HUMAN_CURL_SPAN_DEG
-    return q0 + (flexion_deg - lo) / (hi - lo) * (q1 - q0)
+    return flexion_on_stroke(q_elbow, q0, q1)
 
 
 def phase_boundary_times(
@@ -471,7 +449,7 @@ def plan(
     n_samples: int = 100,
     report_samples: int = 1000,
     peak_angle_deg: float | None = None,
-    progress: ProgressCallback | None = None,
+    progress: ProgressFn | None = None,
 ) -> PlanResult:
     """Plan the standard and the bio-inspired trajectory of a task and compare them.
 
@@ -487,7 +465,8 @@ def plan(
         n_samples: time samples per trajectory inside the optimiser.
         report_samples: time samples of the reported trajectories and metrics.
         peak_angle_deg: overrides the template's elbow peak-velocity angle [deg].
-        progress: called with (fraction done in [0, 1], message) while optimising.
+        progress: called with a ``Progress`` (stage ``pso``: iterations, best cost) while
+            optimising.
 
     Returns:
         The comparison; ``to_dict()`` gives the CLI's JSON.
@@ -503,14 +482,20 @@ def plan(
         raise PlanningError(
             "particles must be >= 2, iterations >= 1, n_samples and report_samples >= 10"
         )
+    given_template = template
     template = template or HumanTemplate()
     task = task or PlanTask.default(robot)
     validate_task(robot, task, duration)
     start = np.asarray(task.start, float)
     goal = np.asarray(task.goal, float)
     elbow = robot.elbow_joint
-    target_deg = template.peak_velocity_angle_deg if peak_angle_deg is None else peak_angle_deg
-    q_via = _elbow_joint_angle(target_deg, task, elbow)
+    q0_e, q1_e = float(start[elbow]), float(goal[elbow])
+    if peak_angle_deg is None:
+        q_via = template.peak_joint_angle(q0_e, q1_e)
+        target_deg = float(flexion_on_stroke(np.array([q_via]), q0_e, q1_e)[0])
+    else:
+        target_deg = peak_angle_deg
+        q_via = joint_on_stroke(peak_angle_deg, q0_e, q1_e)
     lo_e, hi_e = sorted((start[elbow], goal[elbow]))
     if not lo_e < q_via < hi_e:
         raise PlanningError(
@@ -524,11 +509,14 @@ def plan(
     dyn = robot.dynamics()
 
     def on_iteration(iteration: int, best_cost: float) -> None:
-        if progress is not None:
-            progress(
-                min(iteration / iterations, 1.0),
-                f"PSO iteration {iteration}/{iterations}, best {objective} = {best_cost:.6g}",
-            )
+        report(
+            progress,
+            "pso",
+            iteration,
+            iterations,
+            best=best_cost,
+            message=f"PSO iteration {iteration}/{iterations}, best {objective} = {best_cost:.6g}",
+        )
 
     result = pso_minimize(
         problem.swarm_cost,
@@ -559,6 +547,11 @@ def plan(
     _check_floors(std_eval, fl, "standard")
     _check_floors(opt_eval, fl, "optimized")
     warnings: list[str] = []
+    if given_template is not None and given_template.is_paper_default:
+        warnings.append(
+            f"the human template ({given_template.source}) holds the paper's default values: "
+            "no recorded lift with kinematics shaped this plan"
+        )
     if std_eval.violations:
         warnings.append("the standard quintic violates limits: " + "; ".join(std_eval.violations))
     if opt_eval.violations:
@@ -566,8 +559,7 @@ def plan(
             "on the fine report grid the optimised trajectory violates limits: "
             + "; ".join(opt_eval.violations)
         )
-    if progress is not None:
-        progress(1.0, "done")
+    report(progress, "done", 1, 1, message="planned")
     return PlanResult(
         robot=robot.name,
         objective=objective,

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from app.errors import BioPlanError
+
 FloatArray = NDArray[np.float64]
 
 #: Default tolerance of :func:`is_monotonic` [rad].
@@ -62,15 +64,15 @@ class Trajectory:
 def _check_duration(duration: float) -> float:
     value = float(duration)
     if not np.isfinite(value) or value <= 0.0:
-        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+        raise BioPlanError(f"duration must be a finite number of seconds > 0, got {duration!r}")
     return value
 
 
 def _check_n_samples(n_samples: int) -> int:
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
-        raise ValueError(f"n_samples must be an integer >= 2, got {n_samples!r}")
+        raise BioPlanError(f"n_samples must be an integer >= 2, got {n_samples!r}")
     if n_samples < 2:
-        raise ValueError(f"n_samples must be >= 2 (both end points), got {n_samples}")
+        raise BioPlanError(f"n_samples must be >= 2 (both end points), got {n_samples}")
     return int(n_samples)
 
 
@@ -78,19 +80,19 @@ def _check_endpoints(q0: ArrayLike, q1: ArrayLike) -> tuple[FloatArray, FloatArr
     a = np.atleast_1d(np.asarray(q0, dtype=np.float64))
     b = np.atleast_1d(np.asarray(q1, dtype=np.float64))
     if a.ndim != 1 or b.ndim != 1 or a.shape != b.shape or a.size == 0:
-        raise ValueError(
+        raise BioPlanError(
             f"q0 and q1 must be 1-D arrays of the same length n >= 1 [rad], "
             f"got shapes {a.shape} and {b.shape}"
         )
     if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-        raise ValueError("q0 and q1 must be finite joint angles [rad]")
+        raise BioPlanError("q0 and q1 must be finite joint angles [rad]")
     return a, b
 
 
 def _check_fraction(name: str, value: float, upper: float) -> float:
     f = float(value)
     if not (0.0 < f <= upper):
-        raise ValueError(f"{name} must lie in (0, {upper}], got {value!r}")
+        raise BioPlanError(f"{name} must lie in (0, {upper}], got {value!r}")
     return f
 
 
@@ -394,22 +396,22 @@ def _check_knots(
     qdk = np.asarray(qd_knots, dtype=np.float64)
     qddk = np.asarray(qdd_knots, dtype=np.float64)
     if tk.ndim != 2 or tk.shape[1] < 2:
-        raise ValueError(f"t_knots must have shape (B, K) with K >= 2 knots, got {tk.shape}")
+        raise BioPlanError(f"t_knots must have shape (B, K) with K >= 2 knots, got {tk.shape}")
     expected = (*tk.shape, qk.shape[-1] if qk.ndim == 3 else -1)
     for label, arr in (("q_knots", qk), ("qd_knots", qdk), ("qdd_knots", qddk)):
         if arr.ndim != 3 or arr.shape != expected or arr.shape[2] < 1:
-            raise ValueError(
+            raise BioPlanError(
                 f"{label} must have shape (B, K, n) = {expected[:2]} + (n,) matching t_knots "
                 f"and q_knots, got {arr.shape}"
             )
         if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{label} must be finite")
+            raise BioPlanError(f"{label} must be finite")
     if not np.all(np.isfinite(tk)):
-        raise ValueError("t_knots must be finite times [s]")
+        raise BioPlanError("t_knots must be finite times [s]")
     steps = np.diff(tk, axis=1)
     if not np.all(steps > 0.0):
         row = int(np.flatnonzero(~np.all(steps > 0.0, axis=1))[0])
-        raise ValueError(
+        raise BioPlanError(
             f"t_knots must be strictly increasing in every row; row {row} is {tk[row].tolist()}"
         )
     return tk, qk, qdk, qddk
@@ -524,13 +526,13 @@ def piecewise_quintic_batch(
     tk, qk, qdk, qddk = _check_knots(t_knots, q_knots, qd_knots, qdd_knots)
     tt = np.asarray(t, dtype=np.float64)
     if tt.ndim != 1 or tt.size == 0 or not np.all(np.isfinite(tt)):
-        raise ValueError(f"t must be a non-empty 1-D array of finite times [s], got {tt.shape}")
+        raise BioPlanError(f"t must be a non-empty 1-D array of finite times [s], got {tt.shape}")
     # Round-off slack: a grid built as linspace(0, duration) may miss the last knot by an ulp.
     slack = 1e-9 * (tk[:, -1] - tk[:, 0])
     outside = (tt.min() < tk[:, 0] - slack) | (tt.max() > tk[:, -1] + slack)
     if np.any(outside):
         row = int(np.flatnonzero(outside)[0])
-        raise ValueError(
+        raise BioPlanError(
             f"t spans [{tt.min():.6g}, {tt.max():.6g}] s but row {row}'s knots span only "
             f"[{tk[row, 0]:.6g}, {tk[row, -1]:.6g}] s (expected samples inside the knot span)"
         )
@@ -564,16 +566,16 @@ def piecewise_quintic(
     """
     tk = np.asarray(t_knots, dtype=np.float64)
     if tk.ndim != 1 or tk.size < 2:
-        raise ValueError(f"t_knots must be a 1-D array of K >= 2 times [s], got shape {tk.shape}")
+        raise BioPlanError(f"t_knots must be a 1-D array of K >= 2 times [s], got shape {tk.shape}")
     if tk[0] != 0.0:
-        raise ValueError(f"t_knots[0] must be 0 s (trajectories start at t = 0), got {tk[0]!r}")
+        raise BioPlanError(f"t_knots[0] must be 0 s (trajectories start at t = 0), got {tk[0]!r}")
 
     def as_states(label: str, x: ArrayLike) -> FloatArray:
         arr = np.asarray(x, dtype=np.float64)
         if arr.ndim == 1:
             arr = arr[:, None]
         if arr.ndim != 2 or arr.shape[0] != tk.size:
-            raise ValueError(
+            raise BioPlanError(
                 f"{label} must have shape (K, n) with K = {tk.size} knots, got {arr.shape}"
             )
         return arr[None]
@@ -598,7 +600,7 @@ def _per_joint(label: str, value: ArrayLike, n: int) -> FloatArray:
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     if arr.shape != (n,) or np.any(np.isnan(arr)):
-        raise ValueError(f"{label} must be a number or a ({n},) array (one per joint), got {arr}")
+        raise BioPlanError(f"{label} must be a number or a ({n},) array (one per joint), got {arr}")
     return arr
 
 
@@ -631,7 +633,7 @@ def check_limits(
     """
     n = traj.n_joints
     if joint_names is not None and len(joint_names) != n:
-        raise ValueError(f"joint_names must name all {n} joints, got {len(joint_names)}")
+        raise BioPlanError(f"joint_names must name all {n} joints, got {len(joint_names)}")
     names = list(joint_names) if joint_names is not None else [f"joint {j + 1}" for j in range(n)]
     out: list[str] = []
 
@@ -675,7 +677,7 @@ def is_monotonic(traj: Trajectory, *, tol: float = MONOTONIC_TOL) -> NDArray[np.
         (n,) booleans.
     """
     if not tol >= 0.0:
-        raise ValueError(f"tol must be >= 0 rad, got {tol!r}")
+        raise BioPlanError(f"tol must be >= 0 rad, got {tol!r}")
     q = traj.q
     rising = np.all(q >= np.maximum.accumulate(q, axis=0) - tol, axis=0)
     falling = np.all(q <= np.minimum.accumulate(q, axis=0) + tol, axis=0)

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from app.errors import BioPlanError
+
 FloatArray = NDArray[np.float64]
 CostFunction = Callable[[FloatArray], FloatArray | tuple[FloatArray, FloatArray]]
 
@@ -55,7 +57,7 @@ def _evaluate(fn: CostFunction, x: FloatArray) -> tuple[FloatArray, FloatArray]:
     out = fn(x.copy())  # a copy: the cost function must not be able to move the swarm
     if isinstance(out, tuple):
         if len(out) != 2:
-            raise ValueError(
+            raise BioPlanError(
                 f"the cost function must return cost (P,) or (cost (P,), violation (P,)); "
                 f"got a tuple of {len(out)}"
             )
@@ -65,12 +67,12 @@ def _evaluate(fn: CostFunction, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         cost = np.asarray(out, dtype=np.float64)
         viol = np.zeros(n)
     if cost.shape != (n,) or viol.shape != (n,):
-        raise ValueError(
+        raise BioPlanError(
             f"the cost function must return arrays of shape ({n},) for {n} particles, got cost "
             f"{cost.shape} and violation {viol.shape}"
         )
     if np.any(viol < 0.0):
-        raise ValueError(
+        raise BioPlanError(
             f"constraint violations must be >= 0 (0 = feasible), got min {viol.min():.6g}"
         )
     bad = ~np.isfinite(cost) | np.isnan(viol)
@@ -89,7 +91,7 @@ def _better(c1: FloatArray, v1: FloatArray, c2: FloatArray, v2: FloatArray) -> N
 def _check_vector(label: str, value: ArrayLike) -> FloatArray:
     arr = np.asarray(value, dtype=np.float64)
     if arr.ndim != 1 or arr.size == 0 or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{label} must be a finite 1-D array (D,), got shape {arr.shape}")
+        raise BioPlanError(f"{label} must be a finite 1-D array (D,), got shape {arr.shape}")
     return arr
 
 
@@ -166,22 +168,24 @@ def pso_minimize(
     lo = _check_vector("lower", lower)
     hi = _check_vector("upper", upper)
     if lo.shape != hi.shape or not np.all(hi > lo):
-        raise ValueError(
+        raise BioPlanError(
             f"lower and upper must have the same shape (D,) with upper > lower, got "
             f"{lo.tolist()} and {hi.tolist()}"
         )
     if particles < 1 or iterations < 1:
-        raise ValueError(f"particles and iterations must be >= 1, got {particles}, {iterations}")
+        raise BioPlanError(f"particles and iterations must be >= 1, got {particles}, {iterations}")
     w_start, w_end = (float(w) for w in inertia)
     if cognitive < 0 or social < 0 or not velocity_clamp > 0:
-        raise ValueError(
+        raise BioPlanError(
             "cognitive and social must be >= 0 and velocity_clamp > 0, got "
             f"{cognitive}, {social}, {velocity_clamp}"
         )
     if stagnation_iterations is not None and stagnation_iterations < 1:
-        raise ValueError(f"stagnation_iterations must be >= 1 or None, got {stagnation_iterations}")
+        raise BioPlanError(
+            f"stagnation_iterations must be >= 1 or None, got {stagnation_iterations}"
+        )
     if not stagnation_tol >= 0:
-        raise ValueError(f"stagnation_tol must be >= 0, got {stagnation_tol}")
+        raise BioPlanError(f"stagnation_tol must be >= 0, got {stagnation_tol}")
 
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -192,7 +196,7 @@ def pso_minimize(
     if initial is not None:
         x0 = _check_vector("initial", initial)
         if x0.shape != lo.shape:
-            raise ValueError(f"initial must have shape {lo.shape}, got {x0.shape}")
+            raise BioPlanError(f"initial must have shape {lo.shape}, got {x0.shape}")
         x[0] = np.clip(x0, lo, hi)
     v = (2.0 * rng.random((particles, n_dim)) - 1.0) * v_max
 

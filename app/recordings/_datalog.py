@@ -8,6 +8,7 @@ from typing import Any, get_args
 
 import numpy as np
 
+from app.errors import BioPlanError
 from app.recordings._common import (
     Options,
     Source,
@@ -52,11 +53,11 @@ def sensors_from_json(obj: Any) -> list[DatalogSensor]:
     """Sensors from a sidecar: ``{"sensors": [{column, name, kind, rate, ...}]}`` or a list."""
     items = obj.get("sensors") if isinstance(obj, dict) else obj
     if not isinstance(items, list):
-        raise ValueError("expected a list of sensors or {'sensors': [...]}")
+        raise BioPlanError("expected a list of sensors or {'sensors': [...]}")
     out = []
     for i, it in enumerate(items):
         if not isinstance(it, dict):
-            raise ValueError(f"sensor {i} is not an object")
+            raise BioPlanError(f"sensor {i} is not an object")
         try:
             out.append(
                 DatalogSensor(
@@ -70,7 +71,7 @@ def sensors_from_json(obj: Any) -> list[DatalogSensor]:
                 )
             )
         except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"sensor {i}: {exc}") from None
+            raise BioPlanError(f"sensor {i}: {exc}") from None
     return out
 
 

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from app.errors import BioPlanError
+
 _MI_TYPES = {
     1: "i1",
     2: "u1",
@@ -44,7 +46,7 @@ class _Reader:
 
     def need(self, pos: int, size: int, what: str) -> bytes:
         if pos < 0 or size < 0 or pos + size > len(self.data):
-            raise ValueError(
+            raise BioPlanError(
                 f"truncated in {what} (needs bytes {pos}..{pos + size} of {len(self.data)})"
             )
         return self.data[pos : pos + size]
@@ -59,12 +61,12 @@ class _Reader:
             # small data element: type and size in one word, data in the next 4 bytes
             mtype, nbytes = first & 0xFFFF, first >> 16
             if nbytes > 4:
-                raise ValueError(f"small data element of {nbytes} bytes in {what}")
+                raise BioPlanError(f"small data element of {nbytes} bytes in {what}")
             return mtype, nbytes, pos + 4, pos + 8
         nbytes = self.u32(pos + 4, what)
         end = pos + 8 + nbytes
         if end > len(self.data):
-            raise ValueError(f"{what} claims {nbytes} bytes, beyond the end of the file")
+            raise BioPlanError(f"{what} claims {nbytes} bytes, beyond the end of the file")
         padded = end if first == _MI_COMPRESSED else pos + 8 + ((nbytes + 7) // 8) * 8
         return first, nbytes, pos + 8, padded
 
@@ -72,10 +74,10 @@ class _Reader:
         mtype, nbytes, start, nxt = self.tag(pos, what)
         dtype = _MI_TYPES.get(mtype)
         if dtype is None:
-            raise ValueError(f"data type {mtype} in {what}")
+            raise BioPlanError(f"data type {mtype} in {what}")
         size = np.dtype(dtype).itemsize
         if nbytes % size:
-            raise ValueError(f"{what}: {nbytes} bytes is not a whole number of {dtype}")
+            raise BioPlanError(f"{what}: {nbytes} bytes is not a whole number of {dtype}")
         raw = self.need(start, nbytes, what)
         return np.frombuffer(raw, dtype=self.endian + dtype), nxt
 
@@ -83,14 +85,14 @@ class _Reader:
 def loadmat5(data: bytes) -> dict[str, Any]:
     """Variables of a v5 MAT-file: arrays, str / list of str, lists (cells), dicts (structs)."""
     if len(data) < 128:
-        raise ValueError(f"file is {len(data)} bytes, shorter than the 128-byte MAT header")
+        raise BioPlanError(f"file is {len(data)} bytes, shorter than the 128-byte MAT header")
     indicator = data[126:128]
     if indicator == b"IM":
         endian = "<"
     elif indicator == b"MI":
         endian = ">"
     else:
-        raise ValueError(f"endian indicator {indicator!r} (expected 'IM' or 'MI')")
+        raise BioPlanError(f"endian indicator {indicator!r} (expected 'IM' or 'MI')")
     out: dict[str, Any] = {}
     _elements(_Reader(data, endian), 128, len(data), out, depth=0)
     return out
@@ -106,9 +108,9 @@ def _elements(r: _Reader, pos: int, end: int, out: dict[str, Any], *, depth: int
                     r.need(start, nbytes, "compressed variable"), _MAX_INFLATED
                 )
             except zlib.error as exc:
-                raise ValueError(f"compressed variable cannot be inflated: {exc}") from None
+                raise BioPlanError(f"compressed variable cannot be inflated: {exc}") from None
             if inflater.unconsumed_tail:
-                raise ValueError("compressed variable inflates beyond 512 MB")
+                raise BioPlanError("compressed variable inflates beyond 512 MB")
             _elements(_Reader(inner, r.endian), 0, len(inner), out, depth=depth + 1)
         elif mtype == _MI_MATRIX:
             name, value = _matrix(r, start, start + nbytes, depth=depth)
@@ -119,25 +121,25 @@ def _elements(r: _Reader, pos: int, end: int, out: dict[str, Any], *, depth: int
 
 def _matrix(r: _Reader, pos: int, end: int, *, depth: int) -> tuple[str, Any]:
     if depth > _MAX_DEPTH:
-        raise ValueError("variables nested too deeply")
+        raise BioPlanError("variables nested too deeply")
     if pos >= end:
         return "", None  # empty miMATRIX: MATLAB writes these for empty cells
     flags, pos = r.numbers(pos, "array flags")
     if flags.size < 2:
-        raise ValueError("array flags are too short")
+        raise BioPlanError("array flags are too short")
     cls = int(flags[0]) & 0xFF
     complex_ = bool(int(flags[0]) & 0x0800)
     dims_arr, pos = r.numbers(pos, "dimensions")
     dims = [int(d) for d in dims_arr]
     if not dims or any(d < 0 for d in dims):
-        raise ValueError(f"dimensions {dims}")
+        raise BioPlanError(f"dimensions {dims}")
     count = int(np.prod(dims, dtype=np.int64)) if dims else 0
     name_arr, pos = r.numbers(pos, "array name")
     name = bytes(name_arr.astype(np.uint8)).decode("latin-1") if name_arr.size else ""
     if cls in _NUMERIC_CLASSES:
         real, pos = r.numbers(pos, f"values of {name!r}")
         if real.size != count:
-            raise ValueError(f"{name!r} holds {real.size} values for dimensions {dims}")
+            raise BioPlanError(f"{name!r} holds {real.size} values for dimensions {dims}")
         values = real.astype(np.float64)
         if complex_:
             _, pos = r.numbers(pos, f"imaginary part of {name!r}")  # recordings are real

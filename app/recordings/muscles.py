@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 
+from app.errors import BioPlanError
 from app.recordings.types import SITES, Site
 
 # Muscles that are not one of the four arm sites. Checked first so that "biceps femoris" is not
@@ -130,6 +131,6 @@ def parse_site(value: str, *, what: str) -> Site | None:
     for site in SITES:
         if text == site:
             return site
-    raise ValueError(
+    raise BioPlanError(
         f"{what}: unknown site {value!r} (expected one of {', '.join(SITES)} or 'none')"
     )

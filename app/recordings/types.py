@@ -8,12 +8,14 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from app.errors import BioPlanError
+
 ChannelKind = Literal["emg", "angle", "landmark", "marker", "accel", "other"]
 Site = Literal["deltoid", "triceps", "biceps", "forearm"]
 SITES: tuple[Site, ...] = ("deltoid", "triceps", "biceps", "forearm")
 
 
-class RecordingError(ValueError):
+class RecordingError(BioPlanError):
     """A recording cannot be read or used as it is.
 
     The message always names where the problem is (file, line or channel) and what was expected,

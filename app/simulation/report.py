@@ -31,10 +31,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from app.progress import ProgressFn, report, within
+
 if TYPE_CHECKING:
     from app.simulation.sweep import SimulationResult, SweepResult
 
-ProgressCallback = Callable[[float, str], None]
 
 #: Paper claims: (robot, metric, claimed saving [%], what the paper measured).
 PAPER_CLAIMS: tuple[tuple[str, str, float, str], ...] = (
@@ -420,7 +421,7 @@ def write_demo_report(
     sweep_payloads: Sequence[float] = DEMO_SWEEP_PAYLOADS,
     sweep_objectives: Sequence[str] = DEMO_SWEEP_OBJECTIVES,
     sweep_workers: int | None = None,
-    progress: ProgressCallback | None = None,
+    progress: ProgressFn | None = None,
 ) -> Path:
     """Plan and simulate every demo case, run a small sweep, and write the report folder.
 
@@ -435,7 +436,7 @@ def write_demo_report(
         sweep_payloads: sweep payloads [kg].
         sweep_objectives: planner objectives of the sweep.
         sweep_workers: sweep processes (default: up to 2).
-        progress: called with (fraction in [0, 1], message).
+        progress: called with a ``Progress`` (stages ``report``, ``pso``, ``simulate``, ``sweep``).
 
     Returns:
         The path of ``index.html``.
@@ -445,16 +446,19 @@ def write_demo_report(
     from app.planning.robots import load_robot
     from app.simulation.sweep import run_sweep, simulate_comparison
 
-    def report(fraction: float, message: str) -> None:
-        if progress is not None:
-            progress(fraction, message)
-
     out_dir.mkdir(parents=True, exist_ok=True)
     cases_share = 0.45 if sweep_robot else 0.95
     results: dict[str, SimulationResult] = {}
     sections: list[str] = []
     for i, case in enumerate(cases):
-        report(cases_share * i / len(cases), f"planning and simulating {case.robot}")
+        report(
+            progress,
+            "report",
+            i,
+            len(cases),
+            fraction=cases_share * i / len(cases),
+            message=f"planning and simulating {case.robot}",
+        )
         robot = load_robot(case.robot, payload=case.payload)
         sim = simulate_comparison(
             robot,
@@ -482,11 +486,6 @@ def write_demo_report(
     sweep = None
     sweep_html = ""
     if sweep_robot:
-        base = cases_share
-
-        def sweep_progress(fraction: float, message: str) -> None:
-            report(base + (0.95 - base) * fraction, f"sweep: {message}")
-
         sweep = run_sweep(
             robot=load_robot(sweep_robot),
             durations=sweep_durations,
@@ -494,7 +493,7 @@ def write_demo_report(
             objectives=sweep_objectives,
             seed=seed,
             workers=sweep_workers,
-            progress=sweep_progress,
+            progress=within(progress, cases_share, 0.95),
         )
         parts = [
             f"<h2>Where the bio-inspired plan wins: sweep on {html.escape(sweep.robot)}</h2>",
@@ -515,7 +514,7 @@ def write_demo_report(
             parts.append(f"<p class='note'>objective {html.escape(objective)}: {counts}</p>")
         sweep_html = "".join(parts)
 
-    report(0.96, "writing the report")
+    report(progress, "report", 0, 1, fraction=0.96, message="writing the report")
     (out_dir / "plotly.min.js").write_text(plotly.offline.get_plotlyjs(), encoding="utf-8")
     claims = _claim_rows(results)
     claim_table = _table(
@@ -559,5 +558,5 @@ payload: see the sweep below and <code>bioplan sweep</code>.</p>
     tmp_index.write_text(page, encoding="utf-8")
     tmp_json.replace(out_dir / "results.json")
     tmp_index.replace(index)
-    report(1.0, "report written")
+    report(progress, "done", 1, 1, message="report written")
     return index

@@ -19,15 +19,17 @@ import dataclasses
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from app import names
 from app.planning.energy import Floors, improvement_pct
 from app.planning.jsonsafe import json_safe
+from app.progress import ProgressFn, report, within
 from app.simulation.tracking import (
     DEFAULT_DAMPING_RATIO,
     DEFAULT_NATURAL_FREQUENCY_HZ,
@@ -46,17 +48,9 @@ if TYPE_CHECKING:
     from app.planning.robots import Robot
 
 FloatArray = NDArray[np.float64]
-ProgressCallback = Callable[[float, str], None]
 
 #: Scalar metrics compared everywhere (``peak_torque`` = the largest joint peak torque [Nm]).
-METRICS: tuple[str, ...] = (
-    "tau_sq",
-    "abs_work",
-    "pos_work",
-    "electrical_energy",
-    "peak_power",
-    "peak_torque",
-)
+METRICS: tuple[str, ...] = names.OBJECTIVES
 #: |change| below this is "no difference" [%].
 NO_DIFFERENCE_PCT = 1.0
 #: The standard trajectory is "on the floor" when abs_work <= (1 + this) * delta_potential.
@@ -323,7 +317,7 @@ def simulate_comparison(
     feedforward: Feedforward = "pinocchio",
     natural_frequency_hz: float = DEFAULT_NATURAL_FREQUENCY_HZ,
     damping_ratio: float = DEFAULT_DAMPING_RATIO,
-    progress: ProgressCallback | None = None,
+    progress: ProgressFn | None = None,
 ) -> SimulationResult:
     """Plan a task, then simulate the standard and the bio-inspired trajectory in MuJoCo.
 
@@ -345,7 +339,7 @@ def simulate_comparison(
         feedforward: ``"pinocchio"``, ``"mujoco"`` or ``"none"``.
         natural_frequency_hz: PD bandwidth [Hz].
         damping_ratio: PD damping ratio [-].
-        progress: called with (fraction in [0, 1], message).
+        progress: called with a ``Progress`` (stages ``pso`` then ``simulate``).
 
     Returns:
         The comparison.
@@ -364,10 +358,6 @@ def simulate_comparison(
     on_grid = abs(n_steps - round(n_steps)) < 1e-9 * max(n_steps, 1.0)
     report_samples = round(n_steps) + 1 if on_grid else math.ceil(n_steps) + 1
 
-    def plan_progress(fraction: float, message: str) -> None:
-        if progress is not None:
-            progress(0.85 * fraction, message)
-
     result = plan(
         robot,
         task=task,
@@ -379,10 +369,9 @@ def simulate_comparison(
         iterations=iterations,
         report_samples=max(report_samples, 10),
         peak_angle_deg=peak_angle_deg,
-        progress=plan_progress,
+        progress=within(progress, 0.0, 0.85),
     )
-    if progress is not None:
-        progress(0.85, "simulating both trajectories in MuJoCo")
+    report(progress, "simulate", 0, 1, fraction=0.85, message="simulating in MuJoCo")
     standard, optimized = simulate_batch(
         robot,
         [result.standard.trajectory, result.optimized.trajectory],
@@ -448,8 +437,7 @@ def simulate_comparison(
                     f"{label}: simulated {k} differs from the planned value by {v:+.1f}% "
                     f"(> {AGREEMENT_PCT:g}%) although tracking is good"
                 )
-    if progress is not None:
-        progress(1.0, "simulation done")
+    report(progress, "simulate", 1, 1, message="simulation done")
     return dataclasses.replace(out, warnings=tuple(warnings))
 
 
@@ -718,7 +706,7 @@ def run_sweep(
     iterations: int = SWEEP_ITERATIONS,
     timestep: float = DEFAULT_TIMESTEP,
     workers: int | None = None,
-    progress: ProgressCallback | None = None,
+    progress: ProgressFn | None = None,
 ) -> SweepResult:
     """Plan and simulate every (duration, payload, objective) cell; classify the changes.
 
@@ -738,7 +726,7 @@ def run_sweep(
         iterations: PSO iterations per cell.
         timestep: simulation step [s].
         workers: processes in the pool.
-        progress: called with (fraction in [0, 1], message) as cells finish.
+        progress: called with a ``Progress`` (stage ``sweep``: cells done) as cells finish.
 
     Returns:
         The sweep; ``to_dict()`` for JSON, ``summary()`` for text.
@@ -784,23 +772,24 @@ def run_sweep(
     clean = dataclasses.replace(robot)
     results: list[SweepCell] = []
 
-    def report(cell: SweepCell) -> None:
+    def on_cell(cell: SweepCell) -> None:
         results.append(cell)
-        if progress is not None:
-            progress(
-                len(results) / len(jobs),
-                f"cell {len(results)}/{len(jobs)}: T={cell.duration:g} s, "
-                f"m={cell.payload:g} kg, {cell.objective}: {cell.status}",
-            )
+        report(
+            progress,
+            "sweep",
+            len(results),
+            len(jobs),
+            message=f"cell {len(results)}/{len(jobs)}: T={cell.duration:g} s, "
+            f"m={cell.payload:g} kg, {cell.objective}: {cell.status}",
+        )
 
-    if progress is not None:
-        progress(0.0, f"sweeping {len(jobs)} cells on {n_workers} worker(s)")
+    report(progress, "sweep", 0, len(jobs), message=f"{len(jobs)} cells on {n_workers} worker(s)")
 
     def run_here(todo: Sequence[tuple[float, float, str, int, int, int, float]]) -> None:
         _init_worker(clean)
         try:
             for job in todo:
-                report(_cell_job(job))
+                on_cell(_cell_job(job))
         finally:
             _WORKER.clear()
 
@@ -823,7 +812,7 @@ def run_sweep(
             ) as pool:
                 futures = [pool.submit(_cell_job, job) for job in jobs]
                 for fut in as_completed(futures):
-                    report(fut.result())
+                    on_cell(fut.result())
         except BrokenProcessPool as exc:
             # Spawned workers re-import the caller's __main__; a script without the
             # ``if __name__ == "__main__":`` guard (or code piped to stdin) cannot be

@@ -49,6 +49,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from app.errors import BioPlanError
 from app.planning.energy import (
     EnergyMetrics,
     cumulative_energy,
@@ -89,7 +90,7 @@ INTEGRATOR = "Euler (semi-implicit)"
 ProgressCallback = Callable[[float, str], None]
 
 
-class SimulationError(ValueError):
+class SimulationError(BioPlanError):
     """A simulation cannot run or ran away; the message says what and what was expected."""
 
 

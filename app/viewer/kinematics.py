@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from app.errors import BioPlanError
+
 FloatArray = NDArray[np.float64]
 
 #: Joint types that move with their coordinate; anything else is held at its origin.
@@ -23,7 +25,7 @@ _REVOLUTE = ("revolute", "continuous")
 _PRISMATIC = ("prismatic",)
 
 
-class KinematicsError(ValueError):
+class KinematicsError(BioPlanError):
     """A URDF or a joint trajectory the viewer cannot use; the message says what was expected."""
 
 

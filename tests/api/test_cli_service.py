@@ -12,7 +12,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from app.api.cli_commands import serve
+from app.cli.serve import serve
 from app.jobs.tasks import entry_points
 from tests.api.test_crash_recovery import Server
 from tests.conftest import REPO_ROOT, shared_file

@@ -133,7 +133,7 @@ def test_sweep_classifies_cells_flags_the_floor_and_reports_infeasible(cw: Robot
         objectives=["abs_work"],
         seed=0,
         workers=1,
-        progress=lambda f, _msg: fractions.append(f),
+        progress=lambda update: fractions.append(update.fraction),
         **BUDGET,
     )
     assert fractions[-1] == 1.0 and fractions == sorted(fractions)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from app.errors import BioPlanError
 from app.planning.energy import MotorModel
 
 if TYPE_CHECKING:
@@ -32,7 +33,7 @@ IDEAL_ACTUATOR = MotorModel(
 )
 
 
-class RobotError(ValueError):
+class RobotError(BioPlanError):
     """A robot cannot be loaded or used; one-line message: what, which file, what was expected."""
 
 

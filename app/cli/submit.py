@@ -1,8 +1,8 @@
-"""``bioplan serve`` and ``bioplan submit``: the service from the command line.
+"""``bioplan submit``: run one job on a running server and print its result.
 
-``serve`` migrates the database and runs the API with one uvicorn worker. ``submit`` is a small
-HTTP client (standard library only) for scripted use of a running server: upload recordings,
-submit a job with the CLI's options, wait for it, print the result in the CLI's JSON shape.
+A small HTTP client (standard library only) for scripted use of a running server: upload
+recordings, submit a job with the CLI's options, wait for it, print the result in the CLI's JSON
+shape.
 """
 
 from __future__ import annotations
@@ -20,82 +20,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-EXIT_OK, EXIT_JOB_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-
-
-# ---------------------------------------------------------------------------------- serve
-
-
-def serve(
-    host: str | None = None,
-    port: int | None = None,
-    data_dir: str | None = None,
-    *,
-    demo: bool = False,
-) -> int:
-    """Migrate the database (``alembic upgrade head``), then serve the API and dashboard.
-
-    Args:
-        host: bind address (default ``BIOPLAN_HOST`` or 127.0.0.1); a non-loopback address
-            needs ``BIOPLAN_API_TOKEN``.
-        port: TCP port (default ``BIOPLAN_PORT`` or 8000).
-        data_dir: database and file store folder (default ``BIOPLAN_DATA_DIR`` or ./data).
-        demo: when the database has no recordings, store a demo recording session and run its
-            analysis, a plan and a simulation first, so the dashboard has something to show.
-
-    Returns:
-        Exit code: 0 after a clean stop, 2 for bad settings.
-    """
-    import logging
-
-    from pydantic import ValidationError
-
-    from app.config import Settings
-
-    overrides: dict[str, Any] = {}
-    if host is not None:
-        overrides["host"] = host
-    if port is not None:
-        overrides["port"] = port
-    if data_dir is not None:
-        overrides["data_dir"] = Path(data_dir)
-    try:
-        settings = Settings(**overrides)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first.get("loc", ())) or "settings"
-        print(f"bioplan serve: error: {where}: {first['msg']}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    logging.basicConfig(
-        level=settings.log_level.upper(),
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-    )
-    import uvicorn
-
-    from app.db.session import upgrade
-    from app.main import create_app
-    from app.viewer import attach_dashboard, seed_demo
-
-    settings.data_dir.mkdir(parents=True, exist_ok=True)
-    upgrade(settings.db_url)  # before binding, so a broken database fails fast and loudly
-    if demo:
-        print("preparing the demo session (analysis, plan, simulation)...", flush=True)
-        seed_demo(settings)
-    app = create_app(settings)
-    attach_dashboard(app, settings)
-    print(f"BioPlan dashboard: http://{settings.host}:{settings.port}/", flush=True)
-    uvicorn.run(
-        app,
-        host=settings.host,
-        port=settings.port,
-        workers=1,  # one process: it owns the job runner (and the viewer)
-        log_level=settings.log_level,
-        timeout_graceful_shutdown=5,
-    )
-    return EXIT_OK
-
-
-# ---------------------------------------------------------------------------------- client
+from app.cli._common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+from app.names import TERMINAL_JOB_STATES
 
 
 class ServiceError(Exception):
@@ -196,7 +122,7 @@ class Client:
             job: dict[str, Any] = self.request("GET", f"/api/jobs/{job_id}")
             if on_progress is not None:
                 on_progress(job)
-            if job["state"] in ("succeeded", "failed", "cancelled"):
+            if job["state"] in TERMINAL_JOB_STATES:
                 return job
             if time.monotonic() > deadline:
                 raise ServiceError(0, f"job {job_id} still {job['state']} after {timeout:.0f} s")
@@ -287,11 +213,11 @@ def submit(args: argparse.Namespace) -> int:
         if job["state"] != "succeeded":
             print(f"bioplan submit: job {job['id']} {job['state']}: {job['error'] or ''}",
                   file=sys.stderr)  # fmt: skip
-            return EXIT_JOB_FAILED
+            return EXIT_FAILED
         out = client.request("GET", job["result_url"])
     except ServiceError as exc:
         print(f"bioplan submit: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT if 400 <= exc.status < 500 else EXIT_JOB_FAILED
+        return EXIT_BAD_INPUT if 400 <= exc.status < 500 else EXIT_FAILED
     except (OSError, ValueError) as exc:
         print(f"bioplan submit: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -308,21 +234,9 @@ def submit(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-# ------------------------------------------------------------------------------- argparse
-
-
-def add_service_subcommands(subparsers: Any) -> None:
-    """Register ``serve`` and ``submit`` on the ``bioplan`` command's subparsers."""
-    p = subparsers.add_parser("serve", help="run the web service (API, jobs, dashboard)")
-    p.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
-    p.add_argument("--port", type=int, default=None, help="TCP port (default 8000)")
-    p.add_argument("--data-dir", default=None, help="database and uploads (default ./data)")
-    p.add_argument(
-        "--demo", action="store_true", help="seed a demo recording and comparison when empty"
-    )
-    p.set_defaults(handler=lambda a: serve(a.host, a.port, a.data_dir, demo=a.demo))
-
-    p = subparsers.add_parser(
+def register(sub: Any) -> None:
+    """Add ``submit`` to the ``bioplan`` subcommands."""
+    p = sub.add_parser(
         "submit", help="run a job on a running server (upload, submit, wait, print the result)"
     )
     p.add_argument(

@@ -1,0 +1,186 @@
+"""What every ``bioplan`` command shares: errors, output, progress, robot and task options."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from app.errors import BioPlanError
+from app.names import METRICS
+from app.progress import Progress, ProgressFn
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class CliError(BioPlanError):
+    """Bad input detected by the CLI itself (an option's value)."""
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """Shows each option's default after its help, unless the help already says it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (
+            "default" in text
+            or default is None
+            or default is argparse.SUPPRESS
+            or isinstance(default, bool)
+            or not action.option_strings
+        ):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block), exit code 2, defaults shown in --help."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def emit(args: argparse.Namespace, payload: dict[str, Any], text: str) -> None:
+    """Print JSON (``--json``) or text, and write the JSON to ``--out`` when asked."""
+    blob = json.dumps(payload, indent=2, allow_nan=False)
+    out = getattr(args, "out", None)
+    if out:
+        Path(out).write_text(blob + "\n", encoding="utf-8")
+    if getattr(args, "json", False):
+        print(blob)
+    else:
+        print(text)
+
+
+def progress_printer(enabled: bool) -> ProgressFn | None:
+    """A progress bar on stderr (never stdout, which carries the JSON), when it is a terminal."""
+    if not enabled or not sys.stderr.isatty():
+        return None
+
+    def show(update: Progress) -> None:
+        bar = "#" * int(30 * update.fraction)
+        line = update.message or f"{update.stage} {update.done}/{update.of}"
+        print(
+            f"\r[{bar:<30}] {100 * update.fraction:5.1f}% {line[:60]:<60}", end="", file=sys.stderr
+        )
+        if update.fraction >= 1.0:
+            print(file=sys.stderr)
+
+    return show
+
+
+def positive(name: str, value: float) -> float:
+    """``value`` when it is a finite number > 0, else a CliError naming ``--name``."""
+    if not (math.isfinite(value) and value > 0):
+        raise CliError(f"--{name} must be a positive number, got {value}")
+    return value
+
+
+def floats(text: str, name: str) -> list[float]:
+    """Comma- or space-separated numbers of option ``--name``."""
+    try:
+        values = [float(v) for v in text.replace(",", " ").split()]
+    except ValueError as exc:
+        raise CliError(f"--{name} expects numbers separated by commas, got {text!r}") from exc
+    if not values:
+        raise CliError(f"--{name} is empty")
+    return values
+
+
+def add_robot_args(p: argparse.ArgumentParser) -> None:
+    """--robot, --mjcf, --duration, --payload, --start-deg, --goal-deg."""
+    p.add_argument(
+        "--robot",
+        default="curtain_wall_6dof",
+        help="built-in robot name (human_arm_2dof, curtain_wall_6dof) or a URDF path",
+    )
+    p.add_argument("--mjcf", default=None, help="MJCF file matching a URDF given by path")
+    p.add_argument("--duration", type=float, default=1.0, help="motion time [s]")
+    p.add_argument(
+        "--payload",
+        type=float,
+        default=None,
+        help="payload mass [kg] (default: the robot's: 12 kg human, 4 kg curtain wall)",
+    )
+    p.add_argument(
+        "--start-deg", default=None, help="start joint angles [deg], comma-separated (all joints)"
+    )
+    p.add_argument(
+        "--goal-deg", default=None, help="goal joint angles [deg], comma-separated (all joints)"
+    )
+
+
+def load_robot(args: argparse.Namespace) -> Any:
+    """The robot named by ``--robot`` with ``--payload`` and ``--mjcf``."""
+    from app.planning.robots import load_robot as load
+
+    return load(args.robot, payload=args.payload, mjcf=getattr(args, "mjcf", None))
+
+
+def task_from_args(args: argparse.Namespace, robot: Any) -> Any:
+    """The task from --start-deg/--goal-deg, each defaulting to the robot's curl task."""
+    import numpy as np
+
+    from app.planning.planner import PlanTask
+
+    task = PlanTask.default(robot)
+    start, goal = task.start.copy(), task.goal.copy()
+    n = len(robot.joint_names)
+    for flag, text, values_out in (
+        ("start-deg", args.start_deg, start),
+        ("goal-deg", args.goal_deg, goal),
+    ):
+        if text is None:
+            continue
+        values = floats(text, flag)
+        if len(values) != n:
+            raise CliError(
+                f"--{flag} needs {n} angles for {robot.name} "
+                f"({', '.join(robot.joint_names)}), got {len(values)}"
+            )
+        values_out[:] = np.radians(values)
+    return PlanTask(start, goal)
+
+
+def load_template(path: str | None) -> Any:
+    """The HumanTemplate in JSON file ``path`` (None gives None: the paper's defaults)."""
+    from app.planning.human_template import HumanTemplate
+
+    if path is None:
+        return None
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CliError(f"{path}: cannot read template ({exc.strerror})") from exc
+    try:
+        return HumanTemplate.from_json(text)
+    except (ValueError, TypeError) as exc:
+        raise CliError(f"{path}: not a HumanTemplate JSON file: {exc}") from exc
+
+
+def metrics_table(rows: Sequence[tuple[str, dict[str, Any]]], floors: dict[str, float]) -> str:
+    """A text table of the scalar metrics of each row, with units, and the floors under it."""
+    shown = [m for m in METRICS.values() if not m.per_joint]
+    header = f"{'profile':<20}" + "".join(f"{m.name:>19}" for m in shown) + f"{'v-peak angle':>14}"
+    lines = [header, " " * 20 + "".join(f"{'[' + m.unit + ']':>19}" for m in shown)]
+    for label, values in rows:
+        cells = "".join(
+            f"{values[m.name]:>19.4g}" if values.get(m.name) is not None else f"{'n/a':>19}"
+            for m in shown
+        )
+        angle = values.get("peak_velocity_angle_deg")
+        lines.append(f"{label:<20}{cells}{angle:>12.1f}°" if angle is not None else cells)
+    lines.append(
+        f"floors: delta_potential = {floors['delta_potential']:.4g} J, "
+        f"min_peak_power = {floors['min_peak_power']:.4g} W"
+    )
+    return "\n".join(lines)

@@ -1,0 +1,20 @@
+"""The one error base for bad input, shared by every package.
+
+Readers, analysis, planning, simulation and the services raise ``BioPlanError`` (or a subclass:
+``RecordingError``, ``RobotError``, ``PlanningError``, ``SimulationError``...) when the *input*
+is wrong: a file that cannot be read, a task that cannot be planned, an option out of range. The
+message names the file, line, channel, joint or field and says what was expected, in one line.
+
+The CLI prints these as one line with exit code 2; the API answers them with a 4xx. Anything
+else that escapes is a bug: the CLI shows its traceback and the API logs it and answers 500.
+``BioPlanError`` subclasses ``ValueError`` so that code written against the standard library's
+convention ("bad value -> ValueError") keeps working.
+"""
+
+from __future__ import annotations
+
+__all__ = ["BioPlanError"]
+
+
+class BioPlanError(ValueError):
+    """Bad input: what is wrong, where (file, line, channel, joint or field), what was expected."""

@@ -1,0 +1,194 @@
+"""One home for the names the whole project shares.
+
+Metric names, units and formulas; the A/B/C lift phases with their default bounds and colours;
+the planning methods; muscle sites; PSO and EMG defaults; job states. The science packages, the
+CLI, the reports, the viewer and the dashboard (through ``GET /api/meta``) all read them from
+here, so a metric's unit or phase C's colour is written once.
+
+Plain data only: no imports beyond the standard library.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class MetricInfo:
+    """A trajectory metric (DESIGN.md, "Energy metrics").
+
+    Attributes:
+        name: key in every result (``tau_sq``...).
+        unit: SI unit, as printed.
+        label: short human name.
+        formula: its definition, as printed.
+        per_joint: one value per joint (``peak_torque``) instead of one per trajectory.
+        floor: the ``Floors`` member that bounds it from below, or None when it has no floor.
+    """
+
+    name: str
+    unit: str
+    label: str
+    formula: str
+    per_joint: bool = False
+    floor: str | None = None
+
+
+#: Every metric, in the order tables show them.
+METRICS: dict[str, MetricInfo] = {
+    m.name: m
+    for m in (
+        MetricInfo("tau_sq", "N²m²s", "torque squared", "∫Σ τ² dt"),
+        MetricInfo("abs_work", "J", "absolute work", "∫Σ |τ·ω| dt", floor="abs_work"),
+        MetricInfo("pos_work", "J", "positive work", "∫Σ max(τ·ω, 0) dt", floor="pos_work"),
+        MetricInfo(
+            "electrical_energy",
+            "J",
+            "electrical energy",
+            "motor model: copper losses, friction, regeneration",
+            floor="electrical_energy",
+        ),
+        MetricInfo("peak_power", "W", "peak power", "max_t Σ |τ·ω|", floor="peak_power"),
+        MetricInfo("peak_torque", "Nm", "peak torque", "max_t |τ_j| per joint", per_joint=True),
+    )
+}
+
+#: Metrics a planner can minimise, in table order.
+OBJECTIVES: tuple[str, ...] = tuple(METRICS)
+
+#: Metrics with one value per trajectory (everything but ``peak_torque``).
+SCALAR_METRICS: tuple[str, ...] = tuple(n for n, m in METRICS.items() if not m.per_joint)
+
+
+@dataclass(frozen=True)
+class PhaseInfo:
+    """One phase of a curl by elbow flexion (PAPER.md point 4).
+
+    Attributes:
+        name: ``A``, ``B`` or ``C``.
+        label: what the phase is.
+        colour: its colour in every plot, the viewer and the reports (CSS hex).
+    """
+
+    name: str
+    label: str
+    colour: str
+
+
+#: The lift phases, in order.
+PHASES: tuple[PhaseInfo, ...] = (
+    PhaseInfo("A", "high-load capacity", "#2f9e44"),
+    PhaseInfo("B", "weakest load", "#e8590c"),
+    PhaseInfo("C", "deceleration", "#1c7ed6"),
+)
+
+#: Default (A/B, B/C) elbow-flexion bounds [deg].
+PHASE_BOUNDS_DEG: tuple[float, float] = (40.0, 90.0)
+
+#: Elbow flexion of a human curl, start to top [deg] (DESIGN.md conventions).
+HUMAN_CURL_SPAN_DEG: tuple[float, float] = (0.0, 150.0)
+
+#: The paper's elbow peak-velocity angle [deg]: the middle of phase B.
+PAPER_PEAK_VELOCITY_ANGLE_DEG = 62.0
+
+
+@dataclass(frozen=True)
+class MethodInfo:
+    """A planning method (DESIGN.md, "Planning methods").
+
+    Attributes:
+        name: key in results (``quintic``...).
+        label: short human name.
+        description: one line on what it is.
+        colour: its colour in plots and the viewer (CSS hex).
+    """
+
+    name: str
+    label: str
+    description: str
+    colour: str
+
+
+#: Every planning method, in the order results list them.
+METHODS: dict[str, MethodInfo] = {
+    m.name: m
+    for m in (
+        MethodInfo("quintic", "standard quintic", "one quintic per joint, rest to rest", "#2563eb"),
+        MethodInfo(
+            "paper", "paper's method", "two quintics joined at the template angle, PSO", "#ea8c14"
+        ),
+        MethodInfo(
+            "human_optimal",
+            "human-like optimum",
+            "optimal control with the template's constraints",
+            "#9c36b5",
+        ),
+        MethodInfo("bound", "physical bound", "optimal control, limits only", "#2b8a3e"),
+        MethodInfo(
+            "jerk_limited",
+            "industrial jerk-limited",
+            "time-synchronised jerk-limited profile (ruckig)",
+            "#5c677d",
+        ),
+    )
+}
+
+#: Muscle sites of the paper's EMG set-up, with their plot colours.
+MUSCLE_COLOURS: dict[str, str] = {
+    "deltoid": "#8250df",
+    "triceps": "#0a7ea4",
+    "biceps": "#cf222e",
+    "forearm": "#1a7f37",
+}
+
+
+@dataclass(frozen=True)
+class PsoDefaults:
+    """Default PSO budget of the paper's method."""
+
+    particles: int = 40
+    iterations: int = 100
+    n_samples: int = 100
+    seed: int = 0
+
+
+PSO_DEFAULTS = PsoDefaults()
+
+
+@dataclass(frozen=True)
+class EmgDefaults:
+    """Default EMG processing (band-pass, envelope) of ``app.analysis.emg``.
+
+    Attributes:
+        band_hz: band-pass corners [Hz].
+        lowpass_hz: envelope low-pass corner [Hz].
+        rms_window_s: moving-RMS window [s].
+        order: Butterworth order.
+    """
+
+    band_hz: tuple[float, float] = (20.0, 450.0)
+    lowpass_hz: float = 6.0
+    rms_window_s: float = 0.1
+    order: int = 4
+
+
+EMG_DEFAULTS = EmgDefaults()
+
+#: Every job state; a job in a terminal state never changes again.
+JOB_STATES: tuple[str, ...] = ("queued", "running", "succeeded", "failed", "cancelled")
+TERMINAL_JOB_STATES: frozenset[str] = frozenset({"succeeded", "failed", "cancelled"})
+
+
+def as_json() -> dict[str, Any]:
+    """Every shared name as plain JSON (served to the dashboard by ``GET /api/meta``)."""
+    return {
+        "metrics": [asdict(m) for m in METRICS.values()],
+        "phases": [asdict(p) for p in PHASES],
+        "phase_bounds_deg": list(PHASE_BOUNDS_DEG),
+        "methods": [asdict(m) for m in METHODS.values()],
+        "muscle_colours": dict(MUSCLE_COLOURS),
+        "pso_defaults": asdict(PSO_DEFAULTS),
+        "job_states": list(JOB_STATES),
+        "terminal_job_states": sorted(TERMINAL_JOB_STATES),
+    }
