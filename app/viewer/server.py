@@ -38,7 +38,13 @@ from typing import Any
 from app.viewer.comparison import LABELS, PHASES, Comparison
 from app.viewer.playback import SPEEDS, PlaybackClock, Player, TickStats
 from app.viewer.plots import power_plot
-from app.viewer.scene import ComparisonScene, Layout, PreparedComparison, configure_lighting
+from app.viewer.scene import (
+    COLORS,
+    ComparisonScene,
+    Layout,
+    PreparedComparison,
+    configure_lighting,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -218,7 +224,7 @@ class ViewerServer:
             control_width="medium",
             show_logo=False,
             show_share_button=False,
-            brand_color=(37, 99, 235),
+            brand_color=COLORS["standard"],
         )
         server.scene.set_up_direction("+z")
         configure_lighting(server.scene)

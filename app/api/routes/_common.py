@@ -13,8 +13,8 @@ from sqlalchemy.orm import Session, undefer
 from app.api.errors import ApiError
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
-from app.jobs.service import job_to_dict
 from app.planning.jsonsafe import json_safe
+from app.services import job_to_dict
 
 #: Ids in paths: positive and within a 32-bit integer, so no database overflows.
 IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]

@@ -2,17 +2,23 @@
 // with changes and physical floors, the sweep heat maps, and the 3-D viewer below.
 
 import { api, qs } from "./api.js";
-import { COLORS, NAMES, draw, layout, phaseLabels, phaseShapes, plotly } from "./plots.js";
+import { names } from "./names.js";
+import { NAMES, colours, draw, layout, phaseLabels, phaseLegend, phaseShapes, plotly } from "./plots.js";
 import { banner, clear, fmt, h, messageOf, pct, when } from "./ui.js";
 
-const METRICS = [
-  ["tau_sq", "∫Σ τ² dt", "N²m²s", null],
-  ["abs_work", "∫Σ |τ·ω| dt", "J", "delta_potential"],
-  ["pos_work", "∫Σ max(τ·ω, 0) dt", "J", "delta_potential"],
-  ["electrical_energy", "motor model", "J", null],
-  ["peak_power", "max Σ |τ·ω|", "W", "min_peak_power"],
-];
 const LABELS = ["standard", "optimized"];
+// Results name their floors after the physics (ΔPE, ΔPE/T); the shared names after the metric
+// each one bounds. A floor the result reports under the metric's own name is taken first.
+const FLOOR_KEYS = { abs_work: "delta_potential", pos_work: "delta_potential", peak_power: "min_peak_power" };
+const FLOOR_LABELS = { delta_potential: "ΔPE", min_peak_power: "ΔPE/T" };
+
+/** [key, formula, unit, floor key in result.floors or null] of the per-trajectory metrics. */
+function metricRows(floors) {
+  return names.metrics.filter((m) => !m.per_joint).map((m) => {
+    const key = m.floor === null ? null : m.floor in floors ? m.floor : FLOOR_KEYS[m.floor] ?? null;
+    return [m.name, m.formula, m.unit, key];
+  });
+}
 
 function title(item, kind) {
   const c = (item.result && item.result.conditions) || item.job.params || {};
@@ -122,10 +128,11 @@ export async function render(main, [kindArg, idArg]) {
       energy: [`${name} cumulative energy [J]`, (c) => jointPower(t, c.tau, c.qd, j)[1]],
     };
     await Promise.all(Object.entries(specs).map(([k, [label, get]]) => {
-      const traces = LABELS.map((l) => ({ x: t, y: get(curves[l]), mode: "lines", name: NAMES[l], line: { color: COLORS[l], width: 2 } }));
+      const colour = colours();
+      const traces = LABELS.map((l) => ({ x: t, y: get(curves[l]), mode: "lines", name: NAMES[l], line: { color: colour[l], width: 2 } }));
       if (k === "power" || k === "energy") {
         // The robot's total next to the joint's, dotted.
-        LABELS.forEach((l) => traces.push({ x: t, y: curves[l][k], mode: "lines", name: `${NAMES[l]}, all joints`, line: { color: COLORS[l], width: 1.5, dash: "dot" } }));
+        LABELS.forEach((l) => traces.push({ x: t, y: curves[l][k], mode: "lines", name: `${NAMES[l]}, all joints`, line: { color: colour[l], width: 1.5, dash: "dot" } }));
       }
       return draw(divs[k], traces, layout({
         height: 270,
@@ -186,9 +193,8 @@ function legendBox() {
     h("span", {}, h("span", { class: "swatch sw-std" }), "standard quintic"),
     h("span", {}, h("span", { class: "swatch sw-opt" }), "bio-inspired (PSO)"),
     h("span", {}, "dotted: all joints (power, energy)"),
-    h("span", {}, h("span", { class: "swatch sw-a" }), "A"),
-    h("span", {}, h("span", { class: "swatch sw-b" }), "B"),
-    h("span", {}, h("span", { class: "swatch sw-c" }), "C (phases of the optimised motion; blue dots: the standard's)"),
+    phaseLegend(false),
+    h("span", {}, "(phases of the optimised motion; blue dots: the standard's)"),
   );
 }
 
@@ -196,7 +202,7 @@ function metricsCard(kind, result, jointNames) {
   const floors = result.floors || {};
   const imp = result.improvement_pct || {};
   const planned = result.planned ? result.planned.improvement_pct || {} : null;
-  const rows = METRICS.map(([key, def, unit, floorKey]) => {
+  const rows = metricRows(floors).map(([key, def, unit, floorKey]) => {
     const s = result.standard[key];
     const o = result.optimized[key];
     const floor = floorKey ? floors[floorKey] : null;
@@ -209,7 +215,7 @@ function metricsCard(kind, result, jointNames) {
       h("td", { class: "num" }, fmt(o)),
       h("td", { class: `num ${change > 0.05 ? "better" : change < -0.05 ? "worse" : ""}` }, pct(change)),
       planned ? h("td", { class: "num small" }, pct(planned[key])) : null,
-      h("td", { class: "num" }, floor === null || floor === undefined ? h("span", { class: "muted" }, "–") : `${fmt(floor)} (${floorKey === "min_peak_power" ? "ΔPE/T" : "ΔPE"})`),
+      h("td", { class: "num" }, floor === null || floor === undefined ? h("span", { class: "muted" }, "–") : `${fmt(floor)} (${FLOOR_LABELS[floorKey] ?? floorKey})`),
       h("td", {}, floor === null || floor === undefined ? "" : below ? h("span", { class: "worse" }, "below floor!") : h("span", { class: "small muted" }, "≥ floor")),
     );
   });

@@ -1,5 +1,7 @@
 // The REST API: JSON requests, problem+json errors, uploads with progress, job events.
 
+import { isTerminal } from "./names.js";
+
 const TOKEN_KEY = "bioplan.token";
 
 export function token() {
@@ -123,7 +125,7 @@ export function followJob(job, onUpdate) {
       try {
         const now = await api(`/api/jobs/${job.id}`);
         onUpdate(now);
-        if (["succeeded", "failed", "cancelled"].includes(now.state)) resolve(now);
+        if (isTerminal(now.state)) resolve(now);
       } catch {
         /* keep the last state shown */
       }

@@ -1,50 +1,33 @@
-"""The dashboard attached to the real app: pages, assets, viewer routes, the demo seed."""
+"""The dashboard served by the real app: pages, assets, shared names, the viewer's routes, and
+the demo seed."""
 
 from __future__ import annotations
 
 import json
 import socket
-import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from starlette.exceptions import StarletteDeprecationWarning
 
+from app import names
+from app.api.routes.dashboard import plotly_js_path
 from app.config import Settings
 from app.main import create_app
-from app.viewer import attach_dashboard, seed_demo
-from app.viewer.demo_seed import seed_into
-from app.viewer.routes import plotly_js_path
-
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore", StarletteDeprecationWarning)
-    from fastapi.testclient import TestClient
-
-
-TERMINAL = ("succeeded", "failed", "cancelled")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+from app.names import TERMINAL_JOB_STATES as TERMINAL
+from app.services import DEMO_MUSCLES, seed_demo, seed_into, synthetic_curls_csv
+from tests.utils.api import TestClient, make_client
+from tests.utils.server import free_port
 
 
 @pytest.fixture(scope="module")
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, Any]]:
-    settings = Settings(
-        data_dir=tmp_path_factory.mktemp("dash"), viewer_port=free_port(), max_workers=2
-    )
-    app = create_app(settings)
-    attach_dashboard(app, settings)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", StarletteDeprecationWarning)
-        client = TestClient(app)
-    with client:
-        ids = seed_into(app.state.services, timeout=120)
+    """The app with its 3-D viewer and the demo seeded (analysis, plan, simulation)."""
+    tmp = tmp_path_factory.mktemp("dash")
+    with make_client(tmp, viewer=True, viewer_port=free_port()) as client:
+        ids = seed_into(client.app.state.services, timeout=300)  # type: ignore[attr-defined]
         yield client, ids
 
 
@@ -69,10 +52,22 @@ def test_pages_and_assets_are_served(dashboard: tuple[TestClient, Any]) -> None:
     assert missing.headers["content-type"].startswith("application/problem+json")
 
 
+def test_shared_names_are_served_as_defined(dashboard: tuple[TestClient, Any]) -> None:
+    """``GET /api/meta`` is ``app.names`` as JSON (the page reads units, colours, defaults)."""
+    client, _ = dashboard
+    meta = client.get("/api/meta").json()
+    assert meta == json.loads(json.dumps(names.as_json()))
+    assert [m["name"] for m in meta["metrics"]] == list(names.OBJECTIVES)
+    assert {p["name"]: p["colour"] for p in meta["phases"]} == {
+        p.name: p.colour for p in names.PHASES
+    }
+    assert meta["pso_defaults"]["particles"] == names.PSO_DEFAULTS.particles
+
+
 def test_viewer_address_is_the_real_one(dashboard: tuple[TestClient, Any]) -> None:
     client, _ = dashboard
     info = client.get("/api/viewer").json()
-    viewer = client.app.state.dashboard.viewer  # type: ignore[attr-defined]
+    viewer = client.app.state.services.viewer  # type: ignore[attr-defined]
     assert info["enabled"] and info["port"] == viewer.port
     with socket.create_connection(("127.0.0.1", info["port"]), timeout=5):
         pass
@@ -161,8 +156,6 @@ def test_analysis_overlays_wait_for_the_analysis_job(dashboard: tuple[TestClient
     """A new recording has no overlays (409, no job); its analysis job stores them."""
     import time
 
-    from app.viewer.demo_seed import DEMO_MUSCLES, synthetic_curls_csv
-
     client, _ = dashboard
     data = synthetic_curls_csv(lifts=2, seed=11)
     r = client.post(
@@ -180,9 +173,9 @@ def test_analysis_overlays_wait_for_the_analysis_job(dashboard: tuple[TestClient
     r = client.get(f"/api/viewer/recordings/{rec}/analysis")
     if r.status_code == 409:  # queued or running: the problem names the job to follow
         assert r.json()["job"]["id"] == job["id"]
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + 180
     while client.get(f"/api/jobs/{job['id']}").json()["state"] not in TERMINAL:
-        assert time.monotonic() < deadline, "the analysis job did not finish in 60 s"
+        assert time.monotonic() < deadline, "the analysis job did not finish in 180 s"
         time.sleep(0.2)
     body = client.get(f"/api/viewer/recordings/{rec}/analysis", params={"points": 300}).json()
     assert body["analysis_id"] == job["id"] and len(body["lifts"]) == 2
@@ -205,7 +198,7 @@ def test_a_failed_analysis_is_reported(dashboard: tuple[TestClient, Any]) -> Non
     assert r.status_code == 201, r.text
     rec = r.json()["id"]
     job = client.post("/api/analyses", json={"recording_id": rec}).json()
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + 180
     while client.get(f"/api/jobs/{job['id']}").json()["state"] not in TERMINAL:
         assert time.monotonic() < deadline
         time.sleep(0.2)
@@ -218,25 +211,26 @@ def test_a_failed_analysis_is_reported(dashboard: tuple[TestClient, Any]) -> Non
     client.delete(f"/api/recordings/{rec}")
 
 
-def test_seed_demo_on_its_own(tmp_path: Path) -> None:
-    settings = Settings(data_dir=tmp_path / "data", max_workers=1)
-    seed_demo(settings)
-    seed_demo(settings)  # a second start adds nothing
-    from app.db import crud
-    from app.db.session import make_engine, make_sessionmaker
-
-    engine = make_engine(settings.db_url)
-    try:
-        with make_sessionmaker(engine)() as session:
-            _, recordings = crud.list_recordings(session=session)
-            jobs, total = crud.list_jobs(session=session)
-        assert recordings == 1 and total == 3
-        assert all(j.state == "succeeded" for j in jobs)
-    finally:
-        engine.dispose()
+def test_seed_demo_adds_nothing_to_a_database_with_recordings(tmp_path: Path) -> None:
+    """``seed_demo`` starts and stops the services itself; with a recording there it adds
+    nothing (the full seed runs in the module's fixture)."""
+    with make_client(tmp_path) as client:
+        settings = client.app.state.services.settings  # type: ignore[attr-defined]
+        r = client.post(
+            "/api/recordings", files={"files": ("c.csv", synthetic_curls_csv(lifts=1), "text/csv")}
+        )
+        assert r.status_code == 201, r.text
+    said: list[str] = []
+    assert seed_demo(settings, say=said.append) is None
+    assert said == []
+    with make_client(tmp_path) as client:
+        assert client.get("/api/jobs").json()["total"] == 0
 
 
-def test_missing_frontend_is_a_clear_error(tmp_path: Path) -> None:
-    settings = Settings(data_dir=tmp_path)
+def test_pages_come_from_the_settings_folder_or_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError, match=r"no index\.html in"):
-        attach_dashboard(create_app(settings), settings, frontend_dir=tmp_path)
+        create_app(Settings(data_dir=tmp_path, frontend_dir=tmp_path, viewer=False))
+    (tmp_path / "pages").mkdir()
+    (tmp_path / "pages" / "index.html").write_text("<title>mine</title>")
+    with make_client(tmp_path, frontend_dir=tmp_path / "pages") as client:
+        assert client.get("/").text == "<title>mine</title>"

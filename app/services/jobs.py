@@ -5,6 +5,9 @@ hands it to a ``JobRunner``, and is the only writer of job state: runner events 
 queue to one writer thread, which updates the rows (progress at most every ``progress_interval``
 seconds, state changes at once) and publishes each update to the SSE broker.
 
+Progress is stored and served structured (``app.progress.Progress``): the overall fraction, the
+stage, its units done of all, the best objective so far and a line for people.
+
 Restart semantics (``recover``, run at start-up before requests are served): a job found
 ``queued`` is submitted again; a job found ``running`` (the server stopped or crashed under it)
 is run again while it has attempts left (``max_attempts`` starts in all), otherwise marked
@@ -14,7 +17,6 @@ is run again while it has attempts left (``max_attempts`` starts in all), otherw
 
 from __future__ import annotations
 
-import functools
 import logging
 import queue
 import threading
@@ -26,13 +28,17 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db import crud
 from app.db.blobs import BlobStore
-from app.db.models import TERMINAL_STATES, Analysis, JobRecord, RecordingSession, utcnow
-from app.jobs import tasks
-from app.jobs.broker import JobBroker
+from app.db.models import Analysis, JobRecord, RecordingSession, utcnow
+from app.errors import BioPlanError
 from app.jobs.runner import JobEvent, JobRunner
+from app.names import TERMINAL_JOB_STATES
+from app.services.broker import JobBroker
+from app.services.errors import ConflictError, NotFoundError
+from app.services.robots import RobotCatalog
 
 logger = logging.getLogger(__name__)
 
+#: Where each kind of job's result is served (``/api/<path>/<id>``).
 KIND_PATHS = {
     "analysis": "analyses",
     "plan": "plans",
@@ -40,9 +46,8 @@ KIND_PATHS = {
     "sweep": "sweeps",
 }
 
-
-class UnknownRobotError(LookupError):
-    """A request names a robot that is neither built in nor uploaded."""
+#: Structured progress of a job that has not reported any yet.
+NO_PROGRESS: dict[str, Any] = {"progress": 0.0, "stage": "", "done": 0, "of": 1, "best": None}
 
 
 def _aware(value: datetime | None) -> datetime | None:
@@ -52,31 +57,53 @@ def _aware(value: datetime | None) -> datetime | None:
     return value.replace(tzinfo=UTC)
 
 
-def job_to_dict(job: JobRecord) -> dict[str, Any]:
-    """The JSON form of a job (``app.api.schemas.Job``)."""
+def _seconds(job: JobRecord) -> tuple[float | None, float | None]:
+    """(queue time, run time so far or in all) [s] of a job."""
     created, started = _aware(job.created_at), _aware(job.started_at)
     finished = _aware(job.finished_at)
     queue_s = None if started is None or created is None else (started - created).total_seconds()
     run_s = None
     if started is not None:
-        end = finished or datetime.now(UTC)
-        run_s = max((end - started).total_seconds(), 0.0)
+        run_s = max(((finished or datetime.now(UTC)) - started).total_seconds(), 0.0)
+    return (None if queue_s is None else max(queue_s, 0.0)), run_s
+
+
+def job_to_dict(job: JobRecord) -> dict[str, Any]:
+    """The JSON form of a job (``app.api.schemas.Job``)."""
+    queue_s, run_s = _seconds(job)
     return {
         "id": job.id,
         "kind": job.kind,
         "state": job.state,
         "progress": job.progress,
+        "stage": job.stage or "",
+        "done": job.done or 0,
+        "of": job.of or 1,
+        "best": job.best,
         "message": job.message,
         "error": job.error,
         "attempts": job.attempts,
         "params": job.params,
-        "created_at": created,
-        "started_at": started,
-        "finished_at": finished,
-        "queue_seconds": None if queue_s is None else max(queue_s, 0.0),
+        "created_at": _aware(job.created_at),
+        "started_at": _aware(job.started_at),
+        "finished_at": _aware(job.finished_at),
+        "queue_seconds": queue_s,
         "run_seconds": run_s,
         "result_url": f"/api/{KIND_PATHS.get(job.kind, job.kind)}/{job.id}",
         "events_url": f"/api/jobs/{job.id}/events",
+    }
+
+
+def _progress_columns(ev: JobEvent) -> dict[str, Any]:
+    """Job columns from a ``progress`` event's structured detail."""
+    detail = ev.detail or {}
+    return {
+        "progress": float(detail.get("fraction", ev.progress or 0.0)),
+        "stage": str(detail.get("stage", ""))[:32],
+        "done": int(detail.get("done", 0)),
+        "of": int(detail.get("of", 1)),
+        "best": detail.get("best"),
+        "message": ev.message,
     }
 
 
@@ -91,6 +118,7 @@ class JobService:
         blobs: the file store (raw recordings, robot models).
         runner: where jobs run.
         broker: SSE fan-out.
+        robots: built-in and uploaded robots (jobs receive their specs).
         max_attempts: starts allowed per job (a restart under a running job spends one).
         progress_interval: shortest time between two progress writes of one job [s].
     """
@@ -102,6 +130,7 @@ class JobService:
         blobs: BlobStore,
         runner: JobRunner,
         broker: JobBroker,
+        robots: RobotCatalog | None = None,
         max_attempts: int = 2,
         progress_interval: float = 0.25,
     ) -> None:
@@ -109,12 +138,12 @@ class JobService:
         self.blobs = blobs
         self.runner = runner
         self.broker = broker
+        self.robots = robots or RobotCatalog(blobs=blobs)
         self.max_attempts = max_attempts
         self.progress_interval = progress_interval
         self._events: queue.Queue[Any] = queue.Queue()
         self._writer: threading.Thread | None = None
         self._closed = False
-        self._described: dict[str, dict[str, Any]] = {}
 
     # lifecycle -------------------------------------------------------------------------------
 
@@ -158,26 +187,39 @@ class JobService:
         self._dispatch(job.id)
         return data
 
-    def cancel(self, job_id: int) -> dict[str, Any] | None:
-        """Cancel a queued or running job; a finished job is returned unchanged.
+    def cancel(self, job_id: int) -> dict[str, Any]:
+        """Cancel a queued or running job.
 
         Returns:
-            The job as it is now, or None when there is no such job.
+            The job as it is now.
+
+        Raises:
+            NotFoundError: no such job.
+            ConflictError: the job already ended.
         """
-        with self.sessions() as session:
-            job = crud.get_job(session=session, job_id=job_id)
-            if job is None:
-                return None
-            if job.state in TERMINAL_STATES:
-                return job_to_dict(job)
+        job = self.get(job_id)
+        if job["state"] in TERMINAL_JOB_STATES:
+            raise ConflictError(f"job {job_id} already ended ({job['state']})", job=job)
         self.runner.cancel(job_id)
         self._set_state(job_id, "cancelled", message="cancelled by request")
         return self.get(job_id)
 
-    def get(self, job_id: int) -> dict[str, Any] | None:
+    def find(self, job_id: int) -> dict[str, Any] | None:
+        """The job's JSON form, or None when there is no such job."""
         with self.sessions() as session:
             job = crud.get_job(session=session, job_id=job_id)
             return None if job is None else job_to_dict(job)
+
+    def get(self, job_id: int) -> dict[str, Any]:
+        """The job's JSON form.
+
+        Raises:
+            NotFoundError: no such job.
+        """
+        job = self.find(job_id)
+        if job is None:
+            raise NotFoundError(f"job {job_id} does not exist")
+        return job
 
     def recover(self) -> dict[str, int]:
         """Resubmit or fail the jobs a previous server left queued or running."""
@@ -185,30 +227,8 @@ class JobService:
         with self.sessions() as session:
             jobs = [(j.id, j.state, j.attempts) for j in crud.active_jobs(session=session)]
             for job_id, state, attempts in jobs:
-                if state == "running" and attempts >= self.max_attempts:
-                    crud.update_job(
-                        session=session,
-                        job_id=job_id,
-                        state="failed",
-                        finished_at=utcnow(),
-                        error=(
-                            "the server stopped while this job was running "
-                            f"(attempt {attempts} of {self.max_attempts}); not run again"
-                        ),
-                        message="failed",
-                    )
-                    counts["failed"] += 1
-                    continue
-                message = "queued"
-                if state == "running":
-                    message = (
-                        "the server stopped while this job was running; queued again "
-                        f"(attempt {attempts + 1} of {self.max_attempts})"
-                    )
-                crud.update_job(
-                    session=session, job_id=job_id, state="queued", progress=0.0, message=message
-                )
-                counts["requeued"] += 1
+                outcome = self._recover_one(session, job_id, state, attempts)
+                counts[outcome] += 1
         for job_id, state, attempts in jobs:
             if not (state == "running" and attempts >= self.max_attempts):
                 self._dispatch(job_id)
@@ -216,104 +236,83 @@ class JobService:
             logger.warning("recovered jobs after restart: %s", counts)
         return counts
 
-    # payloads ---------------------------------------------------------------------------------
-
-    @functools.cached_property
-    def builtin_robots(self) -> list[str]:
-        try:
-            return tasks.builtin_robots()
-        except ImportError:  # planning package not installed: only uploaded robots
-            logger.warning("app.planning.robots is missing: no built-in robots")
-            return []
-
-    def describe_builtin(self, name: str) -> dict[str, Any]:
-        """Joints and limits of a built-in robot (loaded once, then cached)."""
-        cached = self._described.get(name)
-        if cached is None:
-            cached = tasks.describe_robot({"name": name})
-            cached["builtin"] = True
-            self._described[name] = cached
-        return dict(cached)
-
-    def robot_joints(self, session: Session, name: str) -> list[str]:
-        """Joint names of a built-in or uploaded robot.
-
-        Raises:
-            UnknownRobotError: no such robot.
-        """
-        if name in self.builtin_robots:
-            return list(self.describe_builtin(name)["joint_names"])
-        row = crud.get_robot(session=session, name=name)
-        if row is None:
-            self.robot_spec(session, name, files=False)  # raises with the list of names
-        assert row is not None
-        return list(row.description.get("joint_names", []))
-
-    def robot_spec(self, session: Session, name: str, *, files: bool = True) -> dict[str, Any]:
-        """The plain-data robot spec for a job: a built-in name, or the uploaded files.
-
-        Raises:
-            UnknownRobotError: no such robot.
-        """
-        if name in self.builtin_robots:
-            return {"name": name}
-        row = crud.get_robot(session=session, name=name)
-        if row is None:
-            uploaded = [r.name for r in crud.list_robots(session=session)]
-            raise UnknownRobotError(
-                f"unknown robot {name!r} (expected one of {sorted(self.builtin_robots + uploaded)})"
+    def _recover_one(self, session: Session, job_id: int, state: str, attempts: int) -> str:
+        """Fail or requeue one job found active at start-up; returns what was done."""
+        if state == "running" and attempts >= self.max_attempts:
+            crud.update_job(
+                session=session,
+                job_id=job_id,
+                state="failed",
+                finished_at=utcnow(),
+                error=(
+                    "the server stopped while this job was running "
+                    f"(attempt {attempts} of {self.max_attempts}); not run again"
+                ),
+                message="failed",
             )
-        if not files:
-            return {"name": row.name}
-        return {
-            "name": row.name,
-            "urdf": self.blobs.get(row.urdf_sha256),
-            "urdf_name": row.urdf_name,
-            "mjcf": None if row.mjcf_sha256 is None else self.blobs.get(row.mjcf_sha256),
-            "mjcf_name": row.mjcf_name,
-            "payload": row.payload,
-        }
+            return "failed"
+        message = "queued"
+        if state == "running":
+            message = (
+                "the server stopped while this job was running; queued again "
+                f"(attempt {attempts + 1} of {self.max_attempts})"
+            )
+        crud.update_job(
+            session=session, job_id=job_id, state="queued", message=message, **NO_PROGRESS
+        )
+        return "requeued"
+
+    # payloads ---------------------------------------------------------------------------------
 
     @staticmethod
     def analysis_template(session: Session, analysis_id: int) -> dict[str, Any]:
-        """The human template of a finished analysis."""
+        """The human template of a finished analysis.
+
+        Raises:
+            NotFoundError: no such analysis.
+            ConflictError: it has no template (yet).
+        """
         row = session.get(Analysis, analysis_id)
         if row is None:
-            raise LookupError(f"analysis {analysis_id} does not exist")
+            raise NotFoundError(f"analysis {analysis_id} does not exist")
         if row.template is None:
             job = session.get(JobRecord, analysis_id)
             state = "unknown" if job is None else job.state
-            raise LookupError(f"analysis {analysis_id} has no template yet (job state {state})")
+            raise ConflictError(f"analysis {analysis_id} has no template yet (job state {state})")
         return row.template
+
+    def _analysis_payload(self, session: Session, params: dict[str, Any]) -> dict[str, Any]:
+        """An analysis job's input: the recording's raw files and the options."""
+        rec = session.get(RecordingSession, params["recording_id"])
+        if rec is None:
+            raise NotFoundError(f"recording {params['recording_id']} no longer exists")
+        read_options = dict(rec.options)
+        for key in ("emg_rate", "muscle_map"):
+            if params.get(key) is not None:
+                read_options[key] = params[key]
+        load = params.get("load_mass")
+        options = {
+            "emg_rate": params.get("emg_rate"),
+            "muscle_map": read_options.get("muscle_map"),
+            "phase_bounds_deg": params.get("phase_bounds_deg"),
+            "body_mass": params.get("body_mass"),
+            "body_height": params.get("body_height"),
+            "load_mass": load if load is not None else rec.load_kg,
+            "together": params.get("together") or None,
+            "offset": params.get("offset"),
+        }
+        files = [{"name": f.original_name, "data": self.blobs.get(f.sha256)} for f in rec.files]
+        return {"files": files, "read_options": read_options, "options": options}
 
     def build_payload(self, session: Session, job: JobRecord) -> dict[str, Any]:
         """The job function's input, from the request stored with the job."""
-        p = job.params
+        params = job.params
         if job.kind == "analysis":
-            rec = session.get(RecordingSession, p["recording_id"])
-            if rec is None:
-                raise LookupError(f"recording {p['recording_id']} no longer exists")
-            read_options = dict(rec.options)
-            for key in ("emg_rate", "muscle_map"):
-                if p.get(key) is not None:
-                    read_options[key] = p[key]
-            load = p.get("load_mass")
-            options = {
-                "emg_rate": p.get("emg_rate"),
-                "muscle_map": read_options.get("muscle_map"),
-                "phase_bounds_deg": p.get("phase_bounds_deg"),
-                "body_mass": p.get("body_mass"),
-                "body_height": p.get("body_height"),
-                "load_mass": load if load is not None else rec.load_kg,
-                "together": p.get("together") or None,
-                "offset": p.get("offset"),
-            }
-            files = [{"name": f.original_name, "data": self.blobs.get(f.sha256)} for f in rec.files]
-            return {"files": files, "read_options": read_options, "options": options}
-        payload = dict(p)
-        payload["robot"] = self.robot_spec(session, p["robot"])
-        if job.kind in ("plan", "simulation") and p.get("template_analysis_id") is not None:
-            payload["template"] = self.analysis_template(session, p["template_analysis_id"])
+            return self._analysis_payload(session, params)
+        payload = dict(params)
+        payload["robot"] = self.robots.spec(session, params["robot"])
+        if job.kind in ("plan", "simulation") and params.get("template_analysis_id") is not None:
+            payload["template"] = self.analysis_template(session, params["template_analysis_id"])
         payload.pop("template_analysis_id", None)
         return payload
 
@@ -326,7 +325,12 @@ class JobService:
                 kind = job.kind
                 payload = self.build_payload(session, job)
         except Exception as exc:
-            logger.warning("job %d cannot start: %s", job_id, exc)
+            # Its inputs vanished (recording or robot deleted while it was queued): the job
+            # fails with the reason instead of running; anything else is logged as the bug it is.
+            if isinstance(exc, BioPlanError):
+                logger.warning("job %d cannot start: %s", job_id, exc)
+            else:
+                logger.exception("job %d cannot start", job_id)
             self._set_state(job_id, "failed", error=f"cannot start: {exc}", message="failed")
             return
         self.runner.submit(job_id, kind, payload)
@@ -335,7 +339,7 @@ class JobService:
 
     def _set_state(self, job_id: int, state: str, **values: Any) -> None:
         with self.sessions() as session:
-            if state in TERMINAL_STATES:
+            if state in TERMINAL_JOB_STATES:
                 values.setdefault("finished_at", utcnow())
             crud.update_job(session=session, job_id=job_id, state=state, **values)
         self._publish(job_id)
@@ -343,32 +347,27 @@ class JobService:
     def _publish(self, job_id: int) -> None:
         if self.broker.subscribers(job_id) == 0:
             return
-        data = self.get(job_id)
+        data = self.find(job_id)
         if data is not None:
             self.broker.publish(job_id, data)
 
+    def _update(self, job_id: int, **values: Any) -> None:
+        with self.sessions() as session:
+            crud.update_job(session=session, job_id=job_id, **values)
+        self._publish(job_id)
+
     def _apply(self, ev: JobEvent) -> None:
         if ev.type == "started":
-            with self.sessions() as session:
-                crud.update_job(
-                    session=session,
-                    job_id=ev.job_id,
-                    state="running",
-                    started_at=utcnow(),
-                    progress=0.0,
-                    message=ev.message or "running",
-                    attempts=JobRecord.attempts + 1,
-                )
-            self._publish(ev.job_id)
+            self._update(
+                ev.job_id,
+                state="running",
+                started_at=utcnow(),
+                message=ev.message or "running",
+                attempts=JobRecord.attempts + 1,
+                **NO_PROGRESS,
+            )
         elif ev.type == "progress":
-            with self.sessions() as session:
-                crud.update_job(
-                    session=session,
-                    job_id=ev.job_id,
-                    progress=float(ev.progress or 0.0),
-                    message=ev.message,
-                )
-            self._publish(ev.job_id)
+            self._update(ev.job_id, **_progress_columns(ev))
         elif ev.type == "succeeded":
             self._store(ev)
         elif ev.type == "failed":

@@ -3,11 +3,12 @@
 // min/max downsampling), so long recordings stay light.
 
 import { ApiError, api, followJob, qs } from "./api.js";
-import { PHASE_FILL, draw, layout, plotly } from "./plots.js";
+import { names } from "./names.js";
+import { draw, layout, phaseFill, phaseLegend, plotly } from "./plots.js";
 import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
 
 const POINTS = 1600;
-const MUSCLE_COLORS = { deltoid: "#8250df", triceps: "#0a7ea4", biceps: "#cf222e", forearm: "#1a7f37" };
+// Channels mapped to a site take the site's colour (app/names.py); the others these.
 const EXTRA_COLORS = ["#6e7781", "#bc4c00", "#116329", "#953800", "#0550ae"];
 
 function emgScale(unit) {
@@ -16,7 +17,7 @@ function emgScale(unit) {
 }
 
 function muscleColor(name, i) {
-  return MUSCLE_COLORS[name] || EXTRA_COLORS[i % EXTRA_COLORS.length];
+  return names.muscle_colours[name] || EXTRA_COLORS[i % EXTRA_COLORS.length];
 }
 
 /**
@@ -45,7 +46,7 @@ function liftTraces(lifts, [y0, y1], axes) {
     tops.x.push(lift.top_s, lift.top_s, null);
     tops.y.push(y0, y1, null);
   }
-  const traces = [...spans].map(([name, list]) => rectTrace(list, y0, y1, { ...axes, name: `phase ${name}`, fillcolor: PHASE_FILL[name] || (name === "rising" ? "rgba(37,99,235,0.06)" : "rgba(0,0,0,0.04)") }));
+  const traces = [...spans].map(([name, list]) => rectTrace(list, y0, y1, { ...axes, name: `phase ${name}`, fillcolor: names.phases.some((p) => p.name === name) ? phaseFill(name) : name === "rising" ? "rgba(37,99,235,0.06)" : "rgba(0,0,0,0.04)" }));
   if (lifts.length) traces.push({ ...tops, ...axes, type: "scatter", mode: "lines", name: "lift tops", line: { color: "#9ca3af", width: 1, dash: "dot" }, hoverinfo: "skip", showlegend: false });
   return traces;
 }
@@ -119,9 +120,7 @@ export async function render(main, [idText]) {
   const liftsBox = h("div", { id: "lifts" });
   const templateFacts = h("div", { class: "facts", id: "template-facts" });
   const legend = h("div", { class: "legend-inline" },
-    h("span", {}, h("span", { class: "swatch sw-a" }), "A high-load capacity"),
-    h("span", {}, h("span", { class: "swatch sw-b" }), "B weakest load"),
-    h("span", {}, h("span", { class: "swatch sw-c" }), "C deceleration"),
+    phaseLegend(),
     h("span", {}, "· drag to zoom, double-click to reset; zooming loads the window at full detail"),
   );
   const picker = h("details", { class: "small", id: "channel-picker" },

@@ -42,7 +42,7 @@ def run_migrations_offline() -> None:
 
 
 def run_migrations_online() -> None:
-    engine = make_engine(_url())
+    engine = make_engine(_url(), for_migrations=True)
     try:
         with engine.connect() as connection:
             context.configure(

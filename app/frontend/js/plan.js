@@ -2,19 +2,22 @@
 // progress (Server-Sent Events) and the convergence curve as it grows; cancel.
 
 import { api, followJob, qs } from "./api.js";
-import { draw, layout } from "./plots.js";
+import { names } from "./names.js";
+import { colours, draw, layout } from "./plots.js";
 import { DEG, banner, clear, fmt, h, messageOf, pct, tag, when } from "./ui.js";
 
-const OBJECTIVES = {
-  abs_work: "absolute work ∫Σ|τω| dt [J]",
-  pos_work: "positive work ∫Σ max(τω, 0) dt [J]",
-  electrical_energy: "electrical energy (motor model) [J]",
-  tau_sq: "torque squared ∫Σ τ² dt [N²m²s]",
-  peak_power: "peak power max Σ|τω| [W]",
-  peak_torque: "peak torque [Nm]",
-};
-// "PSO iteration 12/60, best abs_work = 180.7" -> [12, 60, 180.7]
-const ITERATION = /PSO iteration (\d+)\/(\d+), best \S+ = ([-+\d.eE]+|nan|inf)/;
+/**
+ * The optimisers' convergence from a job's structured progress: one curve per stage that
+ * reports a best value (PSO iterations; optimal control), point `done` -> `best`.
+ */
+export function addProgressPoint(curves, job) {
+  if (job.best === null || job.best === undefined || !job.stage) return false;
+  const curve = curves[job.stage] || (curves[job.stage] = { x: [], y: [] });
+  if (curve.x.length && job.done <= curve.x.at(-1)) return false;
+  curve.x.push(job.done);
+  curve.y.push(job.best);
+  return true;
+}
 
 export async function render(main, [query]) {
   const params = new URLSearchParams(query || "");
@@ -32,9 +35,9 @@ export async function render(main, [query]) {
   );
   const duration = h("input", { id: "duration", type: "number", min: "0.05", max: "600", step: "0.05", value: "1.0", required: true });
   const payload = h("input", { id: "payload", type: "number", min: "0", max: "10000", step: "0.1" });
-  const objective = h("select", { id: "objective" }, Object.entries(OBJECTIVES).map(([k, v]) => h("option", { value: k }, `${k}: ${v}`)));
+  const objective = h("select", { id: "objective" }, names.metrics.map((m) => h("option", { value: m.name }, `${m.name}: ${m.label} ${m.formula} [${m.unit}]`)));
   const template = h("select", { id: "template" },
-    h("option", { value: "" }, "paper defaults (velocity peak at 62°)"),
+    h("option", { value: "" }, "paper defaults (velocity peak in the middle of phase B)"),
     analyses.items.map((a) => {
       const t = a.template || {};
       const peak = t.peak_velocity_angle_deg ? `${fmt(t.peak_velocity_angle_deg, 3)}°` : "?";
@@ -42,9 +45,10 @@ export async function render(main, [query]) {
     }),
   );
   const peak = h("input", { id: "peak-angle", type: "number", min: "1", max: "179", step: "0.5", placeholder: "from the template" });
-  const particles = h("input", { id: "particles", type: "number", min: "2", max: "1000", step: "1", value: "40" });
-  const iterations = h("input", { id: "iterations", type: "number", min: "1", max: "10000", step: "1", value: "100" });
-  const seed = h("input", { id: "seed", type: "number", min: "0", step: "1", value: "0" });
+  const pso = names.pso_defaults;
+  const particles = h("input", { id: "particles", type: "number", min: "2", max: "1000", step: "1", value: String(pso.particles) });
+  const iterations = h("input", { id: "iterations", type: "number", min: "1", max: "10000", step: "1", value: String(pso.iterations) });
+  const seed = h("input", { id: "seed", type: "number", min: "0", step: "1", value: String(pso.seed) });
   const jointsBody = h("tbody", {});
   const robotInfo = h("div", { class: "small muted", id: "robot-info" });
 
@@ -82,9 +86,9 @@ export async function render(main, [query]) {
       duration: num(duration),
       payload: num(payload),
       objective: objective.value,
-      seed: num(seed) ?? 0,
-      particles: num(particles) ?? 40,
-      iterations: num(iterations) ?? 100,
+      seed: num(seed) ?? pso.seed,
+      particles: num(particles) ?? pso.particles,
+      iterations: num(iterations) ?? pso.iterations,
       peak_angle_deg: num(peak),
       template_analysis_id: template.value ? Number(template.value) : null,
       start_deg: angles("start"),
@@ -169,10 +173,14 @@ export async function render(main, [query]) {
       h("div", { class: "row" }, h("h2", { style: "margin:0" }, `${job.kind === "simulation" ? "Simulation" : "Plan"} #${job.id}`), state, h("span", { style: "margin-left:auto" }, cancel)),
       prog, message, plotDiv, result,
     );
-    const curve = { x: [], y: [] };
-    let objectiveName = job.params.objective;
-    const drawCurve = () => draw(plotDiv, [{ x: curve.x, y: curve.y, mode: "lines+markers", line: { color: "#ea8c14", width: 2 }, marker: { size: 4 }, name: "best cost" }],
-      layout({ height: 240, showlegend: false, xaxis: { title: { text: "PSO iteration" }, gridcolor: "#eceff3" }, yaxis: { title: { text: `best ${objectiveName}` }, gridcolor: "#eceff3" } }));
+    let curves = {};
+    const objectiveName = job.params.objective;
+    const drawCurve = () => {
+      const stages = Object.keys(curves);
+      const traces = stages.map((stage, i) => ({ x: curves[stage].x, y: curves[stage].y, mode: "lines+markers", line: { color: i ? colours().standard : colours().optimized, width: 2 }, marker: { size: 4 }, name: stage }));
+      const xTitle = stages.length === 1 && stages[0] === "pso" ? "PSO iteration" : "iteration";
+      return draw(plotDiv, traces, layout({ height: 240, showlegend: stages.length > 1, xaxis: { title: { text: xTitle }, gridcolor: "#eceff3" }, yaxis: { title: { text: `best ${objectiveName}` }, gridcolor: "#eceff3" } }));
+    };
     drawCurve();
     cancel.addEventListener("click", async () => {
       cancel.disabled = true;
@@ -186,14 +194,10 @@ export async function render(main, [query]) {
       const p = Math.round(100 * j.progress);
       bar.style.width = `${p}%`;
       prog.setAttribute("aria-valuenow", String(p));
+      prog.dataset.stage = j.stage;
       clear(state).append(tag(j.state));
       message.textContent = j.error || j.message;
-      const m = ITERATION.exec(j.message || "");
-      if (m && Number(m[1]) > (curve.x.at(-1) ?? -1)) {
-        curve.x.push(Number(m[1]));
-        curve.y.push(Number(m[3]));
-        drawCurve();
-      }
+      if (addProgressPoint(curves, j)) drawCurve();
     });
     stops.push(follow.stop);
     follow.done.then(async (final) => {
@@ -205,8 +209,7 @@ export async function render(main, [query]) {
         const r = out.result;
         const hist = r.optimizer && r.optimizer.history;
         if (hist && hist.length) {
-          curve.x = hist.map((_, i) => i + 1);
-          curve.y = hist;
+          curves = { pso: { x: hist.map((_, i) => i + 1), y: hist } };
           drawCurve();
         }
         const imp = r.improvement_pct || {};

@@ -1,4 +1,8 @@
 // Plotly, loaded on first use from the installed Python package (served by the API, no CDN).
+// Colours come from the shared names (app/names.py via GET /api/meta), loaded before any page.
+
+import { names, rgba } from "./names.js";
+import { h } from "./ui.js";
 
 let loading = null;
 
@@ -19,13 +23,24 @@ export function plotly() {
   return loading;
 }
 
-export const COLORS = { standard: "#2563eb", optimized: "#ea8c14" };
+/** The two trajectories' colours: the standard quintic's and the paper's method's. */
+export function colours() {
+  const of = (m) => names.methods.find((x) => x.name === m).colour;
+  return { standard: of("quintic"), optimized: of("paper") };
+}
 export const NAMES = { standard: "standard quintic", optimized: "bio-inspired" };
-export const PHASE_FILL = {
-  A: "rgba(46,160,67,0.10)",
-  B: "rgba(212,160,23,0.14)",
-  C: "rgba(207,34,46,0.08)",
-};
+
+/** A translucent fill of a phase's colour, for shading it behind curves. */
+export function phaseFill(phase, alpha = 0.12) {
+  return rgba(names.phases.find((p) => p.name === phase).colour, alpha);
+}
+
+/** Legend entries "■ A high-load capacity" ... for the phases, in their colours. */
+export function phaseLegend(withLabels = true) {
+  return names.phases.map((p) => h("span", {},
+    h("span", { class: "swatch", style: `background:${phaseFill(p.name, 0.4)}` }),
+    withLabels ? `${p.name} ${p.label}` : p.name));
+}
 
 export const CONFIG = {
   responsive: true,
@@ -56,11 +71,11 @@ export function phaseShapes(times, t0, t1, xref = "x", { dashed = null } = {}) {
   const shapes = [];
   if (times && times[0] !== null && times[1] !== null) {
     const edges = [t0, times[0], times[1], t1];
-    ["A", "B", "C"].forEach((p, i) => {
+    names.phases.map((p) => p.name).forEach((p, i) => {
       if (edges[i + 1] > edges[i]) {
         shapes.push({
           type: "rect", xref, yref: "paper", x0: edges[i], x1: edges[i + 1], y0: 0, y1: 1,
-          fillcolor: PHASE_FILL[p], line: { width: 0 }, layer: "below",
+          fillcolor: phaseFill(p), line: { width: 0 }, layer: "below",
         });
       }
     });
@@ -70,7 +85,7 @@ export function phaseShapes(times, t0, t1, xref = "x", { dashed = null } = {}) {
       if (t === null) continue;
       shapes.push({
         type: "line", xref, yref: "paper", x0: t, x1: t, y0: 0, y1: 1,
-        line: { color: COLORS.standard, width: 1, dash: "dot" },
+        line: { color: colours().standard, width: 1, dash: "dot" },
       });
     }
   }

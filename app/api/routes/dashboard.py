@@ -1,8 +1,8 @@
-"""Dashboard routes under ``/api/viewer/...``: assets, comparison curves, exports, the analysis
-series of a recording, and the viewer's tabs.
+"""The dashboard's data under ``/api/viewer/...``: Plotly.js, comparison curves, exports, a
+recording's analysis overlays, and the viewer's tabs. These only read.
 
-The service's own routes (``app.api``) stay as they are; these only read. ``GET /api/viewer``
-(the viewer's address) belongs to the service and reports what the dashboard filled in.
+``GET /api/viewer`` (the viewer's address) is in ``meta``; the pages themselves are mounted at
+``/`` by ``app.main.create_app``.
 """
 
 from __future__ import annotations
@@ -11,38 +11,19 @@ import functools
 import hashlib
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Query, Request, Response
-from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 
+from app.api.deps import ServicesDep
 from app.api.errors import ApiError
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
+from app.viewer.export import report_html, scene_html
 
-if TYPE_CHECKING:
-    from app.viewer.dashboard import DashboardState
-
-_PROBLEMS: dict[int | str, dict[str, Any]] = {
-    code: {"description": desc, "content": {"application/problem+json": {}}}
-    for code, desc in (
-        (404, "not found"),
-        (409, "not finished"),
-        (422, "invalid request"),
-        (503, "dashboard not running"),
-    )
-}
-router = APIRouter(prefix="/api/viewer", tags=["viewer"], responses=_PROBLEMS)
+router = APIRouter(prefix="/api/viewer", tags=["viewer"], responses=PROBLEM_RESPONSES)
 
 ComparisonKind = Literal["plan", "simulation"]
-#: Ids in paths, as the service's routes take them (positive 32-bit integers).
-IdPath = Annotated[int, PathParam(ge=1, le=2**31 - 1)]
-
-
-def _state(request: Request) -> DashboardState:
-    state: DashboardState | None = getattr(request.app.state, "dashboard", None)
-    if state is None or state.prepared is None:
-        raise ApiError(503, "the dashboard is not running (the app's lifespan has not started)")
-    return state
 
 
 @functools.cache
@@ -77,32 +58,20 @@ def plotly_js(request: Request) -> Response:
     return FileResponse(path, media_type="text/javascript", headers=headers)
 
 
-def _comparison_error(kind: str, result_id: int, exc: LookupError) -> ApiError:
-    text = str(exc.args[0]) if exc.args else str(exc)
-    status = 404 if "does not exist" in text or "unknown" in text else 409
-    return ApiError(status, text)
-
-
 @router.get("/comparisons/{kind}/{result_id}", response_model=dict[str, Any])
 def comparison(
-    request: Request,
+    services: ServicesDep,
     kind: ComparisonKind,
     result_id: IdPath,
     points: Annotated[int, Query(ge=2, le=20000, description="samples per curve")] = 400,
 ) -> dict[str, Any]:
     """A finished plan's or simulation's curves per joint (SI units), phases, metrics, floors,
     and where the 3-D viewer shows it."""
-    state = _state(request)
-    assert state.prepared is not None
-    try:
-        prepared = state.prepared(kind, result_id)
-    except LookupError as exc:
-        raise _comparison_error(kind, result_id, exc) from None
-    c = prepared.comparison
+    c = services.comparisons(kind, result_id).comparison
     out = c.summary()
     out["curves"] = c.curves(points=points)
     out["result"] = c.result
-    viewer = state.viewer
+    viewer = services.viewer
     out["viewer"] = (
         {
             "enabled": True,
@@ -127,7 +96,7 @@ def comparison(
     responses={200: {"content": {"text/html": {}}, "description": "a self-contained HTML file"}},
 )
 def export(
-    request: Request,
+    services: ServicesDep,
     kind: ComparisonKind,
     result_id: IdPath,
     format: Annotated[
@@ -137,14 +106,7 @@ def export(
     layout: Literal["ghost", "side_by_side"] = "ghost",
 ) -> Response:
     """A file that opens without the server: the recorded 3-D comparison, or the report."""
-    from app.viewer.export import report_html, scene_html
-
-    state = _state(request)
-    assert state.prepared is not None
-    try:
-        prepared = state.prepared(kind, result_id)
-    except LookupError as exc:
-        raise _comparison_error(kind, result_id, exc) from None
+    prepared = services.comparisons(kind, result_id)
     if format == "scene":
         page = scene_html(prepared, layout=layout)
     else:
@@ -159,7 +121,7 @@ def export(
 
 @router.get("/recordings/{recording_id}/analysis", response_model=dict[str, Any])
 def recording_analysis(
-    request: Request,
+    services: ServicesDep,
     recording_id: IdPath,
     points: Annotated[int, Query(ge=2, le=100000, description="samples per series")] = 2000,
     t0: Annotated[float | None, Query(description="window start [s]")] = None,
@@ -172,20 +134,12 @@ def recording_analysis(
     409 while the recording has no finished analysis; the problem's ``job`` is the analysis job
     to follow (queued or running), the one that failed, or null when none was submitted.
     """
-    from app.viewer.signals import AnalysisPending, SignalsError
-
-    state = _state(request)
     for name, value in (("t0", t0), ("t1", t1)):
         if value is not None and not math.isfinite(value):
             raise ApiError(422, f"{name} must be a finite time in seconds", field=name)
     if t0 is not None and t1 is not None and t1 <= t0:
         raise ApiError(422, f"t1 ({t1}) must be after t0 ({t0})", field="t1")
-    try:
-        analysis_id, overlays = state.signals.get(state.services(), recording_id)
-    except SignalsError as exc:
-        raise ApiError(404, str(exc)) from None
-    except AnalysisPending as exc:
-        raise ApiError(409, str(exc), title="No analysis yet", extra={"job": exc.job}) from None
+    analysis_id, overlays = services.overlays.get(recording_id)
     return {
         "recording_id": recording_id,
         "analysis_id": analysis_id,
@@ -194,7 +148,6 @@ def recording_analysis(
 
 
 @router.get("/sessions", response_model=list[dict[str, Any]])
-def sessions(request: Request) -> list[dict[str, Any]]:
+def sessions(services: ServicesDep) -> list[dict[str, Any]]:
     """The viewer's open tabs: which comparison, playing or not, redraws per second."""
-    state = _state(request)
-    return [] if state.viewer is None else state.viewer.sessions()
+    return [] if services.viewer is None else services.viewer.sessions()

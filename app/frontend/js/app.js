@@ -1,6 +1,8 @@
 // The dashboard shell: hash routes, navigation, service status, API token.
 
 import { api, setToken, token } from "./api.js";
+import { loadNames } from "./names.js";
+import { colours } from "./plots.js";
 import { banner, clear, messageOf } from "./ui.js";
 
 const routes = [
@@ -32,6 +34,11 @@ async function route() {
   }
   const [r, m] = match;
   try {
+    await loadNames();
+    // The stylesheet's trajectory colours follow the shared names too.
+    for (const [k, v] of Object.entries({ "--std": colours().standard, "--opt": colours().optimized })) {
+      document.documentElement.style.setProperty(k, v);
+    }
     const mod = await r.load();
     current = (await mod.render(main, m.slice(1))) || null;
   } catch (err) {
