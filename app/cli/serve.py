@@ -8,6 +8,7 @@ only once the server answers ``GET /api/health``; everything said before goes to
 
 from __future__ import annotations
 
+import copy
 import errno
 import json
 import socket
@@ -148,6 +149,16 @@ def serve(
         sock.close()
 
 
+def _uvicorn_logging() -> dict[str, Any]:
+    """uvicorn's logging set-up with its access log on stderr too: stdout carries results."""
+    from uvicorn.config import LOGGING_CONFIG
+
+    config = copy.deepcopy(LOGGING_CONFIG)
+    for handler in config["handlers"].values():
+        handler["stream"] = "ext://sys.stderr"
+    return config
+
+
 def _run(settings: Any, sock: socket.socket, *, demo: bool, json_out: bool) -> int:
     import logging
 
@@ -161,6 +172,8 @@ def _run(settings: Any, sock: socket.socket, *, demo: bool, json_out: bool) -> i
         level=settings.log_level.upper(),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
+    if settings.log_level != "debug":  # Alembic narrates every migration step at INFO
+        logging.getLogger("alembic").setLevel(logging.WARNING)
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     _say(f"bioplan serve: migrating the database ({settings.db_url})")
     upgrade(settings.db_url)  # before anything else, so a broken database fails fast and loudly
@@ -172,6 +185,7 @@ def _run(settings: Any, sock: socket.socket, *, demo: bool, json_out: bool) -> i
         app,
         workers=1,  # one process: it owns the job runner and the viewer
         log_level=settings.log_level,
+        log_config=_uvicorn_logging(),
         timeout_graceful_shutdown=5,
     )
     server = uvicorn.Server(config)

@@ -26,8 +26,10 @@ loopback unless told otherwise.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import re
+import sys
 import threading
 import time
 from collections import deque
@@ -216,9 +218,12 @@ class ViewerServer:
 
         if self._server is not None:
             return self.port
-        server = viser.ViserServer(
-            host=self.host, port=self.requested_port, label="BioPlan viewer", verbose=False
-        )
+        # viser prints a banner on stdout whatever ``verbose`` says; stdout is the CLI's (the
+        # ``--json`` of ``bioplan serve`` is one object there).
+        with contextlib.redirect_stdout(sys.stderr):
+            server = viser.ViserServer(
+                host=self.host, port=self.requested_port, label="BioPlan viewer", verbose=False
+            )
         server.gui.configure_theme(
             control_layout="floating",
             control_width="medium",
@@ -240,7 +245,8 @@ class ViewerServer:
     def stop(self) -> None:
         self.player.stop()
         if self._server is not None:
-            self._server.stop()
+            with contextlib.redirect_stdout(sys.stderr):
+                self._server.stop()
             self._server = None
         with self._lock:
             self._sessions.clear()

@@ -53,8 +53,9 @@ def test_a_busy_port_is_one_line_naming_the_port_and_the_option(tmp_path: Path) 
 
 
 def test_serve_json_prints_one_object_once_the_server_answers(tmp_path: Path) -> None:
-    port = free_port()
-    env = {**os.environ, "BIOPLAN_VIEWER": "0", "BIOPLAN_LOG_LEVEL": "warning"}
+    port, viewer_port = free_port(), free_port()
+    env = {**os.environ, "BIOPLAN_VIEWER_PORT": str(viewer_port), "BIOPLAN_LOG_LEVEL": "info"}
+    env.pop("BIOPLAN_VIEWER", None)  # the viewer runs (and prints its banner elsewhere)
     args = [sys.executable, "-m", "app.cli", "serve", "--json", "--port", str(port)]
     proc = subprocess.Popen(
         [*args, "--data-dir", str(tmp_path / "data")],
@@ -73,7 +74,12 @@ def test_serve_json_prints_one_object_once_the_server_answers(tmp_path: Path) ->
         ready = json.loads(line)
         assert ready == {
             "url": f"http://127.0.0.1:{port}/",
-            "viewer": {"enabled": False, "url": None, "host": None, "port": None},
+            "viewer": {
+                "enabled": True,
+                "url": f"http://127.0.0.1:{viewer_port}",
+                "host": "127.0.0.1",
+                "port": viewer_port,
+            },
         }
         assert httpx.get(ready["url"], timeout=10).text.startswith("<!doctype html>")
     finally:
