@@ -51,7 +51,8 @@ class Problem(BaseModel):
     detail: str | None = None
     field: str | None = Field(default=None, description="the request field at fault")
     file: str | None = Field(default=None, description="the uploaded file at fault")
-    errors: list[dict[str, Any]] | None = None
+    errors: list[dict[str, Any]] | None = Field(default=None, description="every invalid field")
+    job: dict[str, Any] | None = Field(default=None, description="a job to follow or inspect")
 
 
 class Page(BaseModel, Generic[T]):

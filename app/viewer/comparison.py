@@ -206,6 +206,40 @@ def _get(arrays: Mapping[str, Any], key: str) -> FloatArray:
     return np.asarray(arrays[key], dtype=np.float64)
 
 
+def _task_and_bounds(
+    conditions: Mapping[str, Any], robot: Robot
+) -> tuple[Any, tuple[float, float]]:
+    """The job's task (start and goal [rad]) and phase bounds [deg], from its conditions."""
+    from app.planning.planner import PlanTask
+
+    start = np.radians(np.asarray(conditions.get("start_deg", np.degrees(robot.default_start))))
+    goal = np.radians(np.asarray(conditions.get("goal_deg", np.degrees(robot.default_goal))))
+    task = PlanTask(np.asarray(start, float), np.asarray(goal, float))
+    bounds_raw = conditions.get("phase_bounds_deg") or PHASE_BOUNDS_DEG
+    return task, (float(bounds_raw[0]), float(bounds_raw[1]))
+
+
+def _trajectory(
+    arrays: Mapping[str, Any], label: str, kind: str, t: FloatArray, n_joints: int
+) -> dict[str, FloatArray]:
+    """One trajectory's ``q, qd, qdd, tau`` (T, n) and ``power, energy`` (T,), shapes checked."""
+    acc_key = "qdd" if kind == "plan" else "qdd_cmd"
+    out: dict[str, FloatArray] = {}
+    for name, key in (("q", "q"), ("qd", "qd"), ("qdd", acc_key), ("tau", "tau")):
+        arr = _get(arrays, f"{label}_{key}")
+        if arr.shape != (len(t), n_joints):
+            raise ComparisonError(
+                f"{label}_{key} has shape {arr.shape}: expected ({len(t)}, {n_joints})"
+            )
+        out[name] = arr
+    for name in ("power", "energy"):
+        arr = _get(arrays, f"{label}_{name}")
+        if arr.shape != t.shape:
+            raise ComparisonError(f"{label}_{name} has shape {arr.shape}: expected {t.shape}")
+        out[name] = arr
+    return out
+
+
 def comparison_from_arrays(
     kind: Kind,
     result_id: int,
@@ -229,39 +263,22 @@ def comparison_from_arrays(
     Raises:
         ComparisonError: an array is missing or has the wrong shape.
     """
-    from app.planning.planner import PlanTask, elbow_flexion_deg
+    from app.planning.planner import elbow_flexion_deg
 
     if kind not in KINDS:
         raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
     t = _get(arrays, "t")
-    n_joints = len(robot.joint_names)
     conditions = dict(result.get("conditions") or {})
-    start = np.radians(np.asarray(conditions.get("start_deg", np.degrees(robot.default_start))))
-    goal = np.radians(np.asarray(conditions.get("goal_deg", np.degrees(robot.default_goal))))
-    task = PlanTask(np.asarray(start, float), np.asarray(goal, float))
-    bounds_raw = conditions.get("phase_bounds_deg") or PHASE_BOUNDS_DEG
-    bounds = (float(bounds_raw[0]), float(bounds_raw[1]))
-    acc_key = "qdd" if kind == "plan" else "qdd_cmd"
+    task, bounds = _task_and_bounds(conditions, robot)
     data: dict[str, dict[str, FloatArray]] = {
         k: {} for k in ("q", "qd", "qdd", "tau", "power", "energy", "flex")
     }
     times: dict[str, tuple[float, float]] = {}
     for label in LABELS:
-        for name, key in (("q", "q"), ("qd", "qd"), ("qdd", acc_key), ("tau", "tau")):
-            arr = _get(arrays, f"{label}_{key}")
-            if arr.shape != (len(t), n_joints):
-                raise ComparisonError(
-                    f"{label}_{key} has shape {arr.shape}: expected ({len(t)}, {n_joints})"
-                )
-            data[name][label] = arr
-        for name in ("power", "energy"):
-            arr = _get(arrays, f"{label}_{name}")
-            if arr.shape != t.shape:
-                raise ComparisonError(f"{label}_{name} has shape {arr.shape}: expected {t.shape}")
+        for name, arr in _trajectory(arrays, label, kind, t, len(robot.joint_names)).items():
             data[name][label] = arr
         # Phases follow the commanded elbow in a simulation (as the simulator reports them).
-        q_phase = arrays.get(f"{label}_q_cmd", data["q"][label])
-        q_phase = np.asarray(q_phase, dtype=np.float64)
+        q_phase = np.asarray(arrays.get(f"{label}_q_cmd", data["q"][label]), dtype=np.float64)
         flex = elbow_flexion_deg(q_phase[:, robot.elbow_joint], task, robot.elbow_joint)
         data["flex"][label] = np.asarray(flex, dtype=np.float64)
         times[label] = crossing_times(t, data["flex"][label], bounds)
