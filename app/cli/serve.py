@@ -174,12 +174,24 @@ def _run(settings: Any, sock: socket.socket, *, demo: bool, json_out: bool) -> i
     )
     if settings.log_level != "debug":  # Alembic narrates every migration step at INFO
         logging.getLogger("alembic").setLevel(logging.WARNING)
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import OperationalError
+
     settings.data_dir.mkdir(parents=True, exist_ok=True)
-    _say(f"bioplan serve: migrating the database ({settings.db_url})")
-    upgrade(settings.db_url)  # before anything else, so a broken database fails fast and loudly
+    shown = make_url(settings.db_url).render_as_string(hide_password=True)
+    _say(f"bioplan serve: migrating the database ({shown})")
+    try:
+        upgrade(settings.db_url)  # before anything else: a broken database fails fast
+    except OperationalError as exc:  # unreachable, refused, wrong credentials: not a bug
+        reason = str(exc.orig or exc).strip().splitlines()[0]
+        _say(f"bioplan serve: error: cannot use the database {shown}: {reason}")
+        return EXIT_FAILED
     if demo:
         seed_demo(settings, say=_say)
-    _say("bioplan serve: starting the job runner and the 3-D viewer")
+    _say(
+        "bioplan serve: starting the job runner"
+        + (" and the 3-D viewer" if settings.viewer else "")
+    )
     app = create_app(settings)
     config = uvicorn.Config(
         app,

@@ -52,6 +52,21 @@ def test_a_busy_port_is_one_line_naming_the_port_and_the_option(tmp_path: Path) 
     assert not (tmp_path / "d").exists()  # nothing was started, migrated or written
 
 
+def test_an_unreachable_database_is_one_line_without_its_password(tmp_path: Path) -> None:
+    env = {**os.environ, "BIOPLAN_DATABASE_URL": "postgresql+psycopg://u:s3cret@127.0.0.1:9/x"}
+    out = subprocess.run(
+        [sys.executable, "-m", "app.cli", "serve", "--port", str(free_port())],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert out.returncode == 1, out.stderr
+    assert "s3cret" not in out.stderr and "u:***@127.0.0.1:9/x" in out.stderr
+    errors = [line for line in out.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and errors[0].startswith(
+        "bioplan serve: error: cannot use the database"
+    )
+    assert out.stdout == ""
+
+
 def test_serve_json_prints_one_object_once_the_server_answers(tmp_path: Path) -> None:
     port, viewer_port = free_port(), free_port()
     env = {**os.environ, "BIOPLAN_VIEWER_PORT": str(viewer_port), "BIOPLAN_LOG_LEVEL": "info"}
