@@ -5,6 +5,21 @@
 #       -e BIOPLAN_API_TOKEN=change-me -v bioplan-data:/data bioplan
 #
 # The server refuses to bind to 0.0.0.0 without BIOPLAN_API_TOKEN.
+#
+# The application is installed from the wheel built in the first stage, exactly as `pip install`
+# would install it anywhere: the dashboard's pages and the database migrations are inside the
+# package. tests/api/test_deployment.py builds a wheel from what the first stage copies and
+# checks that it holds the same files as the wheel built from the repository.
+
+# ---- the wheel ----------------------------------------------------------------------------
+FROM python:3.11-slim-bookworm AS wheel
+ENV PIP_NO_CACHE_DIR=1 PIP_DISABLE_PIP_VERSION_CHECK=1
+WORKDIR /src
+COPY pyproject.toml README.md LICENSE ./
+COPY app ./app
+RUN pip wheel --no-deps --wheel-dir /wheels .
+
+# ---- the image ----------------------------------------------------------------------------
 FROM python:3.11-slim-bookworm
 
 ENV PYTHONDONTWRITEBYTECODE=1 \
@@ -12,7 +27,7 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
     PIP_NO_CACHE_DIR=1 \
     PIP_DISABLE_PIP_VERSION_CHECK=1
 
-# libgomp: OpenMP runtime used by the numerical wheels; curl-free health check uses Python.
+# libgomp: OpenMP runtime used by the numerical wheels; the health check uses Python, not curl.
 RUN apt-get update \
     && apt-get install -y --no-install-recommends libgomp1 \
     && rm -rf /var/lib/apt/lists/* \
@@ -20,22 +35,20 @@ RUN apt-get update \
     && mkdir -p /data \
     && chown bioplan /data
 
-WORKDIR /srv/bioplan
+# Dependencies first, from pyproject.toml alone (cached while only the code changes).
+COPY pyproject.toml /tmp/pyproject.toml
+RUN python -c "import tomllib; print('\n'.join(tomllib.load(open('/tmp/pyproject.toml', 'rb'))['project']['dependencies']))" > /tmp/requirements.txt \
+    && pip install -r /tmp/requirements.txt "psycopg[binary]>=3.2" \
+    && rm /tmp/pyproject.toml /tmp/requirements.txt
 
-# Dependencies first (cached while only the code changes).
-COPY pyproject.toml README.md ./
-RUN mkdir -p app && touch app/__init__.py \
-    && pip install . "psycopg[binary]>=3.2" \
-    && pip uninstall -y bioplan
-
-# The code. Installed editable so the Alembic migrations beside `app/` are found at run time.
-COPY alembic.ini ./
-COPY migrations ./migrations
-COPY app ./app
-RUN pip install --no-deps -e . \
+# The application: the wheel, nothing else from the build context.
+COPY --from=wheel /wheels /wheels
+RUN pip install --no-deps /wheels/*.whl \
+    && rm -rf /wheels \
     && python -c "import app.main, app.jobs.tasks, distributed"
 
 USER bioplan
+WORKDIR /data
 ENV BIOPLAN_DATA_DIR=/data \
     BIOPLAN_PORT=8000
 VOLUME ["/data"]
@@ -44,5 +57,6 @@ EXPOSE 8000
 HEALTHCHECK --interval=30s --timeout=5s --start-period=30s --retries=3 \
     CMD python -c "import urllib.request, os; urllib.request.urlopen('http://127.0.0.1:' + os.environ.get('BIOPLAN_PORT', '8000') + '/api/health', timeout=4)"
 
-# `bioplan serve` runs `alembic upgrade head`, then uvicorn with one worker process.
+# `bioplan serve` runs `alembic upgrade head` (migrations from the package), then uvicorn with
+# one worker process.
 CMD ["bioplan", "serve"]

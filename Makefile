@@ -1,21 +1,27 @@
 # BioPlan: two commands do all set-up.  `make run` and `make test` (see README.md).
+#
+# Each environment target below is one rule: a stamp file that is remade when pyproject.toml
+# changes. scripts/install.sh creates the virtual environment and installs into it with uv
+# (pip as the fallback), saying what it does.
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
 
+export PYTHON
+
 .PHONY: run test install install-test browser lint typecheck pytest bench clean
 
-$(STAMP): pyproject.toml
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e .
-	touch $@
+# ---- environments ---------------------------------------------------------------------------
+
+$(STAMP): pyproject.toml scripts/install.sh
+	@scripts/install.sh $(VENV) '.'
+	@touch $@
 
 $(TSTAMP): $(STAMP) pyproject.toml
-	$(PY) -m pip install --quiet -e '.[test]'
-	touch $@
+	@scripts/install.sh $(VENV) '.[test]'
+	@touch $@
 
 install: $(STAMP)
 install-test: $(TSTAMP)
@@ -23,13 +29,18 @@ install-test: $(TSTAMP)
 # Browser tests drive Debian's Chromium (never a downloaded browser build).
 browser:
 	@test -x /usr/bin/chromium || { \
-	  echo "installing Debian's chromium for the browser tests"; \
+	  echo "==> installing Debian's chromium for the browser tests"; \
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; }
 
+# ---- run ------------------------------------------------------------------------------------
+
 # The dashboard on the embedded defaults (SQLite in ./data, local job runner), with a demo
-# recording session and a finished comparison already stored; prints the URL.
+# recording session and a finished comparison already stored. Prints the URL once it answers;
+# BIOPLAN_PORT (or `.venv/bin/bioplan serve --port N --demo`) picks another port.
 run: $(STAMP)
-	$(VENV)/bin/bioplan serve --demo
+	@$(VENV)/bin/bioplan serve --demo
+
+# ---- checks ---------------------------------------------------------------------------------
 
 lint: $(TSTAMP)
 	$(VENV)/bin/ruff check app tests benchmarks

@@ -1,13 +1,14 @@
 """Service settings: one ``Settings`` object read from ``BIOPLAN_*`` environment variables.
 
 The science packages never read these; only the service layer (``app.main``, ``app.api``,
-``app.db``, ``app.jobs``) and the ``serve``/``submit`` commands do.
+``app.services``, ``app.db``, ``app.jobs``) and the ``serve``/``submit`` commands do.
 """
 
 from __future__ import annotations
 
 import ipaddress
 import re
+from importlib.resources import files
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -15,6 +16,9 @@ from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 _DASK_ADDRESS = re.compile(r"^(dask|tcp|tls)://[^\s/:]+:\d{1,5}$")
+
+#: The dashboard's pages as shipped inside the installed package (``app/frontend``).
+PACKAGED_PAGES = Path(str(files("app") / "frontend"))
 
 
 def is_loopback(host: str) -> bool:
@@ -44,7 +48,11 @@ class Settings(BaseSettings):
         host, port: where ``bioplan serve`` binds; a non-loopback host needs ``api_token``.
         max_upload_mb: largest request body accepted [MB], enforced while it streams in.
         cors_origins: origins allowed by CORS (none by default: CORS closed).
-        viewer_host, viewer_port: the 3-D viewer's address (filled in by the dashboard).
+        viewer: start the 3-D viewer with the server.
+        viewer_host, viewer_port: where the viewer binds (viser takes the next free port when
+            this one is busy; ``GET /api/viewer`` reports the real one).
+        frontend_dir: the dashboard's pages (default: those shipped inside the package).
+        log_level: the server's log level.
     """
 
     model_config = SettingsConfigDict(env_prefix="BIOPLAN_", extra="ignore")
@@ -59,8 +67,10 @@ class Settings(BaseSettings):
     port: int = Field(default=8000, ge=1, le=65535)
     max_upload_mb: float = Field(default=200.0, gt=0)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    viewer: bool = True
     viewer_host: str = "127.0.0.1"
-    viewer_port: int | None = Field(default=None, ge=1, le=65535)
+    viewer_port: int = Field(default=8080, ge=1, le=65535)
+    frontend_dir: Path | None = None
     log_level: Literal["debug", "info", "warning", "error"] = "info"
 
     @field_validator("cors_origins", mode="before")
@@ -118,6 +128,11 @@ class Settings(BaseSettings):
         if self.database_url:
             return self.database_url
         return f"sqlite:///{(self.data_dir / 'bioplan.db').resolve()}"
+
+    @property
+    def pages_dir(self) -> Path:
+        """The folder of the dashboard's pages in use (``frontend_dir`` or the packaged one)."""
+        return self.frontend_dir if self.frontend_dir is not None else PACKAGED_PAGES
 
     @property
     def blob_dir(self) -> Path:

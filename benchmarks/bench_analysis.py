@@ -2,7 +2,7 @@
 
 Run:  .venv/bin/python benchmarks/bench_analysis.py [--minutes 10] [--repeats 3] [--json]
 
-The session is the demo's synthetic curl recording (``app.viewer.demo_seed``): four EMG sites
+The session is the demo's synthetic curl recording (``app.services.demo``): four EMG sites
 and elbow and shoulder goniometers at 2 kHz, one curl every 4.9 s (122 lifts in 10 minutes),
 read from its CSV as an upload is. Timed, in one warm process, median of ``--repeats``:
 
@@ -50,7 +50,7 @@ def main() -> int:
     from app.analysis import AnalysisOverlays, analyze_recordings
     from app.db.arrays import decode_arrays, encode_arrays
     from app.recordings import read_bytes
-    from app.viewer.demo_seed import DEMO_MUSCLES, synthetic_curls_csv
+    from app.services.demo import DEMO_MUSCLES, synthetic_curls_csv
 
     lifts = max(1, round(args.minutes * 60.0 / 4.9))
     data = synthetic_curls_csv(lifts=lifts, rate=2000.0, seed=1)

@@ -4,8 +4,15 @@
 2. A 50 MB CSV upload (4 EMG channels), parsed and stored (target < 5 s).
 3. Jobs per minute for a batch of 100 plans, on the local runner and on a 2-worker Dask
    ``LocalCluster`` (scheduler and workers over loopback).
+4. ``faults``: SIGKILL the server while a plan and a two-worker sweep run; the time until every
+   process it left (fork server, job processes, their group reapers, the sweep's pool) is gone,
+   measured from the server's death (target < 2 s), with ``--hogs N`` CPU hogs running.
+5. ``make-run``: ``git clone`` this repository into a temporary folder and ``make run``: the time
+   until the URL is printed and the page answers (target < 2 min; uv's cache as it is).
 
     .venv/bin/python benchmarks/bench_api.py [--quick] [--skip-dask] [--json]
+    .venv/bin/python benchmarks/bench_api.py --only faults --runs 5 --hogs 2
+    .venv/bin/python benchmarks/bench_api.py --only make-run --runs 3
 
 Numbers depend on the machine; the script prints its CPU count and load with them.
 """
@@ -17,7 +24,6 @@ import asyncio
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -29,46 +35,9 @@ import httpx
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
 
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
-class Server:
-    """``python -m app.cli serve`` on a free loopback port, in its own process group."""
-
-    def __init__(self, data_dir: Path, **env: str) -> None:
-        self.port = _free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
-        environ = {**os.environ, "BIOPLAN_LOG_LEVEL": "warning", **env}
-        environ.pop("BIOPLAN_API_TOKEN", None)
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "app.cli", "serve", "--port", str(self.port),
-             "--data-dir", str(data_dir)],
-            cwd=REPO, env=environ, start_new_session=True,
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            try:
-                if httpx.get(self.url + "/api/health", timeout=1).status_code == 200:
-                    return
-            except httpx.HTTPError:
-                time.sleep(0.1)
-        self.stop()
-        raise RuntimeError("server did not start")
-
-    def stop(self) -> None:
-        try:
-            os.killpg(self.proc.pid, signal.SIGTERM)
-            self.proc.wait(timeout=15)
-        except (ProcessLookupError, subprocess.TimeoutExpired):
-            os.killpg(self.proc.pid, signal.SIGKILL)
-            self.proc.wait(timeout=10)
+from tests.utils.server import Server, free_port  # noqa: E402
 
 
 def _csv(rows: int, rate: float = 2000.0) -> bytes:
@@ -186,20 +155,147 @@ def bench_jobs(server: Server, *, n: int, body: dict[str, Any]) -> dict[str, Any
     }
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="smaller runs (smoke test)")
-    parser.add_argument("--skip-dask", action="store_true")
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    args = parser.parse_args()
+# ------------------------------------------------------------------------------------ faults
+
+
+def _hogs(n: int) -> list[subprocess.Popen[bytes]]:
+    """``n`` processes that each keep one CPU busy (stopped by the caller, by pid)."""
+    return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
+
+
+def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
+    for proc in procs:
+        proc.kill()
+        proc.wait()
+
+
+def _gone(pid: int) -> bool:
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() == psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return True
+
+
+def _fault_once(tmp: Path) -> dict[str, Any]:
+    """One server killed under a plan and a two-worker sweep: seconds until each is gone."""
+    plan = {"robot": "curtain_wall_6dof", "particles": 1000, "iterations": 10000}
+    sweep = {"robot": "human_arm_2dof", "durations": [0.6, 0.9, 1.2, 1.5], "payloads": [0, 5],
+             "particles": 200, "iterations": 1000, "workers": 2}  # fmt: skip
+    server = Server(tmp).start()
+    try:
+        ids = [server.post(path, json=body).json()["id"]
+               for path, body in (("/api/plans", plan), ("/api/sweeps", sweep))]  # fmt: skip
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline:
+            running = all(server.get(f"/api/jobs/{i}")["state"] == "running" for i in ids)
+            procs = server.descendants()
+            pool = [p for p in procs if "multiprocessing.spawn" in " ".join(p.cmdline())]
+            if running and len(pool) >= 2:
+                break
+            time.sleep(0.1)
+        else:
+            raise RuntimeError("the jobs never ran together")
+        # multiprocessing's resource tracker is no job process: it leaves on its own.
+        watched = {p.pid for p in procs if "resource_tracker" not in " ".join(p.cmdline())}
+        died = server.sigkill()
+        left: dict[int, float] = {}
+        while len(left) < len(watched) and time.monotonic() - died < 60:
+            for pid in watched - set(left):
+                if _gone(pid):
+                    left[pid] = time.monotonic() - died
+            time.sleep(0.002)
+    finally:
+        server.cleanup()
+    return {"processes": len(watched), "all_gone_s": max(left.values(), default=float("nan")),
+            "gone_s": sorted(left.values()), "never_gone": len(watched) - len(left)}  # fmt: skip
+
+
+def bench_faults(*, runs: int, hogs: int) -> dict[str, Any]:
+    """Median over ``runs`` of the time until a killed server's processes are all gone."""
+    load = _hogs(hogs)
+    try:
+        time.sleep(1.0 if hogs else 0.0)
+        with tempfile.TemporaryDirectory(prefix="bioplan-faults-") as tmp:
+            results = [_fault_once(Path(tmp) / f"run{i}") for i in range(runs)]
+    finally:
+        _stop(load)
+    times = [r["all_gone_s"] for r in results]
+    return {
+        "runs": runs,
+        "hogs": hogs,
+        "processes": [r["processes"] for r in results],
+        "all_gone_s": times,
+        "median_all_gone_s": float(np.median(times)),
+        "max_all_gone_s": float(np.max(times)),
+        "never_gone": sum(r["never_gone"] for r in results),
+    }
+
+
+# ---------------------------------------------------------------------------------- make run
+
+
+def _make_run_once(tmp: Path) -> dict[str, Any]:
+    """``git clone`` + ``make run`` in ``tmp``: seconds to the URL line and to a served page."""
+    clone = tmp / "fresh"
+    port = free_port()
+    env = {**os.environ, "BIOPLAN_PORT": str(port), "BIOPLAN_VIEWER_PORT": str(free_port())}
+    env = {k: v for k, v in env.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH")}
+    t0 = time.monotonic()
+    subprocess.run(["git", "clone", "--quiet", str(REPO), str(clone)], check=True)
+    proc = subprocess.Popen(
+        ["make", "run"], cwd=clone, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        text=True, start_new_session=True,
+    )  # fmt: skip
+    marks: dict[str, float] = {}
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            now = time.monotonic() - t0
+            if line.startswith("==> done:"):
+                marks["installed_s"] = now
+            if line.startswith("BioPlan dashboard:"):
+                marks["url_s"] = now
+                page = httpx.get(f"http://127.0.0.1:{port}/", timeout=30)
+                marks["page_s"] = time.monotonic() - t0
+                marks["page_status"] = page.status_code
+                break
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    if "url_s" not in marks:
+        raise RuntimeError("make run never printed the URL")
+    return marks
+
+
+def bench_make_run(*, runs: int) -> dict[str, Any]:
+    with tempfile.TemporaryDirectory(prefix="bioplan-make-run-") as tmp:
+        results = [_make_run_once(Path(tmp) / f"run{i}") for i in range(runs)]
+    return {
+        "runs": runs,
+        "installed_s": [r.get("installed_s") for r in results],
+        "url_s": [r["url_s"] for r in results],
+        "median_url_s": float(np.median([r["url_s"] for r in results])),
+        "median_page_s": float(np.median([r["page_s"] for r in results])),
+        "page_status": [r["page_status"] for r in results],
+    }
+
+
+# ------------------------------------------------------------------------------------- main
+
+
+def bench_service(args: argparse.Namespace) -> dict[str, Any]:
+    """Benchmarks 1-3: list latency, upload, jobs per minute (local, then Dask)."""
     n_jobs = 20 if args.quick else 100
     plan_body = {"robot": "human_arm_2dof", "duration": 1.0, "particles": 40, "iterations": 100}
-    out: dict[str, Any] = {
-        "machine": {"cpus": os.cpu_count(), "load_1min": os.getloadavg()[0]},
-        "plan_request": plan_body,
-    }
+    out: dict[str, Any] = {"plan_request": plan_body}
     with tempfile.TemporaryDirectory(prefix="bioplan-bench-") as tmp:
-        server = Server(Path(tmp) / "local", BIOPLAN_MAX_WORKERS="2")
+        server = Server(Path(tmp) / "local", BIOPLAN_MAX_WORKERS="2").start()
         try:
             secs = 3 if args.quick else 10
             out["list_latency"] = bench_list_latency(
@@ -213,37 +309,81 @@ def main() -> int:
         finally:
             server.stop()
         if not args.skip_dask:
-            from distributed import LocalCluster
+            out["jobs_dask"] = _jobs_on_dask(Path(tmp) / "dask", n_jobs, plan_body)
+    return out
 
-            with LocalCluster(
-                n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                dashboard_address=None,
-            ) as cluster:  # fmt: skip
-                address = cluster.scheduler_address.replace("tcp://", "dask://")
-                server = Server(Path(tmp) / "dask", BIOPLAN_EXECUTOR=address)
-                try:
-                    out["jobs_dask"] = bench_jobs(server, n=n_jobs, body=plan_body)
-                finally:
-                    server.stop()
-    out["machine"]["load_1min_after"] = os.getloadavg()[0]
-    if args.json:
-        print(json.dumps(out, indent=2))
-        return 0
-    up = out["upload_50mb"]
+
+def _jobs_on_dask(data: Path, n_jobs: int, plan_body: dict[str, Any]) -> dict[str, Any]:
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None,
+    ) as cluster:  # fmt: skip
+        address = cluster.scheduler_address.replace("tcp://", "dask://")
+        server = Server(data, BIOPLAN_EXECUTOR=address).start()
+        try:
+            return bench_jobs(server, n=n_jobs, body=plan_body)
+        finally:
+            server.stop()
+
+
+def _print(out: dict[str, Any]) -> None:
     print(f"machine: {out['machine']}")
     for key in ("list_latency", "list_latency_with_uploads"):
-        lat = out[key]
-        print(f"GET /api/recordings, {lat['clients']} clients, {lat['uploads_meanwhile']} uploads "
-              f"meanwhile: p50 {lat['p50_ms']:.1f} ms, p99 {lat['p99_ms']:.1f} ms (target < 50), "
-              f"{lat['requests_per_s']:.0f} req/s, {lat['errors']} errors")  # fmt: skip
-    print(f"upload {up['megabytes']:.1f} MB CSV ({up['rows']} rows x {up['channels']} channels): "
-          f"{up['seconds']:.2f} s (target < 5)")  # fmt: skip
+        if key in out:
+            lat = out[key]
+            print(
+                f"GET /api/recordings, {lat['clients']} clients, {lat['uploads_meanwhile']} "
+                f"uploads meanwhile: p50 {lat['p50_ms']:.1f} ms, p99 {lat['p99_ms']:.1f} ms "
+                f"(target < 50), {lat['requests_per_s']:.0f} req/s, {lat['errors']} errors"
+            )
+    if "upload_50mb" in out:
+        up = out["upload_50mb"]
+        print(f"upload {up['megabytes']:.1f} MB CSV ({up['rows']} rows x {up['channels']} "
+              f"channels): {up['seconds']:.2f} s (target < 5)")  # fmt: skip
     for key in ("jobs_local", "jobs_dask"):
         if key in out:
             j = out[key]
             print(f"{j['jobs']} plans on {j['executor']} ({j['workers']} workers): "
                   f"{j['seconds']:.1f} s, {j['jobs_per_minute']:.0f} jobs/min, "
                   f"{j['states']}")  # fmt: skip
+    if "faults" in out:
+        f = out["faults"]
+        print(f"server SIGKILLed under a plan and a 2-worker sweep, {f['hogs']} CPU hogs: all "
+              f"{f['processes']} processes gone after median {f['median_all_gone_s']:.3f} s, "
+              f"max {f['max_all_gone_s']:.3f} s over {f['runs']} runs (target < 2 s); "
+              f"never gone: {f['never_gone']}")  # fmt: skip
+    if "make_run" in out:
+        m = out["make_run"]
+        print(f"fresh clone, make run: URL after median {m['median_url_s']:.1f} s, page after "
+              f"{m['median_page_s']:.1f} s over {m['runs']} runs {m['url_s']} "
+              f"(installed after {m['installed_s']}) (target < 120 s)")  # fmt: skip
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smaller runs (smoke test)")
+    parser.add_argument("--skip-dask", action="store_true", help="leave out the Dask run")
+    parser.add_argument(
+        "--only", choices=("service", "faults", "make-run"), default=None, help="one benchmark"
+    )
+    parser.add_argument("--runs", type=int, default=3, help="repetitions (faults, make-run)")
+    parser.add_argument("--hogs", type=int, default=2, help="CPU hogs beside the faults runs")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    args = parser.parse_args()
+    out: dict[str, Any] = {"machine": {"cpus": os.cpu_count(), "load_1min": os.getloadavg()[0]}}
+    if args.only in (None, "service"):
+        out.update(bench_service(args))
+    if args.only in (None, "faults"):
+        out["faults"] = bench_faults(runs=args.runs, hogs=args.hogs)
+    if args.only == "make-run":  # slow and it clones: only when asked for
+        out["make_run"] = bench_make_run(runs=args.runs)
+    out["machine"]["load_1min_after"] = os.getloadavg()[0]
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        _print(out)
     return 0
 
 

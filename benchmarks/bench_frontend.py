@@ -16,7 +16,7 @@
     .venv/bin/python benchmarks/bench_frontend.py [--minutes 10] [--json]
     .venv/bin/python benchmarks/bench_frontend.py --only playback [--runs 3]
 
-The server is ``tests/frontend/serve.py`` (create_app + attach_dashboard) with the demo data.
+The server is a real ``bioplan serve --demo`` (``tests/utils/server.py``) with its 3-D viewer.
 Numbers depend on the machine: the script prints its CPU count and load with them.
 """
 
@@ -38,7 +38,8 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from tests.frontend.conftest import CHROMIUM, CHROMIUM_ARGS, LiveServer  # noqa: E402
+from tests.utils.browser import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
+from tests.utils.server import Server, free_port  # noqa: E402
 
 
 def upload_csv(url: str, name: str, data: bytes, muscles: dict[str, str]) -> int:
@@ -230,8 +231,6 @@ def _empty_viser(browser: Any, viewport: tuple[int, int], seconds: float) -> dic
 
     import viser
 
-    from tests.frontend.conftest import free_port
-
     with contextlib.redirect_stdout(sys.stderr):  # viser's banner would spoil --json
         server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     frame = server.scene.add_frame("/moving", axes_length=0.2)
@@ -339,10 +338,10 @@ def playback_only(args: argparse.Namespace) -> int:
 
     machine = {"cpus": os.cpu_count(), "load": os.getloadavg()[0]}
     with tempfile.TemporaryDirectory(prefix="bioplan-bench-") as tmp:
-        server = LiveServer(Path(tmp) / "data")
+        server = Server(Path(tmp) / "data", demo=True, viewer=True)
         try:
-            server.wait_ready()
-            ids = {j["kind"]: j["id"] for j in server.api("/api/jobs?limit=50")["items"]}
+            server.start(timeout=600)
+            ids = {j["kind"]: j["id"] for j in server.get("/api/jobs?limit=50")["items"]}
             with sync_playwright() as p:
                 browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
                 try:
@@ -376,13 +375,13 @@ def main() -> int:
         return playback_only(args)
     from playwright.sync_api import sync_playwright
 
-    from app.viewer.demo_seed import DEMO_MUSCLES, synthetic_curls_csv
+    from app.services import DEMO_MUSCLES, synthetic_curls_csv
 
     out: dict[str, Any] = {"machine": {"cpus": os.cpu_count(), "load": os.getloadavg()[0]}}
     with tempfile.TemporaryDirectory(prefix="bioplan-bench-") as tmp:
-        server = LiveServer(Path(tmp) / "data")
+        server = Server(Path(tmp) / "data", demo=True, viewer=True)
         try:
-            server.wait_ready()
+            server.start(timeout=600)
             lifts = max(1, round(args.minutes * 60.0 / 4.9))
             t = time.perf_counter()
             data = synthetic_curls_csv(lifts=lifts, rate=2000.0, seed=1)
@@ -397,7 +396,7 @@ def main() -> int:
                 "upload_and_parse_s": time.perf_counter() - t,
             }
             out["long_recording"]["analysis"] = analyse(server.url, rid)
-            ids = {j["kind"]: j["id"] for j in server.api("/api/jobs?limit=50")["items"]}
+            ids = {j["kind"]: j["id"] for j in server.get("/api/jobs?limit=50")["items"]}
             with sync_playwright() as p:
                 browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
                 try:

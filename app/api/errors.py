@@ -1,15 +1,16 @@
 """One error shape for every failure: ``application/problem+json`` (RFC 9457).
 
-``{"type", "title", "status", "detail", "field"?, "file"?, "errors"?, "job"?}``. Bad requests are
-4xx: validation errors and unreadable recordings or robot models are 422, unknown resources 404,
-conflicts 409, oversized bodies 413. Anything unexpected is logged with its traceback and
-answered with a plain 500 problem that never contains the traceback.
+``{"type", "title", "status", "detail", "field"?, "file"?, "errors"?, "job"?}``. Only bad input
+is a 4xx: request validation and any ``BioPlanError`` (an unreadable recording or robot model, a
+task the planner refuses, a service's ``ServiceError``) are 422, with ``NotFoundError`` 404 and
+``ConflictError`` 409; routes raise ``ApiError`` for the rest (401, 413...). Anything else,
+``ValueError`` included, is a bug: ``app.api.middleware.CatchAllMiddleware`` logs it with its
+traceback and answers a plain 500 problem that never contains the traceback.
 """
 
 from __future__ import annotations
 
 import logging
-import uuid
 from http import HTTPStatus
 from typing import Any
 
@@ -18,7 +19,9 @@ from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from app.errors import BioPlanError
+from app.services.errors import ConflictError, NotFoundError
 
 logger = logging.getLogger(__name__)
 
@@ -133,113 +136,43 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     )
 
 
-async def _science_error(request: Request, exc: Exception) -> JSONResponse:
-    # RecordingError carries file/channel; RobotError and other ValueErrors a one-line message.
+def _status_of(exc: BioPlanError) -> int:
+    if isinstance(exc, NotFoundError):
+        return 404
+    if isinstance(exc, ConflictError):
+        return 409
+    return 422
+
+
+async def _bad_input(request: Request, exc: Exception) -> JSONResponse:
+    """Any ``BioPlanError``: its one-line message, and the field, file or job it names."""
+    assert isinstance(exc, BioPlanError)
+    status = _status_of(exc)
     file = getattr(exc, "file", None)
+    field = getattr(exc, "field", None)
     channel = getattr(exc, "channel", None)
-    title = "Unreadable recording" if file is not None else "Invalid input"
+    if field is None and isinstance(channel, str):
+        field = f"channel {channel}"
+    job = getattr(exc, "job", None)
+    title = getattr(exc, "title", None)
+    if title is None and status != 422:
+        title = _phrase(status)
+    elif title is None:
+        title = "Unreadable file" if file is not None else "Invalid input"
+    named = job is not None or getattr(exc, "names_job", False)
     return problem(
-        422,
+        status,
         title,
         str(exc),
         file=file if isinstance(file, str) else None,
-        field=f"channel {channel}" if isinstance(channel, str) else None,
+        field=field if isinstance(field, str) else None,
+        members={"job": job} if named else None,
     )
 
 
-class BodyTooLarge(StarletteHTTPException):
-    """The request body exceeds the upload limit (raised while it streams in)."""
-
-    def __init__(self, limit: int) -> None:
-        super().__init__(
-            413,
-            f"the request body is larger than the upload limit of {limit} bytes "
-            "(BIOPLAN_MAX_UPLOAD_MB)",
-        )
-
-
-class BodyLimitMiddleware:
-    """Refuses request bodies over ``limit`` bytes: at once when Content-Length says so, else
-    as soon as the streamed bytes pass the limit (nothing larger is ever buffered or parsed).
-    """
-
-    def __init__(self, app: ASGIApp, limit: int) -> None:
-        self.app = app
-        self.limit = limit
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        for key, value in scope.get("headers", []):
-            if key == b"content-length":
-                try:
-                    declared = int(value)
-                except ValueError:
-                    break
-                if declared > self.limit:
-                    exc = BodyTooLarge(self.limit)
-                    await problem(413, "Content Too Large", exc.detail)(scope, receive, send)
-                    return
-        seen = 0
-
-        async def counting_receive() -> Message:
-            nonlocal seen
-            message = await receive()
-            if message["type"] == "http.request":
-                seen += len(message.get("body", b""))
-                if seen > self.limit:
-                    # An HTTPException passes through FastAPI's body parsing unchanged and
-                    # reaches the problem handler.
-                    raise BodyTooLarge(self.limit)
-            return message
-
-        await self.app(scope, counting_receive, send)
-
-
-class CatchAllMiddleware:
-    """Turns an unexpected exception into a logged problem 500 (no traceback to the client)."""
-
-    def __init__(self, app: ASGIApp) -> None:
-        self.app = app
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        started = False
-
-        async def tracking_send(message: Message) -> None:
-            nonlocal started
-            if message["type"] == "http.response.start":
-                started = True
-            await send(message)
-
-        try:
-            await self.app(scope, receive, tracking_send)
-        except Exception:
-            ref = uuid.uuid4().hex[:12]
-            logger.exception(
-                "unhandled error (ref %s) on %s %s", ref, scope.get("method"), scope.get("path")
-            )
-            if started:
-                raise
-            response = problem(
-                500,
-                "Internal Server Error",
-                f"an unexpected error occurred; the server log has the details (ref {ref})",
-            )
-            await response(scope, receive, send)
-
-
-def install_error_handlers(app: FastAPI, *, max_body_bytes: int) -> None:
-    """Register the problem+json handlers and the body-size limit on ``app``."""
-    from app.recordings.types import RecordingError
-
+def install_error_handlers(app: FastAPI) -> None:
+    """Register the problem+json handlers on ``app`` (bad input only: see the module doc)."""
     app.add_exception_handler(ApiError, _api_error)
     app.add_exception_handler(StarletteHTTPException, _http_error)
     app.add_exception_handler(RequestValidationError, _validation_error)
-    app.add_exception_handler(RecordingError, _science_error)
-    app.add_exception_handler(ValueError, _science_error)
-    app.add_middleware(BodyLimitMiddleware, limit=max_body_bytes)
-    app.add_middleware(CatchAllMiddleware)
+    app.add_exception_handler(BioPlanError, _bad_input)

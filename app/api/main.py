@@ -6,6 +6,7 @@ from fastapi import APIRouter
 
 from app.api.routes import (
     analyses,
+    dashboard,
     jobs,
     meta,
     plans,
@@ -24,3 +25,4 @@ api_router.include_router(simulations.router)
 api_router.include_router(sweeps.router)
 api_router.include_router(jobs.router)
 api_router.include_router(robots.router)
+api_router.include_router(dashboard.router)

@@ -9,16 +9,31 @@ script can move between ``bioplan plan --json`` and ``POST /api/plans``. SI unit
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any, Generic, Literal, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-#: Energy metrics a plan can minimise (``app.planning.energy.OBJECTIVES``).
-Objective = Literal[
-    "tau_sq", "abs_work", "pos_work", "electrical_energy", "peak_power", "peak_torque"
-]
-Site = Literal["deltoid", "triceps", "biceps", "forearm"]
-JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+from app.names import (
+    JOB_STATES,
+    MUSCLE_COLOURS,
+    OBJECTIVES,
+    PHASE_BOUNDS_DEG,
+    PSO_DEFAULTS,
+    MethodInfo,
+    MetricInfo,
+    PhaseInfo,
+    PsoDefaults,
+)
+
+if TYPE_CHECKING:
+    Objective = str
+    Site = str
+    JobState = str
+else:
+    # The allowed values come from ``app.names`` (one home); OpenAPI lists them as enums.
+    Objective = Literal[OBJECTIVES]
+    Site = Literal[tuple(MUSCLE_COLOURS)]
+    JobState = Literal[JOB_STATES]
 JobKind = Literal["analysis", "plan", "simulation", "sweep"]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
@@ -36,7 +51,8 @@ class Problem(BaseModel):
     detail: str | None = None
     field: str | None = Field(default=None, description="the request field at fault")
     file: str | None = Field(default=None, description="the uploaded file at fault")
-    errors: list[dict[str, Any]] | None = None
+    errors: list[dict[str, Any]] | None = Field(default=None, description="every invalid field")
+    job: dict[str, Any] | None = Field(default=None, description="a job to follow or inspect")
 
 
 class Page(BaseModel, Generic[T]):
@@ -58,7 +74,6 @@ class Health(BaseModel):
     workers: int | None
     running: int | None
     queued: int | None
-    entry_points: dict[str, bool]
     uptime_seconds: float
 
 
@@ -70,8 +85,23 @@ class Version(BaseModel):
     python: str
 
 
+class Meta(BaseModel):
+    """The names every page shares (``app.names``), so none is written twice."""
+
+    model_config = ConfigDict(extra="allow")
+
+    metrics: list[MetricInfo] = Field(description="every metric, in table order")
+    phases: list[PhaseInfo] = Field(description="the A/B/C lift phases with their colours")
+    phase_bounds_deg: list[float] = Field(description="default A/B and B/C bounds [deg]")
+    methods: list[MethodInfo] = Field(description="planning methods with labels and colours")
+    muscle_colours: dict[str, str]
+    pso_defaults: PsoDefaults
+    job_states: list[str]
+    terminal_job_states: list[str]
+
+
 class ViewerInfo(BaseModel):
-    """Where the 3-D viewer listens (filled in when the dashboard starts one)."""
+    """Where the 3-D viewer listens (``enabled`` is false when the server runs none)."""
 
     enabled: bool
     url: str | None = None
@@ -88,8 +118,12 @@ class Job(BaseModel):
     id: int
     kind: JobKind
     state: JobState
-    progress: float = Field(ge=0, le=1, description="fraction done")
-    message: str
+    progress: float = Field(ge=0, le=1, description="fraction of the whole job done")
+    stage: str = Field(description="what runs now: read, analyse, pso, simulate, sweep, ...")
+    done: int = Field(ge=0, description="units of this stage done (iterations, cells, files)")
+    of: int = Field(ge=1, description="units this stage has in all")
+    best: float | None = Field(description="best objective value so far (optimisers), or null")
+    message: str = Field(description="one line for people (never parsed: read the fields)")
     error: str | None = Field(description="why it failed (state 'failed')")
     attempts: int = Field(description="how many times it was started")
     params: dict[str, Any] = Field(description="the request, with the CLI's field names")
@@ -182,7 +216,7 @@ class AnalysisRequest(BaseModel):
         default=None, description="channel label -> EMG site; overrides the upload's"
     )
     phase_bounds_deg: tuple[float, float] = Field(
-        default=(40.0, 90.0), description="A/B and B/C elbow-flexion bounds [deg]"
+        default=PHASE_BOUNDS_DEG, description="A/B and B/C elbow-flexion bounds [deg]"
     )
     body_mass: float = Field(default=75.0, gt=0, le=500, description="[kg]")
     body_height: float = Field(default=1.75, gt=0.5, le=2.5, description="[m]")
@@ -236,15 +270,15 @@ class _RobotTask(BaseModel):
         default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
     )
     objective: Objective = "abs_work"
-    seed: int = Field(default=0, ge=0, le=2**32 - 1)
+    seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
         default=None, max_length=32, description="start joint angles (default: the curl task's)"
     )
     goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
         default=None, max_length=32, description="goal joint angles (default: the curl task's)"
     )
-    particles: int = Field(default=40, ge=2, le=1000)
-    iterations: int = Field(default=100, ge=1, le=10000)
+    particles: int = Field(default=PSO_DEFAULTS.particles, ge=2, le=1000)
+    iterations: int = Field(default=PSO_DEFAULTS.iterations, ge=1, le=10000)
     peak_angle_deg: float | None = Field(
         default=None, gt=0, lt=180, description="elbow velocity-peak angle (default: template's)"
     )
@@ -259,7 +293,9 @@ class _RobotTask(BaseModel):
 class PlanRequest(_RobotTask):
     """Plan the standard and the bio-inspired trajectory (``bioplan plan``)."""
 
-    n_samples: int = Field(default=100, ge=10, le=100000, description="optimiser grid points")
+    n_samples: int = Field(
+        default=PSO_DEFAULTS.n_samples, ge=10, le=100000, description="optimiser grid points"
+    )
 
 
 class SimulationRequest(_RobotTask):
@@ -279,7 +315,7 @@ class SweepRequest(BaseModel):
         default=[0.0, 4.0, 8.0, 12.0, 20.0], min_length=1, max_length=50, description="[kg]"
     )
     objectives: list[Objective] = Field(default=["abs_work"], min_length=1, max_length=6)
-    seed: int = Field(default=0, ge=0, le=2**32 - 1)
+    seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     particles: int | None = Field(default=None, ge=2, le=1000, description="default: sweep's")
     iterations: int | None = Field(default=None, ge=1, le=10000, description="default: sweep's")
     workers: int = Field(default=1, ge=1, le=64, description="processes inside the job")

@@ -1,36 +1,36 @@
-"""``bioplan serve``: migrate the database, then serve the API, the jobs and the dashboard."""
+"""``bioplan serve``: migrate the database, then serve the API, the jobs and the dashboard.
+
+The port is bound first, so a busy port is a one-line error at once (exit code 2) rather than a
+traceback after the demo is seeded; uvicorn then serves on that very socket. The URL is printed
+only once the server answers ``GET /api/health``; everything said before goes to stderr, so with
+``--json`` stdout carries exactly one JSON object.
+"""
 
 from __future__ import annotations
 
+import copy
+import errno
+import json
+import socket
 import sys
+import threading
+import time
+import urllib.request
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import EXIT_BAD_INPUT, EXIT_OK
+from app.cli._common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+
+#: Seconds to wait for a started server to answer its health check before giving up on the URL.
+READY_TIMEOUT = 120.0
 
 
-def serve(
-    host: str | None = None,
-    port: int | None = None,
-    data_dir: str | None = None,
-    *,
-    demo: bool = False,
-) -> int:
-    """Migrate the database (``alembic upgrade head``), then serve the API and dashboard.
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
-    Args:
-        host: bind address (default ``BIOPLAN_HOST`` or 127.0.0.1); a non-loopback address
-            needs ``BIOPLAN_API_TOKEN``.
-        port: TCP port (default ``BIOPLAN_PORT`` or 8000).
-        data_dir: database and file store folder (default ``BIOPLAN_DATA_DIR`` or ./data).
-        demo: when the database has no recordings, store a demo recording session and run its
-            analysis, a plan and a simulation first, so the dashboard has something to show.
 
-    Returns:
-        Exit code: 0 after a clean stop, 2 for bad settings.
-    """
-    import logging
-
+def _settings(host: str | None, port: int | None, data_dir: str | None) -> Any:
+    """Settings from the environment with the command line's overrides; None after an error."""
     from pydantic import ValidationError
 
     from app.config import Settings
@@ -43,44 +43,183 @@ def serve(
     if data_dir is not None:
         overrides["data_dir"] = Path(data_dir)
     try:
-        settings = Settings(**overrides)
+        return Settings(**overrides)
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first.get("loc", ())) or "settings"
-        print(f"bioplan serve: error: {where}: {first['msg']}", file=sys.stderr)
+        _say(f"bioplan serve: error: {where}: {first['msg']}")
+        return None
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """A listening-ready TCP socket bound to ``host:port`` (as uvicorn would bind it).
+
+    Raises:
+        OSError: the address cannot be bound (``errno.EADDRINUSE`` when the port is taken).
+    """
+    family, kind, proto, _, address = socket.getaddrinfo(
+        host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE
+    )[0]
+    sock = socket.socket(family, kind, proto)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind(address)
+    except OSError:
+        sock.close()
+        raise
+    sock.set_inheritable(True)
+    return sock
+
+
+def _bind_or_explain(host: str, port: int) -> socket.socket | None:
+    try:
+        return bind(host, port)
+    except OSError as exc:
+        if exc.errno == errno.EADDRINUSE:
+            _say(
+                f"bioplan serve: error: port {port} on {host} is already in use: "
+                "choose another with --port or BIOPLAN_PORT"
+            )
+        else:
+            _say(f"bioplan serve: error: cannot bind to {host}:{port}: {exc.strerror or exc}")
+        return None
+
+
+def _url_host(host: str) -> str:
+    if host in ("0.0.0.0", "::", ""):
+        return "127.0.0.1"
+    return f"[{host}]" if ":" in host else host
+
+
+def _announce_when_ready(server: Any, app: Any, url: str, json_out: bool) -> None:
+    """Print the URL (or the JSON object) once the server answers its health check."""
+    deadline = time.monotonic() + READY_TIMEOUT
+    while time.monotonic() < deadline and not server.should_exit:
+        if server.started:
+            try:
+                with urllib.request.urlopen(url + "api/health", timeout=2) as response:
+                    if response.status == 200:
+                        break
+            except OSError:
+                pass
+        time.sleep(0.05)
+    else:
+        return
+    viewer = app.state.services.viewer_info()  # the lifespan has run: the server answered
+    if json_out:
+        print(json.dumps({"url": url, "viewer": viewer}), flush=True)
+        return
+    where = f"; 3-D viewer on port {viewer['port']}" if viewer.get("enabled") else ""
+    print(f"BioPlan dashboard: {url}{where} (Ctrl+C stops it)", flush=True)
+
+
+def serve(
+    host: str | None = None,
+    port: int | None = None,
+    data_dir: str | None = None,
+    *,
+    demo: bool = False,
+    json_out: bool = False,
+) -> int:
+    """Migrate the database (``alembic upgrade head``), then serve the API and dashboard.
+
+    Args:
+        host: bind address (default ``BIOPLAN_HOST`` or 127.0.0.1); a non-loopback address
+            needs ``BIOPLAN_API_TOKEN``.
+        port: TCP port (default ``BIOPLAN_PORT`` or 8000).
+        data_dir: database and file store folder (default ``BIOPLAN_DATA_DIR`` or ./data).
+        demo: when the database has no recordings, store a demo recording session and run its
+            analysis, a plan and a simulation first, so the dashboard has something to show.
+        json_out: once the server answers, print ``{"url", "viewer"}`` as one JSON object
+            instead of the line for people.
+
+    Returns:
+        Exit code: 0 after a clean stop, 2 for bad settings or a busy port, 1 when the server
+        could not start.
+    """
+    settings = _settings(host, port, data_dir)
+    if settings is None:
         return EXIT_BAD_INPUT
-    logging.basicConfig(
-        level=settings.log_level.upper(),
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-    )
+    sock = _bind_or_explain(settings.host, settings.port)
+    if sock is None:
+        return EXIT_BAD_INPUT
+    try:
+        return _run(settings, sock, demo=demo, json_out=json_out)
+    finally:
+        sock.close()
+
+
+def _uvicorn_logging() -> dict[str, Any]:
+    """uvicorn's logging set-up with its access log on stderr too: stdout carries results."""
+    from uvicorn.config import LOGGING_CONFIG
+
+    config = copy.deepcopy(LOGGING_CONFIG)
+    for handler in config["handlers"].values():
+        handler["stream"] = "ext://sys.stderr"
+    return config
+
+
+def _run(settings: Any, sock: socket.socket, *, demo: bool, json_out: bool) -> int:
+    import logging
+
     import uvicorn
 
     from app.db.session import upgrade
     from app.main import create_app
-    from app.viewer import attach_dashboard, seed_demo
+    from app.services import seed_demo
+
+    logging.basicConfig(
+        level=settings.log_level.upper(),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    if settings.log_level != "debug":  # Alembic narrates every migration step at INFO
+        logging.getLogger("alembic").setLevel(logging.WARNING)
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import OperationalError
 
     settings.data_dir.mkdir(parents=True, exist_ok=True)
-    upgrade(settings.db_url)  # before binding, so a broken database fails fast and loudly
+    shown = make_url(settings.db_url).render_as_string(hide_password=True)
+    _say(f"bioplan serve: migrating the database ({shown})")
+    try:
+        upgrade(settings.db_url)  # before anything else: a broken database fails fast
+    except OperationalError as exc:  # unreachable, refused, wrong credentials: not a bug
+        reason = str(exc.orig or exc).strip().splitlines()[0]
+        _say(f"bioplan serve: error: cannot use the database {shown}: {reason}")
+        return EXIT_FAILED
     if demo:
-        print("preparing the demo session (analysis, plan, simulation)...", flush=True)
-        seed_demo(settings)
+        seed_demo(settings, say=_say)
+    _say(
+        "bioplan serve: starting the job runner"
+        + (" and the 3-D viewer" if settings.viewer else "")
+    )
     app = create_app(settings)
-    attach_dashboard(app, settings)
-    print(f"BioPlan dashboard: http://{settings.host}:{settings.port}/", flush=True)
-    uvicorn.run(
+    config = uvicorn.Config(
         app,
-        host=settings.host,
-        port=settings.port,
-        workers=1,  # one process: it owns the job runner (and the viewer)
+        workers=1,  # one process: it owns the job runner and the viewer
         log_level=settings.log_level,
+        log_config=_uvicorn_logging(),
         timeout_graceful_shutdown=5,
     )
-    return EXIT_OK
+    server = uvicorn.Server(config)
+    url = f"http://{_url_host(settings.host)}:{settings.port}/"
+    threading.Thread(
+        target=_announce_when_ready,
+        args=(server, app, url, json_out),
+        name="bioplan-ready",
+        daemon=True,
+    ).start()
+    server.run(sockets=[sock])
+    return EXIT_OK if server.started else EXIT_FAILED
 
 
 def register(sub: Any) -> None:
     """Add ``serve`` to the ``bioplan`` subcommands."""
-    p = sub.add_parser("serve", help="run the web service (API, jobs, dashboard)")
+    p = sub.add_parser(
+        "serve",
+        help="run the web service (API, jobs, dashboard)",
+        description="Migrate the database, then serve the API, the background jobs, the "
+        "dashboard and the 3-D viewer. Prints the dashboard's URL once it answers.",
+    )
     p.add_argument("--host", default=None, help="bind address (default $BIOPLAN_HOST or 127.0.0.1)")
     p.add_argument(
         "--port", type=int, default=None, help="TCP port (default $BIOPLAN_PORT or 8000)"
@@ -93,4 +232,11 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--demo", action="store_true", help="seed a demo recording and comparison when empty"
     )
-    p.set_defaults(handler=lambda a: serve(a.host, a.port, a.data_dir, demo=a.demo))
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help='once the server answers, print {"url", "viewer"} as one JSON object',
+    )
+    p.set_defaults(
+        handler=lambda a: serve(a.host, a.port, a.data_dir, demo=a.demo, json_out=a.json)
+    )

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from app.cli._common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
-from app.names import TERMINAL_JOB_STATES
+from app.names import OBJECTIVES, PSO_DEFAULTS, TERMINAL_JOB_STATES
 
 
 class ServiceError(Exception):
@@ -167,14 +167,8 @@ def _job_body(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
     raise ValueError(f"unknown kind {args.kind}")
 
 
-def submit(args: argparse.Namespace) -> int:
-    """``bioplan submit``: run one job on a server and print its result.
-
-    Returns:
-        0 when the job succeeded, 1 when it failed or was cancelled, 2 for bad input.
-    """
-    client = Client(args.server, token=args.token, timeout=args.http_timeout)
-    quiet = args.json or not sys.stderr.isatty()
+def _progress_shower(quiet: bool) -> Any:
+    """A callback that draws a job's progress on stderr (or nothing when ``quiet``)."""
 
     def show(job: dict[str, Any]) -> None:
         if not quiet:
@@ -185,42 +179,66 @@ def submit(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
 
+    return show
+
+
+def _request_of(client: Client, args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
+    """The endpoint and body of the job; ``analyze`` uploads its files first."""
+    if args.kind != "analyze":
+        return _job_body(args)
+    fields = {
+        k: str(v)
+        for k, v in (("subject", args.subject), ("task", args.task),
+                     ("load_kg", args.load_kg), ("emg_rate", args.emg_rate))
+        if v is not None
+    }  # fmt: skip
+    if args.muscle:
+        fields["muscle_map"] = json.dumps(dict(m.split("=", 1) for m in args.muscle))
+    rec = client.upload([Path(f) for f in args.files], fields)
+    print(f"uploaded recording {rec['id']}", file=sys.stderr)
+    return "/api/analyses", {"recording_id": rec["id"]}
+
+
+def _run_job(client: Client, args: argparse.Namespace) -> tuple[dict[str, Any], Any]:
+    """Submit, wait, fetch: (the final job, its result resource or None when it did not
+    succeed or ``--no-wait``)."""
+    path, body = _request_of(client, args)
+    job = client.request("POST", path, json_body=body)
+    print(f"job {job['id']} ({job['kind']}) queued: {args.server}{job['result_url']}",
+          file=sys.stderr)  # fmt: skip
+    if args.no_wait:
+        return job, None
+    quiet = args.json or not sys.stderr.isatty()
+    job = client.wait(job["id"], timeout=args.timeout, on_progress=_progress_shower(quiet))
+    if not quiet:
+        print(file=sys.stderr)
+    if job["state"] != "succeeded":
+        return job, None
+    return job, client.request("GET", job["result_url"])
+
+
+def submit(args: argparse.Namespace) -> int:
+    """``bioplan submit``: run one job on a server and print its result.
+
+    Returns:
+        0 when the job succeeded, 1 when it failed or was cancelled, 2 for bad input.
+    """
+    client = Client(args.server, token=args.token, timeout=args.http_timeout)
     try:
-        if args.kind == "analyze":
-            fields = {
-                k: str(v)
-                for k, v in (("subject", args.subject), ("task", args.task),
-                             ("load_kg", args.load_kg), ("emg_rate", args.emg_rate))
-                if v is not None
-            }  # fmt: skip
-            if args.muscle:
-                mapping = dict(m.split("=", 1) for m in args.muscle)
-                fields["muscle_map"] = json.dumps(mapping)
-            rec = client.upload([Path(f) for f in args.files], fields)
-            print(f"uploaded recording {rec['id']}", file=sys.stderr)
-            path, body = "/api/analyses", {"recording_id": rec["id"]}
-        else:
-            path, body = _job_body(args)
-        job = client.request("POST", path, json_body=body)
-        print(f"job {job['id']} ({job['kind']}) queued: {args.server}{job['result_url']}",
-              file=sys.stderr)  # fmt: skip
-        if args.no_wait:
-            print(json.dumps(job, indent=2))
-            return EXIT_OK
-        job = client.wait(job["id"], timeout=args.timeout, on_progress=show)
-        if not quiet:
-            print(file=sys.stderr)
-        if job["state"] != "succeeded":
-            print(f"bioplan submit: job {job['id']} {job['state']}: {job['error'] or ''}",
-                  file=sys.stderr)  # fmt: skip
-            return EXIT_FAILED
-        out = client.request("GET", job["result_url"])
+        job, out = _run_job(client, args)
     except ServiceError as exc:
         print(f"bioplan submit: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT if 400 <= exc.status < 500 else EXIT_FAILED
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError) as exc:  # unreadable files, malformed --template JSON
         print(f"bioplan submit: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    if args.no_wait:
+        print(json.dumps(job, indent=2))
+        return EXIT_OK
+    if out is None:
+        print(f"bioplan submit: job {job['id']} {job['state']}: {job['error'] or ''}",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_FAILED
     result = out.get("result")
     if args.out:
         # Like `bioplan analyze --out`: the template; otherwise the result JSON.
@@ -255,14 +273,18 @@ def register(sub: Any) -> None:
     kinds = p.add_subparsers(dest="kind", required=True)
 
     def task_args(q: argparse.ArgumentParser) -> None:
-        q.add_argument("--robot", default="curtain_wall_6dof")
+        q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
         q.add_argument("--duration", type=float, default=1.0, help="motion time [s]")
         q.add_argument("--payload", type=float, default=None, help="payload [kg]")
-        q.add_argument("--objective", default="abs_work")
-        q.add_argument("--seed", type=int, default=0)
-        q.add_argument("--particles", type=int, default=40)
-        q.add_argument("--iterations", type=int, default=100)
-        q.add_argument("--peak-angle-deg", type=float, default=None)
+        q.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
+        q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
+        q.add_argument("--particles", type=int, default=PSO_DEFAULTS.particles, help="swarm size")
+        q.add_argument(
+            "--iterations", type=int, default=PSO_DEFAULTS.iterations, help="PSO iterations"
+        )
+        q.add_argument(
+            "--peak-angle-deg", type=float, default=None, help="elbow velocity-peak angle [deg]"
+        )
         q.add_argument("--start-deg", default=None, help="start joint angles, comma-separated")
         q.add_argument("--goal-deg", default=None, help="goal joint angles, comma-separated")
         q.add_argument("--template", default=None, help="HumanTemplate JSON file")
@@ -270,16 +292,18 @@ def register(sub: Any) -> None:
     task_args(kinds.add_parser("plan", help="bioplan plan, on the server"))
     task_args(kinds.add_parser("simulate", help="bioplan simulate, on the server"))
     q = kinds.add_parser("sweep", help="bioplan sweep, on the server")
-    q.add_argument("--robot", default="curtain_wall_6dof")
-    q.add_argument("--durations", default="0.5,0.75,1.0,1.5,2.0")
-    q.add_argument("--payloads", default="0,4,8,12,20")
-    q.add_argument("--objectives", default="abs_work")
-    q.add_argument("--seed", type=int, default=0)
+    q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
+    q.add_argument("--durations", default="0.5,0.75,1.0,1.5,2.0", help="comma-separated [s]")
+    q.add_argument("--payloads", default="0,4,8,12,20", help="comma-separated [kg]")
+    q.add_argument("--objectives", default="abs_work", help="comma-separated metric names")
+    q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
     q = kinds.add_parser("analyze", help="upload recordings and analyse them on the server")
-    q.add_argument("files", nargs="+")
-    q.add_argument("--subject", default=None)
-    q.add_argument("--task", default=None)
-    q.add_argument("--load-kg", type=float, default=None)
-    q.add_argument("--emg-rate", type=float, default=None)
-    q.add_argument("--muscle", action="append", default=None, metavar="LABEL=SITE")
+    q.add_argument("files", nargs="+", help="recording files of one session")
+    q.add_argument("--subject", default=None, help="who lifted")
+    q.add_argument("--task", default=None, help="what was lifted, how")
+    q.add_argument("--load-kg", type=float, default=None, help="load lifted [kg]")
+    q.add_argument("--emg-rate", type=float, default=None, help="override the EMG rate [Hz]")
+    q.add_argument(
+        "--muscle", action="append", default=None, metavar="LABEL=SITE", help="map a channel"
+    )
     p.set_defaults(handler=submit)

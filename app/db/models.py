@@ -6,7 +6,7 @@ parsed channels (arrays as compressed ``.npy`` bytes), jobs, and one result tabl
 id, so ``/api/plans/7`` is the result of job 7. Uploaded robots (URDF + optional MJCF) have their
 own table; built-in robots come from the planning package and are not stored.
 
-The schema is owned by the Alembic migrations in ``migrations/``; keep them in step.
+The schema is owned by the Alembic migrations in ``app/db/migrations/``; keep them in step.
 """
 
 from __future__ import annotations
@@ -30,6 +30,8 @@ from sqlalchemy import (
 from sqlalchemy.engine import Dialect
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 
+from app import names as _names
+
 # Named constraints so migrations (and SQLite batch mode) can refer to them.
 NAMING_CONVENTION = {
     "ix": "ix_%(column_0_label)s",
@@ -39,8 +41,9 @@ NAMING_CONVENTION = {
     "pk": "pk_%(table_name)s",
 }
 
-JOB_STATES = ("queued", "running", "succeeded", "failed", "cancelled")
-TERMINAL_STATES = frozenset({"succeeded", "failed", "cancelled"})
+#: Job states and the ones a job never leaves (one home: ``app.names``).
+JOB_STATES = _names.JOB_STATES
+TERMINAL_STATES = _names.TERMINAL_JOB_STATES
 JOB_KINDS = ("analysis", "plan", "simulation", "sweep")
 
 
@@ -170,7 +173,13 @@ class JobRecord(Base):
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     kind: Mapped[str] = mapped_column(String(16), index=True)
     state: Mapped[str] = mapped_column(String(16), index=True, default="queued")
+    #: Structured progress (``app.progress.Progress``): the overall fraction in [0, 1], the
+    #: stage running, its units done of all, the best objective so far, a line for people.
     progress: Mapped[float] = mapped_column(Float, default=0.0)
+    stage: Mapped[str] = mapped_column(String(32), default="")
+    done: Mapped[int] = mapped_column(Integer, default=0)
+    of: Mapped[int] = mapped_column(Integer, default=1)
+    best: Mapped[float | None] = mapped_column(Float)
     message: Mapped[str] = mapped_column(Text, default="")
     error: Mapped[str | None] = mapped_column(Text)
     #: the request, with the CLI's field names.

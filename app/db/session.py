@@ -7,40 +7,55 @@ code with a ``postgresql+psycopg://`` URL.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.orm import Session, sessionmaker
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-MIGRATIONS_DIR = REPO_ROOT / "migrations"
-ALEMBIC_INI = REPO_ROOT / "alembic.ini"
+#: The Alembic environment and versions, shipped inside the package (``app/db/migrations``), so
+#: an installed wheel migrates its database exactly as a source checkout does.
+MIGRATIONS_DIR = Path(str(files("app.db.migrations")))
 
 
-def _sqlite_on_connect(dbapi_connection: Any, connection_record: Any) -> None:
-    del connection_record
-    cursor = dbapi_connection.cursor()
-    try:
-        cursor.execute("PRAGMA journal_mode=WAL")
-        cursor.execute("PRAGMA foreign_keys=ON")
-        # NORMAL is durable across process crashes in WAL mode (only an OS crash may lose the
-        # last commits), and much faster than FULL for the job-progress writes.
-        cursor.execute("PRAGMA synchronous=NORMAL")
-        cursor.execute("PRAGMA busy_timeout=30000")
-    finally:
-        cursor.close()
+def _sqlite_pragmas(*, foreign_keys: bool) -> Callable[[Any, Any], None]:
+    """A connect hook: WAL, foreign keys on or off, NORMAL sync, a busy timeout."""
+
+    def on_connect(dbapi_connection: Any, connection_record: Any) -> None:
+        del connection_record
+        cursor = dbapi_connection.cursor()
+        try:
+            cursor.execute("PRAGMA journal_mode=WAL")
+            cursor.execute(f"PRAGMA foreign_keys={'ON' if foreign_keys else 'OFF'}")
+            # NORMAL is durable across process crashes in WAL mode (only an OS crash may lose
+            # the last commits), and much faster than FULL for the job-progress writes.
+            cursor.execute("PRAGMA synchronous=NORMAL")
+            cursor.execute("PRAGMA busy_timeout=30000")
+        finally:
+            cursor.close()
+
+    return on_connect
 
 
-def make_engine(url: str, **kwargs: Any) -> Engine:
-    """An engine for ``url`` with the pragmas and pool settings this service expects."""
+def make_engine(url: str, *, for_migrations: bool = False, **kwargs: Any) -> Engine:
+    """An engine for ``url`` with the pragmas and pool settings this service expects.
+
+    Args:
+        url: SQLAlchemy URL.
+        for_migrations: SQLite only: leave foreign keys unenforced (Alembic's batch mode
+            recreates tables, and dropping a referenced table would cascade).
+    """
     if url.startswith("sqlite"):
         if url.startswith("sqlite:///") and not url.startswith("sqlite:///:memory:"):
             Path(url.removeprefix("sqlite:///")).parent.mkdir(parents=True, exist_ok=True)
         engine = create_engine(
             url, connect_args={"check_same_thread": False, "timeout": 30}, **kwargs
         )
-        event.listen(engine, "connect", _sqlite_on_connect)
+        # SQLite's batch migrations copy a table, drop the old one and rename the copy: with
+        # foreign keys enforced, dropping ``jobs`` would cascade into every result row.
+        event.listen(engine, "connect", _sqlite_pragmas(foreign_keys=not for_migrations))
         return engine
     return create_engine(url, pool_pre_ping=True, **kwargs)
 
@@ -50,11 +65,15 @@ def make_sessionmaker(engine: Engine) -> sessionmaker[Session]:
 
 
 def alembic_config(url: str) -> Any:
-    """An Alembic ``Config`` for ``url`` that does not touch the logging configuration."""
+    """An Alembic ``Config`` for ``url`` that does not touch the logging configuration.
+
+    Built in code (no ``alembic.ini`` needed): the scripts come from the installed package.
+    """
     from alembic.config import Config
 
-    cfg = Config(str(ALEMBIC_INI) if ALEMBIC_INI.is_file() else None)
+    cfg = Config()
     cfg.set_main_option("script_location", str(MIGRATIONS_DIR))
+    cfg.set_main_option("path_separator", "os")
     # ConfigParser interpolation: a literal % in a password must be doubled.
     cfg.set_main_option("sqlalchemy.url", url.replace("%", "%%"))
     cfg.attributes["configure_logger"] = False

@@ -16,6 +16,9 @@ Cancellation semantics:
 - queued job: removed from the queue at once (both runners).
 - running job, local runner: its process group is terminated (SIGTERM) at once; any result it
   had not yet sent is discarded.
+- the server dies (even SIGKILL), local runner: the fork server, every job process and what
+  they started die with it at once (``app.jobs._lifeline``: kernel parent-death signals and a
+  group reaper per job, no polling).
 - running job, Dask: a distributed ``Event`` is set and the future cancelled; the job function
   stops at its next progress report (the progress callback raises ``JobCancelled``), since Dask
   cannot interrupt a running task.
@@ -31,6 +34,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import queue
 import signal
 import threading
 import time
@@ -43,6 +47,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from app.errors import BioPlanError
+from app.jobs._lifeline import die_with_parent, reap_group_on_exit
 from app.progress import Progress, ProgressFn
 
 logger = logging.getLogger(__name__)
@@ -142,20 +147,22 @@ class JobRunner(ABC):
 # ------------------------------------------------------------------------------------ local
 
 
-def _watch_parent(original_ppid: int) -> None:
-    # The job process is a child of the fork server, which exits when the API process dies;
-    # then this process is re-parented. Kill the whole process group (the job and anything it
-    # started) instead of computing for nobody.
-    while True:
-        time.sleep(0.5)
-        if os.getppid() != original_ppid:
-            os.killpg(0, signal.SIGKILL)
-
-
-def _child_main(target: Target, job_id: int, kind: str, payload: dict[str, Any], conn: Any) -> None:
+def _child_main(
+    target: Target,
+    job_id: int,
+    kind: str,
+    payload: dict[str, Any],
+    conn: Any,
+    server_pid: int,
+) -> None:
     """Body of a local job process: run the target, send progress and the outcome."""
+    fork_server = os.getppid()
     os.setsid()  # own process group, so cancel can stop helpers the job starts (sweep pools)
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+    # Before any thread starts: the reaper is forked from a single-threaded process.
+    reap_group_on_exit()
+    die_with_parent(fork_server)
+    if not _alive(server_pid):  # the server died before the fork server could take us along
+        os.killpg(0, signal.SIGKILL)
     last = [0.0]
 
     def progress(update: Progress) -> None:
@@ -174,6 +181,54 @@ def _child_main(target: Target, job_id: int, kind: str, payload: dict[str, Any],
         conn.send(("error", describe_error(exc)))
     finally:
         conn.close()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else (pid reused): not our server
+        return False
+    return True
+
+
+# The fork server dies with the thread that started it (``prctl(PR_SET_PDEATHSIG)`` in
+# ``app.jobs._forkserver``), so it is always started from this one thread, which lives as long as
+# the process: never from a runner's monitor thread (a runner that shuts down would take the
+# fork server, and every other runner's jobs, with it) nor from a short-lived worker thread.
+_keeper_requests: queue.Queue[tuple[threading.Event, list[BaseException]]] = queue.Queue()
+_keeper_lock = threading.Lock()
+_keeper: threading.Thread | None = None
+
+
+def _forkserver_keeper() -> None:
+    from multiprocessing import forkserver
+
+    while True:
+        done, errors = _keeper_requests.get()
+        try:
+            forkserver.ensure_running()
+        except BaseException as exc:  # handed to the caller
+            errors.append(exc)
+        finally:
+            done.set()
+
+
+def ensure_forkserver() -> None:
+    """Start multiprocessing's fork server (if it is not running) from the keeper thread."""
+    global _keeper
+    with _keeper_lock:
+        if _keeper is None:
+            _keeper = threading.Thread(
+                target=_forkserver_keeper, name="bioplan-forkserver-keeper", daemon=True
+            )
+            _keeper.start()
+    done, errors = threading.Event(), list[BaseException]()
+    _keeper_requests.put((done, errors))
+    done.wait()
+    if errors:
+        raise errors[0]
 
 
 @dataclass
@@ -221,7 +276,8 @@ class LocalRunner(JobRunner):
         self.max_workers = max_workers
         self._target = target or _default_target()
         self._ctx = mp.get_context("forkserver")
-        self._preload = list(preload)
+        # The fork server first ties its life to the server's, then imports what jobs need.
+        self._preload = ["app.jobs._forkserver", *preload]
         self._pending: deque[_Pending] = deque()
         self._running: dict[int, _Running] = {}
         self._starting: dict[int, bool] = {}  # job id -> cancel requested while starting
@@ -320,12 +376,13 @@ class LocalRunner(JobRunner):
             reader, writer = self._ctx.Pipe(duplex=False)
             proc = self._ctx.Process(
                 target=_child_main,
-                args=(self._target, job.job_id, job.kind, job.payload, writer),
+                args=(self._target, job.job_id, job.kind, job.payload, writer, os.getpid()),
                 name=f"bioplan-job-{job.job_id}",
                 daemon=False,  # a sweep may start its own worker pool
             )
             try:
                 # Outside the lock: the first start waits for the fork server to import.
+                ensure_forkserver()
                 proc.start()
             except Exception as exc:
                 logger.exception("cannot start job %d", job.job_id)
@@ -386,11 +443,10 @@ class LocalRunner(JobRunner):
             run.process.close()
 
     def _monitor(self) -> None:
-        from multiprocessing import forkserver
         from multiprocessing.connection import wait
 
         try:
-            forkserver.ensure_running()  # import the science packages once, now
+            ensure_forkserver()  # import the science packages once, now
         except Exception:  # pragma: no cover - reported when a job starts
             logger.exception("cannot start the fork server")
         while not self._stop.is_set():

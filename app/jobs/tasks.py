@@ -12,7 +12,6 @@ Robot specs in payloads are ``{"name": str}`` for a built-in robot, or ``{"name"
 
 from __future__ import annotations
 
-import contextlib
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -21,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from app.errors import BioPlanError
+from app.names import PSO_DEFAULTS
 from app.planning.jsonsafe import json_safe
 from app.progress import ProgressFn, no_progress, report
 
@@ -55,8 +56,7 @@ def preload() -> None:
         "scipy.signal",
     )
     for name in modules:
-        with contextlib.suppress(ImportError):  # a package not written yet
-            importlib.import_module(name)
+        importlib.import_module(name)
 
 
 # ------------------------------------------------------------------------------ recordings
@@ -139,8 +139,20 @@ def analyse(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict
 
 
 @contextmanager
-def _robot(spec: dict[str, Any], payload_kg: float | None = None) -> Iterator[Any]:
-    """Load the robot of a spec; uploaded files are written to a temporary folder."""
+def robot_from_spec(spec: dict[str, Any], payload_kg: float | None = None) -> Iterator[Any]:
+    """Load the robot of a job's spec; uploaded files are written to a temporary folder.
+
+    Args:
+        spec: ``{"name"}`` for a built-in robot, or ``{"name", "urdf", "mjcf", "payload"}``
+            with the uploaded files' bytes.
+        payload_kg: payload [kg]; None takes the spec's, then the model's default.
+
+    Yields:
+        The loaded ``app.planning.robots.Robot`` (its files exist while the context is open).
+
+    Raises:
+        RobotError: the model cannot be loaded (a ``BioPlanError``).
+    """
     load_robot = _entry("app.planning.robots", "load_robot")
     payload = payload_kg if payload_kg is not None else spec.get("payload")
     if spec.get("urdf") is None:
@@ -166,9 +178,9 @@ def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
     """Joints and limits of a robot (SI units: rad, rad/s, Nm; payload in kg).
 
     Raises:
-        ValueError (``RobotError``): the model cannot be loaded; one-line message.
+        RobotError: the model cannot be loaded; one-line message.
     """
-    with _robot(spec) as robot:
+    with robot_from_spec(spec) as robot:
         described: dict[str, Any] = json_safe(
             {
                 "name": spec["name"],
@@ -200,7 +212,7 @@ def _task(robot: Any, start_deg: list[float] | None, goal_deg: list[float] | Non
         if values is None:
             continue
         if len(values) != n:
-            raise ValueError(f"{name} needs {n} angles for {robot.name}, got {len(values)}")
+            raise BioPlanError(f"{name} needs {n} angles for {robot.name}, got {len(values)}")
         target[:] = np.radians(np.asarray(values, float))
     return PlanTask(start, goal)
 
@@ -225,9 +237,9 @@ def _planning_options(robot: Any, payload: dict[str, Any]) -> dict[str, Any]:
         "task": _task(robot, payload.get("start_deg"), payload.get("goal_deg")),
         "duration": float(payload["duration"]),
         "objective": payload.get("objective", "abs_work"),
-        "seed": int(payload.get("seed", 0)),
-        "particles": int(payload.get("particles", 40)),
-        "iterations": int(payload.get("iterations", 100)),
+        "seed": int(payload.get("seed", PSO_DEFAULTS.seed)),
+        "particles": int(payload.get("particles", PSO_DEFAULTS.particles)),
+        "iterations": int(payload.get("iterations", PSO_DEFAULTS.iterations)),
         "peak_angle_deg": payload.get("peak_angle_deg"),
         "template": _template(payload),
     }
@@ -244,10 +256,10 @@ def plan(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[st
         ``{"result": PlanResult.to_dict(), "arrays": PlanResult.arrays()}``.
     """
     run_plan = _entry("app.planning", "plan")
-    with _robot(payload["robot"], payload.get("payload")) as robot:
+    with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
         result = run_plan(
             robot,
-            n_samples=int(payload.get("n_samples", 100)),
+            n_samples=int(payload.get("n_samples", PSO_DEFAULTS.n_samples)),
             progress=progress,
             **_planning_options(robot, payload),
         )
@@ -263,7 +275,7 @@ def simulate(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dic
         ``{"result": SimulationResult.to_dict(), "arrays": SimulationResult.arrays()}``.
     """
     simulate_comparison = _entry("app.simulation", "simulate_comparison")
-    with _robot(payload["robot"], payload.get("payload")) as robot:
+    with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
         result = simulate_comparison(robot, progress=progress, **_planning_options(robot, payload))
     return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
 
@@ -277,7 +289,7 @@ def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
     """
     run_sweep = _entry("app.simulation", "run_sweep")
     budget = {k: int(payload[k]) for k in ("particles", "iterations") if payload.get(k)}
-    with _robot(payload["robot"]) as robot:
+    with robot_from_spec(payload["robot"]) as robot:
         result = run_sweep(
             robot=robot,
             durations=[float(d) for d in payload["durations"]],
@@ -306,22 +318,3 @@ def run_task(kind: str, payload: dict[str, Any], progress: ProgressFn) -> dict[s
     except KeyError:
         raise ValueError(f"unknown job kind {kind!r} (expected one of {sorted(TASKS)})") from None
     return fn(payload, progress)
-
-
-def entry_points() -> dict[str, bool]:
-    """Which science entry points exist in this installation (for health and tests)."""
-    import importlib
-
-    def has(module: str, name: str) -> bool:
-        try:
-            return hasattr(importlib.import_module(module), name)
-        except ImportError:
-            return False
-
-    return {
-        "parse": has("app.recordings", "read_bytes"),
-        "analysis": has("app.analysis", "analyze_recordings"),
-        "plan": has("app.planning", "plan") and has("app.planning.robots", "load_robot"),
-        "simulation": has("app.simulation", "simulate_comparison"),
-        "sweep": has("app.simulation", "run_sweep"),
-    }

@@ -1,15 +1,15 @@
 """A finished comparison (plan or simulation), as the viewer and the Compare page use it.
 
 ``Comparison`` holds both trajectories on one time grid in SI units, the phase of every sample,
-the robot's URDF text and payload; ``load_comparison`` reads one from the service's database.
-The planner's arrays differ a little between plans and simulations (a simulation has measured
-``q``/``qd`` and commanded ``qdd_cmd``); this is the one place that knows.
+the robot's URDF text and payload; ``comparison_from_arrays`` builds one from a job's stored
+arrays and result (``app.services.comparisons`` reads those from the database). The planner's
+arrays differ a little between plans and simulations (a simulation has measured ``q``/``qd``
+and commanded ``qdd_cmd``); this is the one place that knows.
 """
 
 from __future__ import annotations
 
 import math
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,20 +18,22 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from app.names import PHASE_BOUNDS_DEG
+from app.names import PHASES as _PHASES
+
 if TYPE_CHECKING:
-    from app.api.deps import Services
     from app.planning.robots import Robot
 
 FloatArray = NDArray[np.float64]
 Kind = Literal["plan", "simulation"]
 KINDS: tuple[Kind, ...] = ("plan", "simulation")
 LABELS = ("standard", "optimized")
-#: Phase names and what they mean in a curl (DESIGN.md).
-PHASES = {"A": "high-load capacity", "B": "weakest load", "C": "deceleration"}
+#: Phase names and what they mean in a curl (``app.names.PHASES``).
+PHASES = {p.name: p.label for p in _PHASES}
 
 
 class ComparisonError(LookupError):
-    """A comparison cannot be shown: unknown, not finished, or its arrays are missing."""
+    """Stored arrays that do not make a comparison (a key missing, a shape wrong)."""
 
 
 @dataclass(frozen=True)
@@ -204,6 +206,40 @@ def _get(arrays: Mapping[str, Any], key: str) -> FloatArray:
     return np.asarray(arrays[key], dtype=np.float64)
 
 
+def _task_and_bounds(
+    conditions: Mapping[str, Any], robot: Robot
+) -> tuple[Any, tuple[float, float]]:
+    """The job's task (start and goal [rad]) and phase bounds [deg], from its conditions."""
+    from app.planning.planner import PlanTask
+
+    start = np.radians(np.asarray(conditions.get("start_deg", np.degrees(robot.default_start))))
+    goal = np.radians(np.asarray(conditions.get("goal_deg", np.degrees(robot.default_goal))))
+    task = PlanTask(np.asarray(start, float), np.asarray(goal, float))
+    bounds_raw = conditions.get("phase_bounds_deg") or PHASE_BOUNDS_DEG
+    return task, (float(bounds_raw[0]), float(bounds_raw[1]))
+
+
+def _trajectory(
+    arrays: Mapping[str, Any], label: str, kind: str, t: FloatArray, n_joints: int
+) -> dict[str, FloatArray]:
+    """One trajectory's ``q, qd, qdd, tau`` (T, n) and ``power, energy`` (T,), shapes checked."""
+    acc_key = "qdd" if kind == "plan" else "qdd_cmd"
+    out: dict[str, FloatArray] = {}
+    for name, key in (("q", "q"), ("qd", "qd"), ("qdd", acc_key), ("tau", "tau")):
+        arr = _get(arrays, f"{label}_{key}")
+        if arr.shape != (len(t), n_joints):
+            raise ComparisonError(
+                f"{label}_{key} has shape {arr.shape}: expected ({len(t)}, {n_joints})"
+            )
+        out[name] = arr
+    for name in ("power", "energy"):
+        arr = _get(arrays, f"{label}_{name}")
+        if arr.shape != t.shape:
+            raise ComparisonError(f"{label}_{name} has shape {arr.shape}: expected {t.shape}")
+        out[name] = arr
+    return out
+
+
 def comparison_from_arrays(
     kind: Kind,
     result_id: int,
@@ -227,39 +263,22 @@ def comparison_from_arrays(
     Raises:
         ComparisonError: an array is missing or has the wrong shape.
     """
-    from app.planning.planner import PlanTask, elbow_flexion_deg
+    from app.planning.planner import elbow_flexion_deg
 
     if kind not in KINDS:
         raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
     t = _get(arrays, "t")
-    n_joints = len(robot.joint_names)
     conditions = dict(result.get("conditions") or {})
-    start = np.radians(np.asarray(conditions.get("start_deg", np.degrees(robot.default_start))))
-    goal = np.radians(np.asarray(conditions.get("goal_deg", np.degrees(robot.default_goal))))
-    task = PlanTask(np.asarray(start, float), np.asarray(goal, float))
-    bounds_raw = conditions.get("phase_bounds_deg") or (40.0, 90.0)
-    bounds = (float(bounds_raw[0]), float(bounds_raw[1]))
-    acc_key = "qdd" if kind == "plan" else "qdd_cmd"
+    task, bounds = _task_and_bounds(conditions, robot)
     data: dict[str, dict[str, FloatArray]] = {
         k: {} for k in ("q", "qd", "qdd", "tau", "power", "energy", "flex")
     }
     times: dict[str, tuple[float, float]] = {}
     for label in LABELS:
-        for name, key in (("q", "q"), ("qd", "qd"), ("qdd", acc_key), ("tau", "tau")):
-            arr = _get(arrays, f"{label}_{key}")
-            if arr.shape != (len(t), n_joints):
-                raise ComparisonError(
-                    f"{label}_{key} has shape {arr.shape}: expected ({len(t)}, {n_joints})"
-                )
-            data[name][label] = arr
-        for name in ("power", "energy"):
-            arr = _get(arrays, f"{label}_{name}")
-            if arr.shape != t.shape:
-                raise ComparisonError(f"{label}_{name} has shape {arr.shape}: expected {t.shape}")
+        for name, arr in _trajectory(arrays, label, kind, t, len(robot.joint_names)).items():
             data[name][label] = arr
         # Phases follow the commanded elbow in a simulation (as the simulator reports them).
-        q_phase = arrays.get(f"{label}_q_cmd", data["q"][label])
-        q_phase = np.asarray(q_phase, dtype=np.float64)
+        q_phase = np.asarray(arrays.get(f"{label}_q_cmd", data["q"][label]), dtype=np.float64)
         flex = elbow_flexion_deg(q_phase[:, robot.elbow_joint], task, robot.elbow_joint)
         data["flex"][label] = np.asarray(flex, dtype=np.float64)
         times[label] = crossing_times(t, data["flex"][label], bounds)
@@ -286,67 +305,4 @@ def comparison_from_arrays(
         payload_com=np.asarray(payload.com, dtype=np.float64),
         payload_size=np.asarray(payload.size, dtype=np.float64),
         result=dict(result),
-    )
-
-
-def load_robot_spec(spec: Mapping[str, Any], payload: float | None) -> tuple[Robot, str]:
-    """Load a robot from a job spec: ``{"name"}`` (built in) or uploaded URDF/MJCF bytes.
-
-    Returns:
-        The robot (with ``payload`` kg, or its default when None) and its URDF text.
-    """
-    from app.planning.robots import load_robot
-
-    if spec.get("urdf") is None:
-        robot = load_robot(str(spec["name"]), payload=payload)
-        return robot, Path(robot.urdf_path).read_text()
-    with tempfile.TemporaryDirectory(prefix="bioplan-viewer-") as tmp:
-        # Fixed file names: the user's names are never used as paths.
-        urdf = Path(tmp) / "robot.urdf"
-        urdf.write_bytes(spec["urdf"])
-        mjcf = None
-        if spec.get("mjcf") is not None:
-            mjcf = Path(tmp) / "robot.xml"
-            mjcf.write_bytes(spec["mjcf"])
-        robot = load_robot(str(urdf), payload=payload, mjcf=None if mjcf is None else str(mjcf))
-        return robot, urdf.read_text()
-
-
-def load_comparison(services: Services, kind: str, result_id: int) -> Comparison:
-    """Read a finished plan or simulation from the service's database.
-
-    Raises:
-        ComparisonError: unknown kind or id, the job has not succeeded, or no arrays.
-    """
-    from sqlalchemy import select
-    from sqlalchemy.orm import undefer
-
-    from app.db.arrays import decode_arrays
-    from app.db.models import RESULT_MODELS, JobRecord
-
-    if kind not in KINDS:
-        raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
-    model: Any = RESULT_MODELS[kind]
-    with services.sessions() as session:
-        row = session.scalars(
-            select(model).where(model.id == result_id).options(undefer(model.arrays))
-        ).first()
-        if row is None:
-            raise ComparisonError(f"{kind} {result_id} does not exist")
-        job = session.get(JobRecord, result_id)
-        state = "unknown" if job is None else job.state
-        if row.result is None or row.arrays is None:
-            raise ComparisonError(f"{kind} {result_id} has no result yet (job state {state})")
-        result = dict(row.result)
-        arrays = decode_arrays(row.arrays)
-        spec = services.jobs.robot_spec(session, row.robot)
-    payload = (result.get("conditions") or {}).get("payload")
-    robot, urdf = load_robot_spec(spec, None if payload is None else float(payload))
-    return comparison_from_arrays(
-        kind,
-        result_id,
-        arrays,
-        result,
-        robot,
-        urdf=urdf,
     )

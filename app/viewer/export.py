@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from app.names import METRICS
+from app.names import PHASES as PHASE_INFO
 from app.viewer.comparison import LABELS, PHASES, Comparison
 from app.viewer.scene import (
     COLORS,
@@ -22,6 +24,7 @@ from app.viewer.scene import (
     Layout,
     PreparedComparison,
     configure_lighting,
+    rgb,
 )
 
 #: Frames per second of the recorded animation (a 1 s plan records 30 poses).
@@ -90,40 +93,37 @@ def _fmt(value: Any) -> str:
     return html.escape(str(value))
 
 
+#: Units of the metrics and of the floors in a result.
 UNITS = {
-    "tau_sq": "N²m²s",
-    "abs_work": "J",
-    "pos_work": "J",
-    "electrical_energy": "J",
-    "peak_power": "W",
-    "peak_torque": "Nm",
+    **{m.name: m.unit for m in METRICS.values()},
     "delta_potential": "J",
     "min_peak_power": "W",
 }
+#: How the trajectories are called in the report.
+TRAJECTORY_NAMES = {"standard": "standard quintic", "optimized": "bio-inspired"}
 
 
-def report_html(comparison: Comparison) -> str:
-    """A self-contained HTML report: metrics with floors and the curves, phases shaded."""
+def _curves_figure(c: Comparison) -> Any:
+    """Power, energy, and the elbow's velocity, torque, flexion and acceleration: both
+    trajectories in each of six panels."""
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    c = comparison
-    names = {"standard": "standard quintic", "optimized": "bio-inspired"}
-    colors = {label: "rgb({},{},{})".format(*COLORS[label]) for label in LABELS}
+    e = c.elbow_joint
+    elbow = c.joint_names[e]
     fig = make_subplots(
         rows=3,
         cols=2,
         subplot_titles=(
             "Mechanical power Σ|τ·ω| [W]",
             "Cumulative energy [J]",
-            f"Elbow velocity ({c.joint_names[c.elbow_joint]}) [rad/s]",
-            f"Elbow torque ({c.joint_names[c.elbow_joint]}) [Nm]",
+            f"Elbow velocity ({elbow}) [rad/s]",
+            f"Elbow torque ({elbow}) [Nm]",
             "Elbow flexion [deg]",
             "Elbow acceleration [rad/s²]",
         ),
         vertical_spacing=0.09,
     )
-    e = c.elbow_joint
     series = (
         (1, 1, c.power),
         (1, 2, c.energy),
@@ -134,40 +134,16 @@ def report_html(comparison: Comparison) -> str:
     )
     for row, col, data in series:
         for label in LABELS:
-            fig.add_trace(
-                go.Scatter(
-                    x=c.t,
-                    y=data[label],
-                    name=names[label],
-                    legendgroup=label,
-                    showlegend=row == 1 and col == 1,
-                    line={"color": colors[label], "width": 2},
-                ),
-                row=row,
-                col=col,
+            trace = go.Scatter(
+                x=c.t,
+                y=data[label],
+                name=TRAJECTORY_NAMES[label],
+                legendgroup=label,
+                showlegend=row == 1 and col == 1,
+                line={"color": "rgb({},{},{})".format(*COLORS[label]), "width": 2},
             )
-    # Phases of the optimised motion, shaded in every panel.
-    t_ab, t_bc = c.phase_times["optimized"]
-    edges = [float(c.t[0]), t_ab, t_bc, float(c.t[-1])]
-    shades = {
-        "A": "rgba(46,160,67,0.08)",
-        "B": "rgba(212,160,23,0.10)",
-        "C": "rgba(207,34,46,0.07)",
-    }
-    for (phase, shade), x0, x1 in zip(shades.items(), edges[:-1], edges[1:], strict=True):
-        if math.isnan(x0) or math.isnan(x1) or x1 <= x0:
-            continue
-        fig.add_vrect(
-            x0=x0,
-            x1=x1,
-            fillcolor=shade,
-            line_width=0,
-            layer="below",
-            row="all",
-            col="all",
-            annotation_text=phase,
-            annotation_position="top left",
-        )
+            fig.add_trace(trace, row=row, col=col)
+    _shade_phases(fig, c)
     fig.update_layout(
         height=980,
         template="plotly_white",
@@ -175,36 +151,72 @@ def report_html(comparison: Comparison) -> str:
         legend={"orientation": "h", "y": 1.05},
     )
     fig.update_xaxes(title_text="t [s]", row=3)
-    body = fig.to_html(full_html=False, include_plotlyjs=True)
+    return fig
+
+
+def _shade_phases(fig: Any, c: Comparison) -> None:
+    """The optimised motion's A/B/C phases, shaded in every panel in their shared colours."""
+    t_ab, t_bc = c.phase_times["optimized"]
+    edges = [float(c.t[0]), t_ab, t_bc, float(c.t[-1])]
+    for phase, x0, x1 in zip(PHASE_INFO, edges[:-1], edges[1:], strict=True):
+        if math.isnan(x0) or math.isnan(x1) or x1 <= x0:
+            continue
+        fig.add_vrect(
+            x0=x0,
+            x1=x1,
+            fillcolor="rgba({},{},{},0.09)".format(*rgb(phase.colour)),
+            line_width=0,
+            layer="below",
+            row="all",
+            col="all",
+            annotation_text=phase.name,
+            annotation_position="top left",
+        )
+
+
+def _tables(result: dict[str, Any]) -> tuple[str, str, str]:
+    """The metrics rows, the floors rows and the conditions line of a result, as HTML."""
     rows = "".join(
         f"<tr><td>{html.escape(k)}</td><td>{UNITS.get(k, '')}</td><td>{_fmt(s)}</td>"
         f"<td>{_fmt(o)}</td><td>{_fmt(p)}</td></tr>"
-        for k, s, o, p in _metric_rows(c.result)
+        for k, s, o, p in _metric_rows(result)
     )
     floors = "".join(
         f"<tr><td>{html.escape(k)}</td><td>{UNITS.get(k, '')}</td><td>{_fmt(v)}</td></tr>"
-        for k, v in (c.result.get("floors") or {}).items()
+        for k, v in (result.get("floors") or {}).items()
     )
-    cond = c.result.get("conditions") or {}
+    cond = result.get("conditions") or {}
     conditions = ", ".join(
         f"{html.escape(str(k))} {_fmt(cond.get(k))}"
         for k in ("robot", "payload", "duration", "objective", "seed")
         if k in cond
     )
+    return rows, floors, conditions
+
+
+_REPORT_STYLE = """body { font: 14px/1.45 system-ui, sans-serif; margin: 24px auto;
+  max-width: 1100px; color: #1f2328; padding: 0 16px; }
+table { border-collapse: collapse; margin: 8px 0 20px; }
+th, td { border-bottom: 1px solid #d0d7de; padding: 4px 12px; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+.note { color: #57606a; }"""
+
+
+def report_html(comparison: Comparison) -> str:
+    """A self-contained HTML report: metrics with floors and the curves, phases shaded."""
+    c = comparison
+    body = _curves_figure(c).to_html(full_html=False, include_plotlyjs=True)
+    rows, floors, conditions = _tables(c.result)
     phase_text = "; ".join(f"{p}: {html.escape(d)}" for p, d in PHASES.items())
+    title = html.escape(c.title)
     return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
-<title>{html.escape(c.title)} — BioPlan report</title>
+<title>{title} — BioPlan report</title>
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <style>
-body {{ font: 14px/1.45 system-ui, sans-serif; margin: 24px auto; max-width: 1100px;
-  color: #1f2328; padding: 0 16px; }}
-table {{ border-collapse: collapse; margin: 8px 0 20px; }}
-th, td {{ border-bottom: 1px solid #d0d7de; padding: 4px 12px; text-align: right; }}
-th:first-child, td:first-child {{ text-align: left; }}
-.note {{ color: #57606a; }}
+{_REPORT_STYLE}
 </style></head><body>
-<h1>{html.escape(c.title)}</h1>
+<h1>{title}</h1>
 <p class="note">{conditions}. Improvement = 100 (standard − optimised) / standard: positive
 means the bio-inspired plan uses less. Phases (shaded, optimised motion): {phase_text}.</p>
 <h2>Metrics</h2>

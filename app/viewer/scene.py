@@ -20,6 +20,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from app.names import METHODS, PHASES
 from app.viewer.comparison import LABELS, Comparison
 from app.viewer.kinematics import UrdfChain, load_urdf, matrices_to_wxyz
 
@@ -28,10 +29,20 @@ Layout = Literal["ghost", "side_by_side"]
 LAYOUTS: tuple[Layout, ...] = ("ghost", "side_by_side")
 
 ROOT = "/bioplan"
-#: RGB colours: standard blue, optimised amber (the Compare page uses the same pair).
-COLORS = {"standard": (37, 99, 235), "optimized": (234, 140, 20)}
+
+
+def rgb(colour: str) -> tuple[int, int, int]:
+    """``(r, g, b)`` of a CSS hex colour ``#rrggbb``."""
+    value = colour.lstrip("#")
+    return int(value[0:2], 16), int(value[2:4], 16), int(value[4:6], 16)
+
+
+#: RGB colours of the two trajectories: the standard quintic's and the paper's method's
+#: (``app.names.METHODS``, the palette the Compare page and the reports use).
+COLORS = {"standard": rgb(METHODS["quintic"].colour), "optimized": rgb(METHODS["paper"].colour)}
 PAYLOAD_COLOR = (120, 170, 200)
-PHASE_COLORS = {"A": (46, 160, 67), "B": (212, 160, 23), "C": (207, 34, 46)}
+#: The A/B/C phase marks on the traces (``app.names.PHASES``).
+PHASE_COLORS = {phase.name: rgb(phase.colour) for phase in PHASES}
 GHOST_OPACITY = 0.4
 #: End-effector trace: a thin tube of at most this many rings of TRACE_SIDES vertices [m].
 TRACE_SAMPLES = 120

@@ -26,8 +26,10 @@ loopback unless told otherwise.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import re
+import sys
 import threading
 import time
 from collections import deque
@@ -38,7 +40,13 @@ from typing import Any
 from app.viewer.comparison import LABELS, PHASES, Comparison
 from app.viewer.playback import SPEEDS, PlaybackClock, Player, TickStats
 from app.viewer.plots import power_plot
-from app.viewer.scene import ComparisonScene, Layout, PreparedComparison, configure_lighting
+from app.viewer.scene import (
+    COLORS,
+    ComparisonScene,
+    Layout,
+    PreparedComparison,
+    configure_lighting,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -210,15 +218,18 @@ class ViewerServer:
 
         if self._server is not None:
             return self.port
-        server = viser.ViserServer(
-            host=self.host, port=self.requested_port, label="BioPlan viewer", verbose=False
-        )
+        # viser prints a banner on stdout whatever ``verbose`` says; stdout is the CLI's (the
+        # ``--json`` of ``bioplan serve`` is one object there).
+        with contextlib.redirect_stdout(sys.stderr):
+            server = viser.ViserServer(
+                host=self.host, port=self.requested_port, label="BioPlan viewer", verbose=False
+            )
         server.gui.configure_theme(
             control_layout="floating",
             control_width="medium",
             show_logo=False,
             show_share_button=False,
-            brand_color=(37, 99, 235),
+            brand_color=COLORS["standard"],
         )
         server.scene.set_up_direction("+z")
         configure_lighting(server.scene)
@@ -234,7 +245,8 @@ class ViewerServer:
     def stop(self) -> None:
         self.player.stop()
         if self._server is not None:
-            self._server.stop()
+            with contextlib.redirect_stdout(sys.stderr):
+                self._server.stop()
             self._server = None
         with self._lock:
             self._sessions.clear()
@@ -332,65 +344,65 @@ class ViewerServer:
             client.camera.up_direction = (0.0, 0.0, 1.0)
             client.camera.position = position
             client.camera.look_at = look_at
-            gui = client.gui
-            gui.add_markdown(f"**{c.title}**  \nblue: standard quintic · amber: bio-inspired")
-            play = gui.add_button("Pause" if self.autoplay else "Play", icon="player-pause")
-            speed = gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x")
-            time_slider = gui.add_slider(
-                "Time [s]", min=0.0, max=round(c.duration, 3), step=0.01, initial_value=0.0
-            )
-            layout = gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="ghost overlay")
-            phase = gui.add_markdown(_phase_text({label: "A" for label in LABELS}))
-            plot = gui.add_uplot(
-                power_plot(c, 0.0),
-                (
-                    {"label": "t [s]"},
-                    {"label": "standard [W]", "stroke": "#2563eb", "width": 2},
-                    {"label": "optimised [W]", "stroke": "#ea8c14", "width": 2},
-                    {"label": "now", "stroke": "#444", "width": 1, "scale": "cursor"},
-                ),
-                title="Mechanical power Σ|τ·ω| [W]",
-                scales={"x": {"time": False}, "cursor": {"range": (0.0, 1.0)}},
-                axes=({}, {"size": 44}),
-                aspect=1.6,
-                legend={"show": True},
-            )
+            gui = _add_gui(client.gui, c, autoplay=self.autoplay)
         clock = PlaybackClock(c.duration)
         session = ViewerSession(
-            client=client,
-            kind=kind,
-            id=result_id,
-            scene=scene,
-            clock=clock,
-            gui={"play": play, "time": time_slider, "phase": phase, "plot": plot},
+            client=client, kind=kind, id=result_id, scene=scene, clock=clock, gui=gui
         )
-
-        def on_play(_: Any) -> None:
-            session.toggle()
-
-        def on_speed(_: Any) -> None:
-            session.set_speed(_SPEED_NAMES[speed.value])
-
-        def on_time(event: Any) -> None:
-            if event.client is None:
-                return  # our own update from the playback loop
-            with session.lock:
-                session.clock.pause()
-                play.label, play.icon = "Play", "player-play"
-            session.seek(float(time_slider.value))
-
-        def on_layout(_: Any) -> None:
-            session.set_layout(_LAYOUT_NAMES[layout.value])
-
-        play.on_click(on_play)
-        speed.on_update(on_speed)
-        time_slider.on_update(on_time)
-        layout.on_update(on_layout)
+        _wire(session, gui)
         if self.autoplay:
             clock.play()
         else:
-            play.icon = "player-play"
+            gui["play"].icon = "player-play"
         return session
+
+
+def _add_gui(gui: Any, c: Comparison, *, autoplay: bool) -> dict[str, Any]:
+    """A tab's controls: play, speed, time, layout, the phase of the moment, the power curve."""
+    standard, optimized = ("#{:02x}{:02x}{:02x}".format(*COLORS[k]) for k in LABELS)
+    gui.add_markdown(f"**{c.title}**  \nblue: standard quintic · amber: bio-inspired")
+    handles = {
+        "play": gui.add_button("Pause" if autoplay else "Play", icon="player-pause"),
+        "speed": gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x"),
+        "time": gui.add_slider(
+            "Time [s]", min=0.0, max=round(c.duration, 3), step=0.01, initial_value=0.0
+        ),
+        "layout": gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="ghost overlay"),
+        "phase": gui.add_markdown(_phase_text({label: "A" for label in LABELS})),
+    }
+    handles["plot"] = gui.add_uplot(
+        power_plot(c, 0.0),
+        (
+            {"label": "t [s]"},
+            {"label": "standard [W]", "stroke": standard, "width": 2},
+            {"label": "optimised [W]", "stroke": optimized, "width": 2},
+            {"label": "now", "stroke": "#444", "width": 1, "scale": "cursor"},
+        ),
+        title="Mechanical power Σ|τ·ω| [W]",
+        scales={"x": {"time": False}, "cursor": {"range": (0.0, 1.0)}},
+        axes=({}, {"size": 44}),
+        aspect=1.6,
+        legend={"show": True},
+    )
+    return handles
+
+
+def _wire(session: ViewerSession, gui: dict[str, Any]) -> None:
+    """Connect a tab's controls to its session."""
+    play, speed, time_slider, layout = gui["play"], gui["speed"], gui["time"], gui["layout"]
+
+    def on_time(event: Any) -> None:
+        if event.client is None:
+            return  # our own update from the playback loop
+        with session.lock:
+            session.clock.pause()
+            play.label, play.icon = "Play", "player-play"
+        session.seek(float(time_slider.value))
+
+    play.on_click(lambda _: session.toggle())
+    speed.on_update(lambda _: session.set_speed(_SPEED_NAMES[speed.value]))
+    time_slider.on_update(on_time)
+    layout.on_update(lambda _: session.set_layout(_LAYOUT_NAMES[layout.value]))
 
 
 def _url_host(host: str) -> str:

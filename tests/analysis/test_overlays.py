@@ -12,7 +12,7 @@ from app.analysis import AnalysisOverlays, AnalysisResult, OverlaysError, analyz
 from app.analysis.overlays import downsample_with_gaps
 from app.db.arrays import decode_arrays, encode_arrays
 from app.recordings import read_bytes
-from app.viewer.demo_seed import DEMO_MUSCLES, DEMO_NAME, synthetic_curls, synthetic_curls_csv
+from app.services.demo import DEMO_MUSCLES, DEMO_NAME, synthetic_curls, synthetic_curls_csv
 
 
 @pytest.fixture(scope="module")

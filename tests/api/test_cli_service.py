@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import socket
 import subprocess
 import sys
 import time
@@ -13,11 +15,8 @@ import httpx
 import pytest
 
 from app.cli.serve import serve
-from app.jobs.tasks import entry_points
-from tests.api.test_crash_recovery import Server
-from tests.conftest import REPO_ROOT, shared_file
-
-pytestmark = pytest.mark.skipif(not entry_points()["plan"], reason="app.planning.plan missing")
+from tests.utils.data import shared_file
+from tests.utils.server import Server, free_port
 
 
 @pytest.fixture(scope="module")
@@ -27,14 +26,81 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     s.cleanup()
 
 
-def bioplan(*args: str) -> subprocess.CompletedProcess[str]:
+def bioplan(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
         [sys.executable, "-m", "app.cli", *args],
-        cwd=REPO_ROOT,
+        cwd=cwd,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=300,
     )
+
+
+def test_a_busy_port_is_one_line_naming_the_port_and_the_option(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        out = bioplan("serve", "--port", str(port), "--data-dir", str(tmp_path / "d"))
+    assert out.returncode == 2, out.stderr
+    errors = [line for line in out.stderr.splitlines() if "error" in line]
+    assert errors == [
+        f"bioplan serve: error: port {port} on 127.0.0.1 is already in use: "
+        "choose another with --port or BIOPLAN_PORT"
+    ]
+    assert out.stdout == ""
+    assert not (tmp_path / "d").exists()  # nothing was started, migrated or written
+
+
+def test_an_unreachable_database_is_one_line_without_its_password(tmp_path: Path) -> None:
+    env = {**os.environ, "BIOPLAN_DATABASE_URL": "postgresql+psycopg://u:s3cret@127.0.0.1:9/x"}
+    out = subprocess.run(
+        [sys.executable, "-m", "app.cli", "serve", "--port", str(free_port())],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert out.returncode == 1, out.stderr
+    assert "s3cret" not in out.stderr and "u:***@127.0.0.1:9/x" in out.stderr
+    errors = [line for line in out.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and errors[0].startswith(
+        "bioplan serve: error: cannot use the database"
+    )
+    assert out.stdout == ""
+
+
+def test_serve_json_prints_one_object_once_the_server_answers(tmp_path: Path) -> None:
+    port, viewer_port = free_port(), free_port()
+    env = {**os.environ, "BIOPLAN_VIEWER_PORT": str(viewer_port), "BIOPLAN_LOG_LEVEL": "info"}
+    env.pop("BIOPLAN_VIEWER", None)  # the viewer runs (and prints its banner elsewhere)
+    args = [sys.executable, "-m", "app.cli", "serve", "--json", "--port", str(port)]
+    proc = subprocess.Popen(
+        [*args, "--data-dir", str(tmp_path / "data")],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()  # blocks until the server prints
+        # Printed only after the server answered: it answers now, without any wait.
+        assert httpx.get(f"http://127.0.0.1:{port}/api/health", timeout=10).status_code == 200
+        ready = json.loads(line)
+        assert ready == {
+            "url": f"http://127.0.0.1:{port}/",
+            "viewer": {
+                "enabled": True,
+                "url": f"http://127.0.0.1:{viewer_port}",
+                "host": "127.0.0.1",
+                "port": viewer_port,
+            },
+        }
+        assert httpx.get(ready["url"], timeout=10).text.startswith("<!doctype html>")
+    finally:
+        proc.terminate()
+        out, _ = proc.communicate(timeout=60)
+    assert out == ""  # exactly one JSON object on stdout
 
 
 def test_serve_refuses_an_open_bind_without_token(
@@ -58,8 +124,6 @@ def test_submit_plan_prints_the_cli_json(server: Server) -> None:
 
 
 def test_submit_analyze_uploads_and_writes_the_template(server: Server, tmp_path: Path) -> None:
-    if not entry_points()["analysis"]:
-        pytest.skip("app.analysis.analyze_recordings missing")
     path = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
     target = tmp_path / "template.json"
     out = bioplan("submit", "--server", server.url, "--out", str(target), "analyze", str(path),
@@ -105,30 +169,3 @@ def test_sse_streams_while_the_job_runs(server: Server) -> None:
     assert time.monotonic() - t0 < 60
     assert any(e["state"] == "running" and 0 < e["progress"] < 1 for e in seen)
     assert cancelled and names[-1] == "done" and seen[-1]["state"] == "cancelled"
-
-
-def test_the_python_example_in_the_docs_runs(
-    server: Server, capsys: pytest.CaptureFixture[str]
-) -> None:
-    if not entry_points()["analysis"]:
-        pytest.skip("app.analysis.analyze_recordings missing")
-    doc = (REPO_ROOT / "README.md").read_text()
-    block = doc.split("<!-- example: scripted-use", 1)[1].split("```python\n", 1)[1]
-    code = block.split("```", 1)[0]
-    path = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
-    assert 'open("curl_emg.csv", "rb")' in code and "http://127.0.0.1:8000" in code
-    code = code.replace('open("curl_emg.csv", "rb")', f"open({str(path)!r}, 'rb')")
-    code = code.replace("http://127.0.0.1:8000", server.url)
-    namespace: dict[str, object] = {}
-    try:
-        exec(compile(code, "README.md", "exec"), namespace)
-    finally:
-        api = namespace.get("api")
-        if isinstance(api, httpx.Client):
-            api.close()
-    plan = namespace["plan"]
-    arrays = namespace["arrays"]
-    assert isinstance(plan, dict) and isinstance(arrays, dict)
-    assert plan["result"]["conditions"]["robot"] == "curtain_wall_6dof"
-    assert "abs_work" in capsys.readouterr().out
-    assert len(arrays["t"]) == 200

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import yaml
 
 from app.config import Settings
-from tests.conftest import REPO_ROOT
+from tests.utils.data import REPO_ROOT
+from tests.utils.packaging import build_wheel, copy_tree, tracked_files, wheel_files
 
 COMPOSE = REPO_ROOT / "docker" / "compose.yaml"
 DOCKERFILE = REPO_ROOT / "Dockerfile"
@@ -42,9 +44,53 @@ def test_compose_has_app_scheduler_two_workers_and_postgres() -> None:
     assert services["app"]["command"] == ["bioplan", "serve"]
 
 
-def test_dockerfile_installs_the_code_with_its_migrations() -> None:
-    text = DOCKERFILE.read_text()
-    for needed in ("COPY migrations", "COPY alembic.ini", "COPY app", "psycopg", "USER bioplan"):
-        assert needed in text, needed
-    assert 'CMD ["bioplan", "serve"]' in text
-    assert "EXPOSE 8000" in text
+def _stages() -> dict[str, list[str]]:
+    """Dockerfile instructions per stage (continuation lines joined), by stage name."""
+    text = re.sub(r"\\\n\s*", " ", DOCKERFILE.read_text())
+    stages: dict[str, list[str]] = {}
+    current = ""
+    for line in text.splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        if line.startswith("FROM "):
+            parts = line.split()
+            current = parts[3] if len(parts) > 3 and parts[2].upper() == "AS" else "image"
+            stages[current] = []
+        stages[current].append(line)
+    return stages
+
+
+def _copy_sources(lines: list[str]) -> list[str]:
+    sources = []
+    for line in lines:
+        if line.startswith("COPY ") and "--from=" not in line:
+            sources += line.split()[1:-1]
+    return sources
+
+
+def test_the_image_installs_the_wheel_built_from_what_it_copies(tmp_path: Path) -> None:
+    """The image's application files are the wheel's: its first stage builds the wheel from the
+    files it copies, and that wheel equals the one built from the repository."""
+    stages = _stages()
+    assert set(stages) == {"wheel", "image"}
+    build = stages["wheel"]
+    assert any("pip wheel --no-deps --wheel-dir /wheels ." in line for line in build)
+    sources = _copy_sources(build)
+    tracked = tracked_files()
+    copied = [
+        f for f in tracked if any(f == s or f.startswith(s.rstrip("/") + "/") for s in sources)
+    ]
+    from_docker = build_wheel(copy_tree(copied, tmp_path / "docker"), tmp_path / "d")
+    from_repo = build_wheel(copy_tree(tracked, tmp_path / "repo"), tmp_path / "r")
+    assert wheel_files(from_docker) == wheel_files(from_repo)
+    # The image takes nothing else from the build context but the dependency list.
+    image = stages["image"]
+    assert _copy_sources(image) == ["pyproject.toml"]
+    assert "COPY --from=wheel /wheels /wheels" in image
+    assert any("pip install --no-deps /wheels/*.whl" in line for line in image)
+    for needed in ("psycopg", "USER bioplan", "EXPOSE 8000", 'CMD ["bioplan", "serve"]'):
+        assert any(needed in line for line in image), needed
+    ignored = (REPO_ROOT / ".dockerignore").read_text().split()
+    for name in (".venv", "data", ".git"):
+        assert name in ignored, name

@@ -6,17 +6,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-import pytest
-
-from app.jobs.tasks import entry_points
-from tests.api.conftest import TestClient, assert_problem, wait_job
-from tests.conftest import shared_file
+from tests.utils.api import TestClient, assert_problem, read_sse, wait_job
+from tests.utils.data import shared_file
 
 NORAXON = "noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv"
-HAS = entry_points()
-needs_analysis = pytest.mark.skipif(
-    not (HAS["analysis"] and HAS["parse"]), reason="app.analysis.analyze_recordings missing"
-)
 
 
 def _json(value: Any) -> Any:
@@ -26,20 +19,6 @@ def _json(value: Any) -> Any:
     return json.loads(json.dumps(json_safe(value)))
 
 
-def read_sse(client: TestClient, url: str) -> list[tuple[str, dict[str, Any]]]:
-    events = []
-    with client.stream("GET", url) as r:
-        assert r.status_code == 200
-        assert r.headers["content-type"].startswith("text/event-stream")
-        name = None
-        for line in r.iter_lines():
-            if line.startswith("event: "):
-                name = line.removeprefix("event: ")
-            elif line.startswith("data: ") and name is not None:
-                events.append((name, json.loads(line.removeprefix("data: "))))
-    return events
-
-
 def _upload(client: TestClient, path: Path, **form: str) -> int:
     r = client.post("/api/recordings", files=[("files", (path.name, path.read_bytes()))], data=form)
     assert r.status_code == 201, r.text
@@ -47,7 +26,6 @@ def _upload(client: TestClient, path: Path, **form: str) -> int:
     return rid
 
 
-@needs_analysis
 def test_analysis_result_and_template_equal_the_library(client: TestClient) -> None:
     from app.analysis import analyze_recordings
     from app.recordings import read_bytes
@@ -94,7 +72,6 @@ def test_job_errors_are_problems(client: TestClient, tmp_path: Path) -> None:
     assert_problem(r, 422, field="phase_bounds_deg")
 
 
-@needs_analysis
 def test_a_job_whose_input_vanished_fails_with_the_reason(
     client: TestClient, tmp_path: Path
 ) -> None:
@@ -117,7 +94,6 @@ def test_a_job_whose_input_vanished_fails_with_the_reason(
     assert jobs["total"] == 1 and jobs["items"][0]["id"] == job["id"]
 
 
-@needs_analysis
 def test_session_of_two_files_analysed_together(client: TestClient) -> None:
     from app.analysis import analyze_recordings
     from app.recordings import read_bytes

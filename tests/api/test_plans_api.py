@@ -8,10 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app.jobs.tasks import entry_points
-from tests.api.conftest import TestClient, assert_problem, wait_job
-
-pytestmark = pytest.mark.skipif(not entry_points()["plan"], reason="app.planning.plan missing")
+from tests.utils.api import TestClient, assert_problem, wait_job
 
 TINY = {"robot": "human_arm_2dof", "duration": 1.0, "particles": 8, "iterations": 5}
 

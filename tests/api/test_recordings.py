@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.api.conftest import TestClient, assert_problem, make_client
-from tests.conftest import shared_file
+from tests.utils.api import TestClient, assert_problem, make_client
+from tests.utils.data import shared_file
 
 NORAXON = "noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv"
 MEDIAPIPE = "mediapipe_bicep_curl_frames/test.csv"
@@ -174,7 +174,7 @@ def test_list_filters_paging_and_delete(client: TestClient, tmp_path: Path) -> N
 
 
 def test_response_cache_never_serves_a_page_older_than_a_write() -> None:
-    from app.api.deps import ResponseCache
+    from app.services import ResponseCache
 
     cache = ResponseCache(maxsize=2)
     v = cache.version

@@ -6,22 +6,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from tests.api.conftest import TestClient, assert_problem
-
-TWO_LINK_URDF = """<?xml version="1.0"?>
-<robot name="two_link">
-  <link name="base"/>
-  <link name="upper"><inertial><origin xyz="0 0 -0.15"/><mass value="2.0"/>
-    <inertia ixx="0.02" iyy="0.02" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <link name="fore"><inertial><origin xyz="0 0 -0.12"/><mass value="1.5"/>
-    <inertia ixx="0.01" iyy="0.01" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
-    <axis xyz="0 1 0"/><limit lower="-1.0" upper="2.5" effort="80" velocity="3.0"/></joint>
-  <joint name="elbow" type="revolute"><parent link="upper"/><child link="fore"/>
-    <origin xyz="0 0 -0.3"/><axis xyz="0 1 0"/>
-    <limit lower="0.0" upper="2.6" effort="40" velocity="5.0"/></joint>
-</robot>
-"""
+from tests.utils.api import TestClient, assert_problem
 
 
 def urdf_limits(text: str) -> dict[str, list[float]]:
@@ -52,14 +37,14 @@ def test_builtins_are_listed_with_their_limits(client: TestClient) -> None:
     assert len(robots["curtain_wall_6dof"]["joint_names"]) == 6
 
 
-def test_upload_a_urdf_then_use_and_delete_it(client: TestClient) -> None:
-    files = {"urdf": ("arm.urdf", TWO_LINK_URDF.encode(), "application/xml")}
+def test_upload_a_urdf_then_use_and_delete_it(client: TestClient, two_link_urdf: str) -> None:
+    files = {"urdf": ("arm.urdf", two_link_urdf.encode(), "application/xml")}
     r = client.post("/api/robots", data={"name": "lab_arm", "payload": "2.5"}, files=files)
     assert r.status_code == 201, r.text
     info = r.json()
     assert (info["name"], info["builtin"], info["payload"]) == ("lab_arm", False, 2.5)
     assert not info["has_mjcf"] and info["urdf_name"] == "arm.urdf"
-    for key, value in urdf_limits(TWO_LINK_URDF).items():
+    for key, value in urdf_limits(two_link_urdf).items():
         assert info[key] == value, key
     assert client.get("/api/robots/lab_arm").json() == info
     assert "lab_arm" in [x["name"] for x in client.get("/api/robots").json()]
@@ -71,13 +56,13 @@ def test_upload_a_urdf_then_use_and_delete_it(client: TestClient) -> None:
     assert_problem(client.delete("/api/robots/human_arm_2dof"), 409)
 
 
-def test_bad_models_are_422_naming_the_file(client: TestClient) -> None:
-    broken = TWO_LINK_URDF.replace('effort="40" ', "")  # a limit without effort
+def test_bad_models_are_422_naming_the_file(client: TestClient, two_link_urdf: str) -> None:
+    broken = two_link_urdf.replace('effort="40" ', "")  # a limit without effort
     for name, text in (("broken.urdf", broken), ("junk.urdf", "<robot")):
         r = client.post("/api/robots", data={"name": "bad"}, files={"urdf": (name, text.encode())})
         assert_problem(r, 422, file=name)
     r = client.post(
-        "/api/robots", data={"name": "../x"}, files={"urdf": ("a.urdf", TWO_LINK_URDF.encode())}
+        "/api/robots", data={"name": "../x"}, files={"urdf": ("a.urdf", two_link_urdf.encode())}
     )
     assert_problem(r, 422, field="name")
     assert [x["builtin"] for x in client.get("/api/robots").json()] == [True, True]

@@ -21,7 +21,7 @@ from schemathesis.python.asgi import shutdown_lifespans
 
 from app.config import Settings
 from app.main import create_app
-from tests.jobs.test_service import RecordingRunner
+from tests.utils.jobs import RecordingRunner
 
 #: Generated requests per operation and generation mode (about 30 operations).
 EXAMPLES = 12
@@ -30,7 +30,8 @@ EXAMPLES = 12
 @pytest.fixture(scope="module")
 def schema(tmp_path_factory: pytest.TempPathFactory) -> Any:
     tmp: Path = tmp_path_factory.mktemp("schemathesis")
-    app = create_app(Settings(data_dir=tmp / "data", max_upload_mb=1), runner=RecordingRunner())
+    settings = Settings(data_dir=tmp / "data", max_upload_mb=1, viewer=False)
+    app = create_app(settings, runner=RecordingRunner())
     loaded = schemathesis.openapi.from_asgi("/openapi.json", app)  # starts the lifespan
     try:
         # Something to find: a recording, a job of each kind.

@@ -8,7 +8,7 @@ import pytest
 from pydantic import ValidationError
 
 from app.config import Settings, is_loopback
-from tests.api.conftest import assert_problem, make_client
+from tests.utils.api import assert_problem, make_client
 
 
 @pytest.mark.parametrize(

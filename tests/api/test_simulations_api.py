@@ -5,16 +5,9 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 
-from app.jobs.tasks import entry_points
-from tests.api.conftest import TestClient, assert_problem, wait_job
-from tests.api.test_jobs_api import read_sse
+from tests.utils.api import TestClient, assert_problem, read_sse, wait_job
 
-pytestmark = pytest.mark.skipif(
-    not (entry_points()["simulation"] and entry_points()["sweep"]),
-    reason="app.simulation.simulate_comparison / run_sweep missing",
-)
 COMPARED = ("standard", "optimized", "tracking", "floors", "improvement_pct")
 
 

@@ -67,3 +67,34 @@ def test_0002_keeps_existing_analyses(db_url: str) -> None:
             assert conn.execute(text("SELECT count(*) FROM analyses")).scalar() == 1
     finally:
         engine.dispose()
+
+
+def test_0003_adds_structured_progress_and_loses_no_row(db_url: str) -> None:
+    """Jobs and their results survive 0003 both ways; old jobs read as "no progress yet".
+
+    SQLite recreates ``jobs`` to drop columns; with foreign keys enforced that would cascade
+    into the result tables, so the migrations run with them off.
+    """
+    engine = make_engine(db_url)
+    try:
+        upgrade(db_url, "0002")
+        with engine.begin() as conn:
+            conn.execute(
+                text(
+                    "INSERT INTO jobs (id, kind, state, progress, message, params, attempts,"
+                    " created_at, updated_at) VALUES (3, 'plan', 'running', 0.5, 'PSO',"
+                    " '{}', 1, CURRENT_TIMESTAMP, CURRENT_TIMESTAMP)"
+                )
+            )
+            conn.execute(text("INSERT INTO plans (id, robot) VALUES (3, 'human_arm_2dof')"))
+        upgrade(db_url, "0003")
+        with engine.connect() as conn:
+            row = conn.execute(text("SELECT progress, stage, done, of, best FROM jobs")).one()
+        assert tuple(row) == (0.5, "", 0, 1, None)
+        downgrade(db_url, "0002")
+        assert "stage" not in {c["name"] for c in inspect(engine).get_columns("jobs")}
+        with engine.connect() as conn:
+            assert conn.execute(text("SELECT count(*) FROM jobs")).scalar() == 1
+            assert conn.execute(text("SELECT count(*) FROM plans")).scalar() == 1
+    finally:
+        engine.dispose()

@@ -11,17 +11,19 @@ import uuid
 from pathlib import Path
 from typing import Any
 
+import httpx
 import numpy as np
 import pytest
 
-from tests.conftest import shared_file
-from tests.frontend.conftest import LiveServer, screenshot
+from tests.utils.browser import new_context, screenshot
+from tests.utils.data import shared_file
+from tests.utils.server import Server
 
 C3D = "pyomeca_upperlimb_c3d_emg/markers_analogs.c3d"
 NORAXON_CSV = "noraxon_curls_biceps_brachioradialis/2023-04-20-15-06_BR_posredni.csv"
 
 
-def wait_for(predicate: Any, timeout: float = 30.0, what: str = "condition") -> Any:
+def wait_for(predicate: Any, timeout: float = 120.0, what: str = "condition") -> Any:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         value = predicate()
@@ -38,7 +40,7 @@ def signal_names(page: Any, plot: str) -> list[str]:
     return [n for n in names if not n.startswith(overlay) and not n.endswith(" onsets")]
 
 
-def post_files(server: LiveServer, files: list[tuple[str, bytes]]) -> tuple[int, dict[str, Any]]:
+def post_files(server: Server, files: list[tuple[str, bytes]]) -> tuple[int, dict[str, Any]]:
     """Upload through the API directly (the reference for what the page must show)."""
     boundary = uuid.uuid4().hex
     body = io.BytesIO()
@@ -56,15 +58,15 @@ def post_files(server: LiveServer, files: list[tuple[str, bytes]]) -> tuple[int,
         headers={"Content-Type": f"multipart/form-data; boundary={boundary}"},
     )
     try:
-        with urllib.request.urlopen(request, timeout=30) as response:
+        with urllib.request.urlopen(request, timeout=120) as response:
             return response.status, json.load(response)
     except urllib.error.HTTPError as exc:
         with exc:
             return exc.code, json.load(exc)
 
 
-def demo_ids(server: LiveServer) -> dict[str, int]:
-    jobs = server.api("/api/jobs?limit=200")["items"]
+def demo_ids(server: Server) -> dict[str, int]:
+    jobs = server.get("/api/jobs?limit=200")["items"]
     first = {}
     for j in sorted(jobs, key=lambda j: j["id"]):
         if j["state"] == "succeeded":
@@ -72,7 +74,7 @@ def demo_ids(server: LiveServer) -> dict[str, int]:
     return first
 
 
-def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any) -> None:
+def test_upload_a_real_file_and_see_its_plots(live_server: Server, page: Any) -> None:
     path = shared_file(C3D)
     page.goto(f"{live_server.url}/#/recordings")
     page.wait_for_selector("#recordings-table")
@@ -81,18 +83,18 @@ def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any
     page.fill("#subject", "pyomeca S1")
     page.fill("#task", "box handling")
     page.click("#upload-button")
-    link = page.wait_for_selector("#upload-error a", timeout=60_000)
+    link = page.wait_for_selector("#upload-error a")
     assert page.locator("#upload-progress").get_attribute("aria-valuenow") == "100"
     assert "Stored as recording #" in page.inner_text("#upload-error")
     rec_id = int(link.get_attribute("href").rsplit("/", 1)[1])
-    detail = live_server.api(f"/api/recordings/{rec_id}")
+    detail = live_server.get(f"/api/recordings/{rec_id}")
     assert detail["subject"] == "pyomeca S1" and detail["file_names"] == [path.name]
     # The new recording is in the list, found by the search box.
     page.fill("#search", "pyomeca S1")
     page.wait_for_selector(f'#recordings-body tr[data-id="{rec_id}"]')
 
     link.click()
-    page.wait_for_selector("#emg-plot .main-svg", timeout=30_000)
+    page.wait_for_selector("#emg-plot .main-svg")
     # One raw trace per EMG channel mapped to a site (deltoid, biceps, triceps sites).
     mapped = [c for f in detail["files"] for c in f["channels"] if c["kind"] == "emg" and c["site"]]
     assert len(mapped) >= 3
@@ -102,7 +104,7 @@ def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any
     )
     assert {f"{c['name']} raw" for c in mapped} <= set(signal_names(page, "emg-plot"))
     # Angles and velocities from the markers, lifts with phases in the table.
-    page.wait_for_selector("#angle-plot .main-svg", timeout=30_000)
+    page.wait_for_selector("#angle-plot .main-svg")
     assert signal_names(page, "angle-plot") == [
         "elbow flexion",
         "shoulder flexion",
@@ -110,7 +112,7 @@ def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any
         "shoulder velocity",
     ]
     page.wait_for_selector("#lifts-table tbody tr")
-    analysis = live_server.api(f"/api/viewer/recordings/{rec_id}/analysis?points=50")
+    analysis = live_server.get(f"/api/viewer/recordings/{rec_id}/analysis?points=50")
     assert page.locator("#lifts-table tbody tr").count() == len(analysis["lifts"]) > 0
     # Every A phase of the analysis is shaded on the angle plot (angles and velocities).
     shaded = page.evaluate(
@@ -122,28 +124,28 @@ def test_upload_a_real_file_and_see_its_plots(live_server: LiveServer, page: Any
     screenshot(page, "recording-detail")
 
 
-def test_detail_page_runs_a_missing_analysis(live_server: LiveServer, page: Any) -> None:
+def test_detail_page_runs_a_missing_analysis(live_server: Server, page: Any) -> None:
     """A recording stored by REST without an analysis: its page starts the job, follows it and
     then draws the overlays the job stored."""
-    from app.viewer.demo_seed import synthetic_curls_csv
+    from app.services import synthetic_curls_csv
 
     status, rec = post_files(live_server, [("three_curls.csv", synthetic_curls_csv(lifts=3))])
     assert status == 201, rec
-    assert live_server.api(f"/api/analyses?recording_id={rec['id']}")["total"] == 0
+    assert live_server.get(f"/api/analyses?recording_id={rec['id']}")["total"] == 0
     page.goto(f"{live_server.url}/#/recordings/{rec['id']}")
-    page.wait_for_selector("#analysis-status .progress", timeout=30_000)
-    page.wait_for_selector("#lifts-table tbody tr", timeout=60_000)
-    jobs = live_server.api(f"/api/analyses?recording_id={rec['id']}")["items"]
+    page.wait_for_selector("#analysis-status .progress")
+    page.wait_for_selector("#lifts-table tbody tr")
+    jobs = live_server.get(f"/api/analyses?recording_id={rec['id']}")["items"]
     assert len(jobs) == 1 and jobs[0]["job"]["state"] == "succeeded"
     assert page.locator("#lifts-table tbody tr").count() == 3
     names = page.evaluate("document.getElementById('angle-plot').data.map(d => d.name)")
     assert "elbow flexion" in names
 
 
-def test_zoom_loads_the_window(live_server: LiveServer, page: Any) -> None:
-    rec = live_server.api("/api/recordings?subject=demo%20subject")["items"][0]["id"]
+def test_zoom_loads_the_window(live_server: Server, page: Any) -> None:
+    rec = live_server.get("/api/recordings?subject=demo%20subject")["items"][0]["id"]
     page.goto(f"{live_server.url}/#/recordings/{rec}")
-    page.wait_for_selector("#angle-plot .main-svg", timeout=30_000)
+    page.wait_for_selector("#angle-plot .main-svg")
     first_raw = "document.getElementById('emg-plot').data.find(d => d.name.endsWith(' raw'))"
     full = page.evaluate(f"{first_raw}.x.length")
     page.evaluate(
@@ -163,7 +165,7 @@ def test_zoom_loads_the_window(live_server: LiveServer, page: Any) -> None:
 
 
 def test_a_bad_file_shows_the_servers_message(
-    live_server: LiveServer, page: Any, tmp_path: Path
+    live_server: Server, page: Any, tmp_path: Path
 ) -> None:
     good = shared_file(NORAXON_CSV)
     bad = tmp_path / "truncated.c3d"
@@ -172,20 +174,20 @@ def test_a_bad_file_shows_the_servers_message(
         live_server, [(good.name, good.read_bytes()), (bad.name, bad.read_bytes())]
     )
     assert status == 422 and problem["file"] == bad.name
-    before = live_server.api("/api/recordings")["total"]
+    before = live_server.get("/api/recordings")["total"]
 
     page.goto(f"{live_server.url}/#/recordings")
     page.set_input_files("#file-input", [str(good), str(bad)])
     page.click("#upload-button")
-    error = page.wait_for_selector(f'li[data-name="{bad.name}"] .file-error', timeout=30_000)
+    error = page.wait_for_selector(f'li[data-name="{bad.name}"] .file-error')
     # The server's own words, next to the file at fault; the other file was not stored.
     assert error.inner_text() == problem["detail"]
     assert "not stored" in page.inner_text(f'li[data-name="{good.name}"]')
-    assert live_server.api("/api/recordings")["total"] == before
+    assert live_server.get("/api/recordings")["total"] == before
     screenshot(page, "recordings-bad-file")
 
 
-def test_delete_from_the_list(live_server: LiveServer, page: Any) -> None:
+def test_delete_from_the_list(live_server: Server, page: Any) -> None:
     data = shared_file(NORAXON_CSV).read_bytes()
     status, rec = post_files(live_server, [("to_delete.csv", data)])
     assert status == 201
@@ -195,13 +197,11 @@ def test_delete_from_the_list(live_server: LiveServer, page: Any) -> None:
     assert "to_delete.csv" in row.inner_text()
     page.click(f'button[aria-label="Delete recording {rec["id"]}"]')
     page.wait_for_selector(f'#recordings-body tr[data-id="{rec["id"]}"]', state="detached")
-    with pytest.raises(urllib.error.HTTPError) as err:
-        live_server.api(f"/api/recordings/{rec['id']}")
-    err.value.close()
-    assert err.value.code == 404
+    gone = httpx.get(f"{live_server.url}/api/recordings/{rec['id']}", timeout=60)
+    assert gone.status_code == 404
 
 
-def test_plan_progress_reaches_done(live_server: LiveServer, page: Any) -> None:
+def test_plan_progress_reaches_done(live_server: Server, page: Any) -> None:
     page.goto(f"{live_server.url}/#/plan")
     page.wait_for_selector("#plan-form")
     page.select_option("#kind", "plan")
@@ -210,14 +210,12 @@ def test_plan_progress_reaches_done(live_server: LiveServer, page: Any) -> None:
     page.fill("#seed", "3")
     page.click("#submit-plan")
     page.wait_for_selector("#job-progress")
-    page.wait_for_function(
-        "document.querySelector('#job-state').innerText === 'succeeded'", timeout=90_000
-    )
+    page.wait_for_function("document.querySelector('#job-state').innerText === 'succeeded'")
     assert page.get_attribute("#job-progress", "aria-valuenow") == "100"
     page.wait_for_selector("#open-compare")
     href = page.get_attribute("#open-compare", "href")
     plan_id = int(href.rsplit("/", 1)[1])
-    result = live_server.api(f"/api/plans/{plan_id}")["result"]
+    result = live_server.get(f"/api/plans/{plan_id}")["result"]
     assert result["optimizer"]["seed"] == 3
     # The convergence curve ends with the optimiser's full history.
     ys = page.evaluate("document.getElementById('convergence-plot').data[0].y")
@@ -225,7 +223,7 @@ def test_plan_progress_reaches_done(live_server: LiveServer, page: Any) -> None:
     screenshot(page, "plan")
 
 
-def test_plan_can_be_cancelled(live_server: LiveServer, page: Any) -> None:
+def test_plan_can_be_cancelled(live_server: Server, page: Any) -> None:
     page.goto(f"{live_server.url}/#/plan")
     page.select_option("#kind", "plan")
     page.fill("#particles", "400")
@@ -234,12 +232,19 @@ def test_plan_can_be_cancelled(live_server: LiveServer, page: Any) -> None:
     page.wait_for_function(
         "document.querySelector('#job-state') && "
         "document.querySelector('#job-state').innerText === 'running'",
-        timeout=60_000,
     )
-    page.click("#cancel-job")
+    # The convergence curve grows from the job's structured progress (stage "pso", iteration
+    # `done`, `best` cost), not from its message text.
     page.wait_for_function(
-        "document.querySelector('#job-state').innerText === 'cancelled'", timeout=30_000
+        "(() => { const d = document.getElementById('convergence-plot').data;"
+        " return d && d.length && d[0].x.length >= 2; })()"
     )
+    curve = page.evaluate("document.getElementById('convergence-plot').data[0]")
+    assert curve["name"] == "pso"
+    assert curve["x"] == sorted(set(curve["x"])) and all(isinstance(x, int) for x in curve["x"])
+    assert curve["y"] == sorted(curve["y"], reverse=True)  # the best cost never rises
+    page.click("#cancel-job")
+    page.wait_for_function("document.querySelector('#job-state').innerText === 'cancelled'")
     assert "Cancelled" in page.inner_text("#job-result")
 
 
@@ -248,9 +253,9 @@ def _cell(page: Any, metric: str, column: int) -> float:
     return float(text.replace(",", "").replace("+", "").replace("%", "").strip())
 
 
-def test_compare_shows_the_metrics_table(live_server: LiveServer, page: Any) -> None:
+def test_compare_shows_the_metrics_table(live_server: Server, page: Any) -> None:
     sim = demo_ids(live_server)["simulation"]
-    result = live_server.api(f"/api/simulations/{sim}")["result"]
+    result = live_server.get(f"/api/simulations/{sim}")["result"]
     page.goto(f"{live_server.url}/#/compare/simulation/{sim}")
     page.wait_for_selector("#metrics-table")
     rows = page.locator("#metrics-table tbody tr")
@@ -268,7 +273,7 @@ def test_compare_shows_the_metrics_table(live_server: LiveServer, page: Any) -> 
     screenshot(page, "compare")
 
 
-def test_compare_shows_the_sweep_heat_map(live_server: LiveServer, page: Any) -> None:
+def test_compare_shows_the_sweep_heat_map(live_server: Server, page: Any) -> None:
     body = {
         "robot": "curtain_wall_6dof",
         "durations": [1.0, 1.5],
@@ -282,16 +287,16 @@ def test_compare_shows_the_sweep_heat_map(live_server: LiveServer, page: Any) ->
         data=json.dumps(body).encode(),
         headers={"Content-Type": "application/json"},
     )
-    with urllib.request.urlopen(request, timeout=30) as response:
+    with urllib.request.urlopen(request, timeout=120) as response:
         job = json.load(response)
     wait_for(
-        lambda: live_server.api(f"/api/jobs/{job['id']}")["state"] == "succeeded",
+        lambda: live_server.get(f"/api/jobs/{job['id']}")["state"] == "succeeded",
         120,
         "the sweep",
     )
-    table = live_server.api(f"/api/sweeps/{job['id']}")["result"]["tables"]["abs_work"]
+    table = live_server.get(f"/api/sweeps/{job['id']}")["result"]["tables"]["abs_work"]
     page.goto(f"{live_server.url}/#/compare")
-    page.wait_for_selector("#sweep-plot .main-svg", timeout=30_000)
+    page.wait_for_selector("#sweep-plot .main-svg")
     z = page.evaluate("document.getElementById('sweep-plot').data[0].z")
     assert z == table["abs_work"]["change_pct"]
     screenshot(page, "compare-sweep")
@@ -305,10 +310,10 @@ def _frame_pixels(page: Any) -> np.ndarray:
 
 
 def test_viewer_connects_renders_and_each_tab_has_its_own_scene(
-    live_server: LiveServer, browser: Any
+    live_server: Server, browser: Any
 ) -> None:
     ids = demo_ids(live_server)
-    context = browser.new_context(viewport={"width": 1280, "height": 800})
+    context = new_context(browser, viewport={"width": 1280, "height": 800})
     try:
         tab1 = context.new_page()
         tab1.goto(f"{live_server.url}/#/compare/simulation/{ids['simulation']}")
@@ -316,14 +321,14 @@ def test_viewer_connects_renders_and_each_tab_has_its_own_scene(
         tab1.locator("#viewer-frame").scroll_into_view_if_needed()
 
         def session(kind: str, rid: int) -> Any:
-            for s in live_server.api("/api/viewer/sessions"):
+            for s in live_server.get("/api/viewer/sessions"):
                 if s["kind"] == kind and s["id"] == rid and s["frames"] > 20:
                     return s
             return None
 
         wait_for(lambda: session("simulation", ids["simulation"]), 60, "the viewer session")
         frame = tab1.frame_locator("#viewer-frame")
-        frame.locator("canvas").first.wait_for(timeout=30_000)
+        frame.locator("canvas").first.wait_for()
         time.sleep(1.5)  # a few frames drawn
         pixels = _frame_pixels(tab1)
         screenshot(tab1, "viewer", full_page=False)
@@ -345,19 +350,19 @@ def test_viewer_connects_renders_and_each_tab_has_its_own_scene(
         context.close()
 
 
-def test_scene_export_opens_offline(live_server: LiveServer, browser: Any, tmp_path: Path) -> None:
+def test_scene_export_opens_offline(live_server: Server, browser: Any, tmp_path: Path) -> None:
     from PIL import Image
 
     plan = demo_ids(live_server)["plan"]
     url = f"{live_server.url}/api/viewer/comparisons/plan/{plan}/export?format=scene"
-    with urllib.request.urlopen(url, timeout=60) as response:
+    with urllib.request.urlopen(url, timeout=120) as response:
         path = tmp_path / "scene.html"
         path.write_bytes(response.read())
-    context = browser.new_context(viewport={"width": 900, "height": 600}, offline=True)
+    context = new_context(browser, viewport={"width": 900, "height": 600}, offline=True)
     try:
         page = context.new_page()
         page.goto(path.as_uri())
-        page.locator("canvas").first.wait_for(timeout=30_000)
+        page.locator("canvas").first.wait_for()
         time.sleep(2.0)
         pixels = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
         drawn = (np.abs(pixels - pixels[300, 5]).sum(axis=2) > 30).mean()
@@ -367,8 +372,8 @@ def test_scene_export_opens_offline(live_server: LiveServer, browser: Any, tmp_p
 
 
 @pytest.mark.parametrize("route", ["recordings", "plan", "compare"])
-def test_usable_on_a_narrow_window(live_server: LiveServer, browser: Any, route: str) -> None:
-    context = browser.new_context(viewport={"width": 400, "height": 860})
+def test_usable_on_a_narrow_window(live_server: Server, browser: Any, route: str) -> None:
+    context = new_context(browser, viewport={"width": 400, "height": 860})
     try:
         page = context.new_page()
         page.goto(f"{live_server.url}/#/{route}")

@@ -11,10 +11,10 @@ from typing import Any
 import pytest
 
 from app.jobs.runner import DaskRunner
-from app.jobs.tasks import entry_points
-from tests.db.conftest import DB_KINDS
-from tests.jobs.targets import target
-from tests.jobs.test_local_runner import TERMINAL, Collector
+from app.names import TERMINAL_JOB_STATES as TERMINAL
+from tests.utils.data import shared_file
+from tests.utils.db import DB_KINDS
+from tests.utils.jobs import Collector, target
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +95,6 @@ def test_cancel_stops_a_running_task(runner: tuple[DaskRunner, Collector], tmp_p
     assert beat.read_text() == last, "the cancelled task kept running"
 
 
-@pytest.mark.skipif(not entry_points()["plan"], reason="app.planning.plan missing")
 @pytest.mark.parametrize("db_kind", DB_KINDS)
 def test_real_plan_and_analysis_jobs_through_the_api_on_dask(
     cluster: Any, tmp_path: Path, db_kind: str
@@ -103,7 +102,7 @@ def test_real_plan_and_analysis_jobs_through_the_api_on_dask(
     """The compose configuration without Docker: API + Dask cluster (+ PostgreSQL when set)."""
     from app.db.crud import json_safe
     from app.planning import load_robot, plan
-    from tests.api.conftest import make_client, wait_job
+    from tests.utils.api import make_client, wait_job
 
     address = cluster.scheduler_address.replace("tcp://", "dask://")
     with make_client(tmp_path, executor=address, db_kind=db_kind) as client:
@@ -132,16 +131,11 @@ def test_real_plan_and_analysis_jobs_through_the_api_on_dask(
         assert done["state"] == "succeeded", done
         assert len(client.get(done["result_url"]).json()["result"]["cells"]) == 4
 
-        if entry_points()["analysis"]:
-            from tests.conftest import shared_file
-
-            path = shared_file(
-                "noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv"
-            )
-            rec = client.post(
-                "/api/recordings", files=[("files", (path.name, path.read_bytes()))]
-            ).json()
-            job = client.post("/api/analyses", json={"recording_id": rec["id"]}).json()
-            done = wait_job(client, job["id"])
-            assert done["state"] == "succeeded", done
-            assert client.get(f"/api/analyses/{job['id']}/template").json()["source"]
+        path = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
+        rec = client.post(
+            "/api/recordings", files=[("files", (path.name, path.read_bytes()))]
+        ).json()
+        job = client.post("/api/analyses", json={"recording_id": rec["id"]}).json()
+        done = wait_job(client, job["id"])
+        assert done["state"] == "succeeded", done
+        assert client.get(f"/api/analyses/{job['id']}/template").json()["source"]

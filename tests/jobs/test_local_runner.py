@@ -3,45 +3,14 @@
 from __future__ import annotations
 
 import os
-import queue
 import time
 from collections.abc import Iterator
 
 import pytest
 
-from app.jobs.runner import JobEvent, LocalRunner
-from tests.jobs.targets import target
-
-TERMINAL = {"succeeded", "failed", "cancelled"}
-
-
-class Collector:
-    """An event sink that lets a test wait for events."""
-
-    def __init__(self) -> None:
-        self.events: queue.Queue[JobEvent] = queue.Queue()
-        self.seen: list[JobEvent] = []
-
-    def __call__(self, event: JobEvent) -> None:
-        self.events.put(event)
-
-    def wait_for(self, job_id: int, types: set[str], timeout: float = 30.0) -> JobEvent:
-        deadline = time.monotonic() + timeout
-        for ev in self.seen:
-            if ev.job_id == job_id and ev.type in types:
-                return ev
-        while time.monotonic() < deadline:
-            try:
-                ev = self.events.get(timeout=0.1)
-            except queue.Empty:
-                continue
-            self.seen.append(ev)
-            if ev.job_id == job_id and ev.type in types:
-                return ev
-        raise AssertionError(f"job {job_id}: no {types} event within {timeout} s")
-
-    def of(self, job_id: int) -> list[JobEvent]:
-        return [e for e in self.seen if e.job_id == job_id]
+from app.jobs.runner import LocalRunner
+from app.names import TERMINAL_JOB_STATES as TERMINAL
+from tests.utils.jobs import Collector, target
 
 
 def _alive(pid: int) -> bool:

@@ -17,36 +17,9 @@ from app.db.arrays import decode_arrays
 from app.db.blobs import BlobStore
 from app.db.models import JobRecord, Plan
 from app.db.session import make_engine, make_sessionmaker, upgrade
-from app.jobs.broker import JobBroker
-from app.jobs.runner import EventSink, JobRunner, LocalRunner
-from app.jobs.service import JobService
-from tests.jobs.targets import service_target
-
-
-class RecordingRunner(JobRunner):
-    """A runner that only records what it is asked to do (for restart tests)."""
-
-    executor = "record"
-
-    def __init__(self) -> None:
-        self.submitted: list[tuple[int, str]] = []
-        self.cancelled: list[int] = []
-
-    def start(self, sink: EventSink) -> None:
-        self.sink = sink
-
-    def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
-        self.submitted.append((job_id, kind))
-
-    def cancel(self, job_id: int) -> bool:
-        self.cancelled.append(job_id)
-        return True
-
-    def shutdown(self) -> None:
-        pass
-
-    def info(self) -> dict[str, Any]:
-        return {"executor": self.executor, "workers": 0, "running": 0, "queued": 0}
+from app.jobs.runner import JobRunner, LocalRunner
+from app.services import ConflictError, JobBroker, JobService, NotFoundError
+from tests.utils.jobs import RecordingRunner, service_target
 
 
 @pytest.fixture
@@ -69,7 +42,7 @@ def _service(
         progress_interval=0.05,
         **kw,
     )
-    svc.__dict__["builtin_robots"] = ["arm"]  # no planning package needed here
+    svc.robots.__dict__["builtin"] = ["arm"]  # no planning package needed here
     return svc
 
 
@@ -90,7 +63,7 @@ def _state(sessions: sessionmaker[Session], job_id: int) -> JobRecord:
 
 
 def _wait(
-    sessions: sessionmaker[Session], job_id: int, states: set[str], timeout: float = 20
+    sessions: sessionmaker[Session], job_id: int, states: set[str], timeout: float = 60
 ) -> JobRecord:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -148,15 +121,19 @@ def test_events_update_rows_and_the_result_is_stored(
             resource={"robot": "arm"},
         )
         seen = set()
-        deadline = time.monotonic() + 20
+        deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             row = _state(sessions, job["id"])
-            seen.add((row.state, round(row.progress, 1)))
+            seen.add((row.state, round(row.progress, 1), row.stage, row.done, row.of, row.best))
             if row.state == "succeeded":
                 break
             time.sleep(0.02)
-        # Progress was written while it ran, not only at the end.
-        assert any(state == "running" and 0 < p < 1 for state, p in seen)
+        # Progress was written while it ran, not only at the end, with its structure: the
+        # target reports step i of 20 with best = 20 - i + 1 (tests.utils.jobs.target).
+        running = [s for s in seen if s[0] == "running" and 0 < s[1] < 1]
+        assert running
+        for _, _, stage, done, of, best in running:
+            assert (stage, of) == ("count", 20) and 1 <= done <= 20 and best == 20 - done + 1
         row = _state(sessions, job["id"])
         assert (row.state, row.progress, row.attempts) == ("succeeded", 1.0, 1)
         assert row.started_at is not None and row.finished_at is not None
@@ -187,8 +164,12 @@ def test_cancel_marks_cancelled_and_failures_keep_their_message(
         gone = svc.submit(kind="plan", params={"robot": "nope"}, resource={"robot": "nope"})
         _wait(sessions, slow["id"], {"running"})
         out = svc.cancel(slow["id"])
-        assert out is not None and out["state"] == "cancelled"
+        assert out["state"] == "cancelled"
         assert _wait(sessions, slow["id"], {"cancelled"}).finished_at is not None
+        with pytest.raises(ConflictError, match="already ended"):
+            svc.cancel(slow["id"])
+        with pytest.raises(NotFoundError):
+            svc.cancel(10**6)
         failed = _wait(sessions, bad["id"], {"failed"})
         assert failed.error == "bad input: payload < 0"
         unknown = _wait(sessions, gone["id"], {"failed"})

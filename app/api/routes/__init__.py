@@ -1,1 +1,1 @@
-"""api/routes."""
+"""One router per resource; ``app.api.main`` includes them."""

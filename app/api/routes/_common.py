@@ -11,16 +11,21 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, undefer
 
 from app.api.errors import ApiError
+from app.api.schemas import Problem
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
-from app.jobs.service import job_to_dict
 from app.planning.jsonsafe import json_safe
+from app.services import job_to_dict
 
 #: Ids in paths: positive and within a 32-bit integer, so no database overflows.
 IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
 
+#: The error answers every route documents, with the problem's schema.
 PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
-    code: {"description": desc, "content": {"application/problem+json": {}}}
+    code: {
+        "description": desc,
+        "content": {"application/problem+json": {"schema": Problem.model_json_schema()}},
+    }
     for code, desc in (
         (401, "API token missing or wrong"),
         (404, "not found"),

@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
 
-from app.api.deps import RunnerDep, SessionDep, WriteAccess
+from app.api.deps import JobsDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import (
     PROBLEM_RESPONSES,
@@ -23,7 +23,7 @@ router = APIRouter(prefix="/api/analyses", tags=["analyses"], responses=PROBLEM_
 
 @router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
 def submit_analysis(
-    body: AnalysisRequest, session: SessionDep, jobs: RunnerDep, response: Response
+    body: AnalysisRequest, session: SessionDep, jobs: JobsDep, response: Response
 ) -> dict[str, Any]:
     """Queue an analysis of a stored recording; poll the job or follow its events."""
     if session.get(RecordingSession, body.recording_id) is None:

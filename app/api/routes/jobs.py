@@ -9,13 +9,12 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
-from app.api.deps import RunnerDep, ServicesDep, SessionDep, WriteAccess
-from app.api.errors import ApiError
+from app.api.deps import JobsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.schemas import Job, JobKind, JobState, Page
 from app.db import crud
-from app.db.models import TERMINAL_STATES
-from app.jobs.service import job_to_dict
+from app.names import TERMINAL_JOB_STATES
+from app.services import job_to_dict
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], responses=PROBLEM_RESPONSES)
 
@@ -45,24 +44,21 @@ def list_jobs(
 
 
 @router.get("/{job_id}", response_model=Job)
-def get_job(session: SessionDep, job_id: IdPath) -> dict[str, Any]:
-    job = crud.get_job(session=session, job_id=job_id)
-    if job is None:
-        raise ApiError(404, f"job {job_id} does not exist")
-    return job_to_dict(job)
+def get_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
+    """A job: state, structured progress (``stage``, ``done`` of ``of``, ``best``), timings."""
+    return jobs.get(job_id)
 
 
 @router.post("/{job_id}/cancel", response_model=Job, dependencies=[WriteAccess])
-def cancel_job(jobs: RunnerDep, job_id: IdPath) -> dict[str, Any]:
+def cancel_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
     """Cancel a queued or running job (a running one is stopped); 409 when it already ended."""
-    before = jobs.get(job_id)
-    if before is None:
-        raise ApiError(404, f"job {job_id} does not exist")
-    if before["state"] in TERMINAL_STATES:
-        raise ApiError(409, f"job {job_id} already ended ({before['state']})")
-    after = jobs.cancel(job_id)
-    assert after is not None
-    return after
+    return jobs.cancel(job_id)
+
+
+def _same(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Nothing a client shows changed between two reads of a job."""
+    keys = ("state", "progress", "stage", "done", "best", "message")
+    return all(a[k] == b[k] for k in keys)
 
 
 def _sse(event: str, data: dict[str, Any]) -> str:
@@ -83,25 +79,26 @@ def _sse(event: str, data: dict[str, Any]) -> str:
 async def job_events(request: Request, services: ServicesDep, job_id: IdPath) -> StreamingResponse:
     """Progress as Server-Sent Events until the job succeeds, fails or is cancelled."""
     sub = services.broker.subscribe(job_id)  # before the snapshot, so no update is lost
-    snapshot = await run_in_threadpool(services.jobs.get, job_id)
-    if snapshot is None:
+    try:
+        snapshot = await run_in_threadpool(services.jobs.get, job_id)
+    except BaseException:
         sub.close()
-        raise ApiError(404, f"job {job_id} does not exist")
+        raise
 
     async def stream() -> AsyncIterator[str]:
         last = snapshot
         quiet = 0.0
         try:
             yield _sse("progress", last)
-            while last["state"] not in TERMINAL_STATES:
+            while last["state"] not in TERMINAL_JOB_STATES:
                 update = await sub.get(RESYNC_SECONDS)
                 if update is None:
                     if await request.is_disconnected():
                         return
-                    update = await run_in_threadpool(services.jobs.get, job_id)
+                    update = await run_in_threadpool(services.jobs.find, job_id)
                     if update is None:
                         return
-                    if (update["state"], update["progress"]) == (last["state"], last["progress"]):
+                    if _same(update, last):
                         quiet += RESYNC_SECONDS
                         if quiet >= KEEPALIVE_SECONDS:
                             quiet = 0.0

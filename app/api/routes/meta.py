@@ -1,8 +1,7 @@
-"""Health, version and the viewer's address."""
+"""Health, version, the shared names and the viewer's address."""
 
 from __future__ import annotations
 
-import functools
 import platform
 import time
 from typing import Any
@@ -10,19 +9,12 @@ from typing import Any
 from fastapi import APIRouter
 from sqlalchemy import text
 
-from app import __version__
+from app import __version__, names
 from app.api.deps import ServicesDep
-from app.api.schemas import Health, Version, ViewerInfo
+from app.api.schemas import Health, Meta, Version, ViewerInfo
 from app.db.session import current_revision
 
 router = APIRouter(prefix="/api", tags=["service"])
-
-
-@functools.cache
-def _entry_points() -> dict[str, bool]:
-    from app.jobs.tasks import entry_points
-
-    return entry_points()
 
 
 @router.get("/health", response_model=Health)
@@ -42,7 +34,6 @@ def health(services: ServicesDep) -> dict[str, Any]:
         "workers": info.get("workers"),
         "running": info.get("running"),
         "queued": info.get("queued"),
-        "entry_points": _entry_points(),
         "uptime_seconds": time.monotonic() - services.started,
     }
 
@@ -56,13 +47,15 @@ def version(services: ServicesDep) -> dict[str, Any]:
     }
 
 
+@router.get("/meta", response_model=Meta)
+def meta() -> dict[str, Any]:
+    """The names every page shares (``app.names``): metrics with units and formulas, the A/B/C
+    phases with bounds and colours, planning methods, muscle colours, PSO defaults, job states.
+    """
+    return names.as_json()
+
+
 @router.get("/viewer", response_model=ViewerInfo)
 def viewer(services: ServicesDep) -> dict[str, Any]:
     """The 3-D viewer's URL and port; ``enabled`` is false until a viewer runs."""
-    v = services.viewer
-    return {
-        "enabled": bool(v.get("port")),
-        "url": v.get("url"),
-        "host": v.get("host"),
-        "port": v.get("port"),
-    }
+    return services.viewer_info()

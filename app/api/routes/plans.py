@@ -8,7 +8,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query, Response
 from sqlalchemy.orm import Session
 
-from app.api.deps import RunnerDep, SessionDep, WriteAccess
+from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import (
     PROBLEM_RESPONSES,
@@ -29,24 +29,16 @@ from app.api.schemas import (
     ResultOut,
     SimulationRequest,
 )
-from app.jobs.service import JobService, UnknownRobotError
+from app.services import ServiceError, Services
 
 router = APIRouter(prefix="/api/plans", tags=["plans"], responses=PROBLEM_RESPONSES)
 
 
-def check_robot(jobs: JobService, session: Session, name: str) -> list[str]:
-    """The robot's joint names; 422 unless ``name`` is a built-in or uploaded robot."""
-    try:
-        return jobs.robot_joints(session, name)
-    except UnknownRobotError as exc:
-        raise ApiError(422, str(exc), field="robot") from None
-
-
-def check_task(body: PlanRequest | SimulationRequest, session: Session, jobs: JobService) -> None:
+def check_task(body: PlanRequest | SimulationRequest, session: Session, services: Services) -> None:
     """422 for a request the planner would refuse: robot, angles, template."""
     from app.planning.human_template import HumanTemplate
 
-    joints = check_robot(jobs, session, body.robot)
+    joints = services.robots.joints(session, body.robot)
     for name in ("start_deg", "goal_deg"):
         angles = getattr(body, name)
         if angles is not None and len(angles) != len(joints):
@@ -61,22 +53,24 @@ def check_task(body: PlanRequest | SimulationRequest, session: Session, jobs: Jo
     if body.template is not None:
         try:
             HumanTemplate.from_dict(body.template)
-        except (ValueError, TypeError) as exc:
+        except (ValueError, TypeError, KeyError) as exc:
+            # Parsing the client's dict, right here: whatever it trips over is bad input.
             raise ApiError(422, f"not a HumanTemplate: {exc}", field="template") from None
     if body.template_analysis_id is not None:
         try:
-            jobs.analysis_template(session, body.template_analysis_id)
-        except LookupError as exc:
-            raise ApiError(422, str(exc.args[0]), field="template_analysis_id") from None
+            services.jobs.analysis_template(session, body.template_analysis_id)
+        except ServiceError as exc:
+            # The analysis named in the body: a field of this request, not the resource.
+            raise ApiError(422, str(exc), field="template_analysis_id") from None
 
 
 @router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
 def submit_plan(
-    body: PlanRequest, session: SessionDep, jobs: RunnerDep, response: Response
+    body: PlanRequest, session: SessionDep, services: ServicesDep, response: Response
 ) -> dict[str, Any]:
     """Queue a plan (``bioplan plan``); the result is the CLI's ``--json`` output."""
-    check_task(body, session, jobs)
-    job = jobs.submit(
+    check_task(body, session, services)
+    job = services.jobs.submit(
         kind="plan", params=body.model_dump(mode="json"), resource={"robot": body.robot}
     )
     response.headers["Location"] = job["result_url"]

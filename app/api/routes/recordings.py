@@ -20,6 +20,7 @@ from app.api.schemas import Page, RecordingDetail, RecordingSummary, Signals, Si
 from app.db import crud
 from app.db.arrays import decode_array
 from app.db.models import RecordingFile, RecordingSession
+from app.services import store_recording
 
 router = APIRouter(prefix="/api/recordings", tags=["recordings"], responses=PROBLEM_RESPONSES)
 
@@ -151,10 +152,6 @@ def upload_recording(
     ] = None,
 ) -> dict[str, Any]:
     """Parse and store every file in one transaction: all of them, or none when one fails."""
-    from app.jobs.tasks import parse_recording
-
-    if not files:
-        raise ApiError(422, "at least one file is required", field="files")
     options = {
         "rate": rate,
         "emg_rate": emg_rate,
@@ -163,41 +160,15 @@ def upload_recording(
         "frame_rate": frame_rate,
         "format": format,
     }
-    options = {k: v for k, v in options.items() if v is not None}
-    parsed: list[crud.ParsedFile] = []
-    for i, upload in enumerate(files):
-        name = _safe_name(upload.filename, i)
-        data = upload.file.read()
-        if not data:
-            raise ApiError(422, f"{name}: the file is empty", file=name, title="Empty file")
-        try:
-            out = parse_recording(data, name, options)
-        except ValueError as exc:  # RecordingError and friends: bad input, named
-            text = str(exc)
-            raise ApiError(
-                422,
-                text if name in text else f"{name}: {text}",
-                title="Unreadable recording",
-                file=name,
-            ) from None
-        if not out["channels"]:
-            raise ApiError(422, f"{name}: no channels found", file=name)
-        parsed.append(
-            crud.ParsedFile(
-                name=name,
-                data=data,
-                format=out["format"],
-                metadata=out["metadata"],
-                channels=out["channels"],
-            )
-        )
-    meta: dict[str, Any] = {"subject": subject, "task": task, "load_kg": load_kg, "notes": notes}
-    meta["options"] = options
-    rec = crud.create_recording(session=session, blobs=services.blobs, meta=meta, files=parsed)
+    rec = store_recording(
+        session=session,
+        blobs=services.blobs,
+        files=[(_safe_name(f.filename, i), f.file.read()) for i, f in enumerate(files)],
+        meta={"subject": subject, "task": task, "load_kg": load_kg, "notes": notes},
+        options={k: v for k, v in options.items() if v is not None},
+    )
     services.recordings_cache.invalidate()
-    loaded = crud.get_recording(session=session, recording_id=rec.id)
-    assert loaded is not None
-    return _detail(loaded)
+    return _detail(rec)
 
 
 _PAGE = TypeAdapter(Page[RecordingSummary])

@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
 
-from app.api.deps import RunnerDep, SessionDep, WriteAccess
+from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import (
     PROBLEM_RESPONSES,
     IdPath,
@@ -22,11 +22,11 @@ router = APIRouter(prefix="/api/simulations", tags=["simulations"], responses=PR
 
 @router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
 def submit_simulation(
-    body: SimulationRequest, session: SessionDep, jobs: RunnerDep, response: Response
+    body: SimulationRequest, session: SessionDep, services: ServicesDep, response: Response
 ) -> dict[str, Any]:
     """Queue a simulation (``bioplan simulate``); the result is the CLI's ``--json`` output."""
-    check_task(body, session, jobs)
-    job = jobs.submit(
+    check_task(body, session, services)
+    job = services.jobs.submit(
         kind="simulation", params=body.model_dump(mode="json"), resource={"robot": body.robot}
     )
     response.headers["Location"] = job["result_url"]

@@ -6,9 +6,8 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
 
-from app.api.deps import RunnerDep, SessionDep, WriteAccess
+from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, list_results, result_out
-from app.api.routes.plans import check_robot
 from app.api.schemas import Job, JobState, Page, ResultOut, SweepRequest
 
 router = APIRouter(prefix="/api/sweeps", tags=["sweeps"], responses=PROBLEM_RESPONSES)
@@ -16,11 +15,11 @@ router = APIRouter(prefix="/api/sweeps", tags=["sweeps"], responses=PROBLEM_RESP
 
 @router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
 def submit_sweep(
-    body: SweepRequest, session: SessionDep, jobs: RunnerDep, response: Response
+    body: SweepRequest, session: SessionDep, services: ServicesDep, response: Response
 ) -> dict[str, Any]:
     """Queue a sweep (``bioplan sweep``); progress is reported per grid cell."""
-    check_robot(jobs, session, body.robot)
-    job = jobs.submit(
+    services.robots.joints(session, body.robot)  # UnknownRobotError: 422 naming the field
+    job = services.jobs.submit(
         kind="sweep", params=body.model_dump(mode="json"), resource={"robot": body.robot}
     )
     response.headers["Location"] = job["result_url"]

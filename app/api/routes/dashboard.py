@@ -1,0 +1,153 @@
+"""The dashboard's data under ``/api/viewer/...``: Plotly.js, comparison curves, exports, a
+recording's analysis overlays, and the viewer's tabs. These only read.
+
+``GET /api/viewer`` (the viewer's address) is in ``meta``; the pages themselves are mounted at
+``/`` by ``app.main.create_app``.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Query, Request, Response
+from fastapi.responses import FileResponse
+
+from app.api.deps import ServicesDep
+from app.api.errors import ApiError
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
+from app.viewer.export import report_html, scene_html
+
+router = APIRouter(prefix="/api/viewer", tags=["viewer"], responses=PROBLEM_RESPONSES)
+
+ComparisonKind = Literal["plan", "simulation"]
+
+
+@functools.cache
+def plotly_js_path() -> Path:
+    """plotly.min.js as shipped inside the installed ``plotly`` Python package."""
+    import plotly
+
+    path = Path(plotly.__file__).resolve().parent / "package_data" / "plotly.min.js"
+    if not path.is_file():
+        raise FileNotFoundError(f"plotly.min.js is missing from the plotly package at {path}")
+    return path
+
+
+@functools.cache
+def _etag(path: Path) -> str:
+    stat = path.stat()
+    return hashlib.sha256(f"{path}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()[:20]
+
+
+@router.get(
+    "/assets/plotly.min.js",
+    response_class=FileResponse,
+    responses={200: {"content": {"text/javascript": {}}, "description": "Plotly.js"}},
+)
+def plotly_js(request: Request) -> Response:
+    """Plotly.js from the installed ``plotly`` package (no CDN: the dashboard works offline)."""
+    path = plotly_js_path()
+    etag = f'"{_etag(path)}"'
+    headers = {"Cache-Control": "public, max-age=86400", "ETag": etag}
+    if request.headers.get("if-none-match") == etag:
+        return Response(status_code=304, headers=headers)
+    return FileResponse(path, media_type="text/javascript", headers=headers)
+
+
+@router.get("/comparisons/{kind}/{result_id}", response_model=dict[str, Any])
+def comparison(
+    services: ServicesDep,
+    kind: ComparisonKind,
+    result_id: IdPath,
+    points: Annotated[int, Query(ge=2, le=20000, description="samples per curve")] = 400,
+) -> dict[str, Any]:
+    """A finished plan's or simulation's curves per joint (SI units), phases, metrics, floors,
+    and where the 3-D viewer shows it."""
+    c = services.comparisons(kind, result_id).comparison
+    out = c.summary()
+    out["curves"] = c.curves(points=points)
+    out["result"] = c.result
+    viewer = services.viewer
+    out["viewer"] = (
+        {
+            "enabled": True,
+            "port": viewer.port,
+            "host": viewer.host,
+            "path": f"/bioplan/{kind}/{result_id}",
+            "url": viewer.client_url(kind, result_id),
+        }
+        if viewer is not None and viewer.running
+        else {"enabled": False}
+    )
+    out["exports"] = {
+        fmt: f"/api/viewer/comparisons/{kind}/{result_id}/export?format={fmt}"
+        for fmt in ("scene", "report")
+    }
+    return out
+
+
+@router.get(
+    "/comparisons/{kind}/{result_id}/export",
+    response_class=Response,
+    responses={200: {"content": {"text/html": {}}, "description": "a self-contained HTML file"}},
+)
+def export(
+    services: ServicesDep,
+    kind: ComparisonKind,
+    result_id: IdPath,
+    format: Annotated[
+        Literal["scene", "report"],
+        Query(description="scene: 3-D animation (viser); report: curves and metrics (Plotly)"),
+    ] = "scene",
+    layout: Literal["ghost", "side_by_side"] = "ghost",
+) -> Response:
+    """A file that opens without the server: the recorded 3-D comparison, or the report."""
+    prepared = services.comparisons(kind, result_id)
+    if format == "scene":
+        page = scene_html(prepared, layout=layout)
+    else:
+        page = report_html(prepared.comparison)
+    name = f"bioplan-{kind}-{result_id}-{format}.html"
+    return Response(
+        page,
+        media_type="text/html; charset=utf-8",
+        headers={"Content-Disposition": f'attachment; filename="{name}"'},
+    )
+
+
+@router.get("/recordings/{recording_id}/analysis", response_model=dict[str, Any])
+def recording_analysis(
+    services: ServicesDep,
+    recording_id: IdPath,
+    points: Annotated[int, Query(ge=2, le=100000, description="samples per series")] = 2000,
+    t0: Annotated[float | None, Query(description="window start [s]")] = None,
+    t1: Annotated[float | None, Query(description="window end [s]")] = None,
+) -> dict[str, Any]:
+    """The plot overlays of the newest finished analysis of a recording: envelopes with onsets,
+    shoulder/elbow angles and velocities [deg, deg/s], lifts with their A/B/C phases and the
+    human template, downsampled to ``points`` samples per series within the window [t0, t1].
+
+    409 while the recording has no finished analysis; the problem's ``job`` is the analysis job
+    to follow (queued or running), the one that failed, or null when none was submitted.
+    """
+    for name, value in (("t0", t0), ("t1", t1)):
+        if value is not None and not math.isfinite(value):
+            raise ApiError(422, f"{name} must be a finite time in seconds", field=name)
+    if t0 is not None and t1 is not None and t1 <= t0:
+        raise ApiError(422, f"t1 ({t1}) must be after t0 ({t0})", field="t1")
+    analysis_id, overlays = services.overlays.get(recording_id)
+    return {
+        "recording_id": recording_id,
+        "analysis_id": analysis_id,
+        **overlays.window(points=points, t0=t0, t1=t1),
+    }
+
+
+@router.get("/sessions", response_model=list[dict[str, Any]])
+def sessions(services: ServicesDep) -> list[dict[str, Any]]:
+    """The viewer's open tabs: which comparison, playing or not, redraws per second."""
+    return [] if services.viewer is None else services.viewer.sessions()

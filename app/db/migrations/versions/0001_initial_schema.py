@@ -1,0 +1,165 @@
+"""Initial schema: recordings, files, channels, robots, jobs and job results.
+
+Revision ID: 0001
+Revises:
+Create Date: 2026-11-21
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import sqlalchemy as sa
+from alembic import op
+
+revision: str = "0001"
+down_revision: str | None = None
+branch_labels: str | Sequence[str] | None = None
+depends_on: str | Sequence[str] | None = None
+
+TZ = sa.DateTime(timezone=True)
+
+
+def _result_table(name: str, *extra: sa.schema.SchemaItem, arrays: bool) -> None:
+    cols: list[sa.schema.SchemaItem] = [
+        sa.Column("id", sa.Integer(), nullable=False),
+        *extra,
+        sa.Column("result", sa.JSON(), nullable=True),
+    ]
+    if arrays:
+        cols.append(sa.Column("arrays", sa.LargeBinary(), nullable=True))
+    op.create_table(
+        name,
+        *cols,
+        sa.ForeignKeyConstraint(
+            ["id"], ["jobs.id"], name=op.f(f"fk_{name}_id_jobs"), ondelete="CASCADE"
+        ),
+        sa.PrimaryKeyConstraint("id", name=op.f(f"pk_{name}")),
+    )
+
+
+def upgrade() -> None:
+    # Over 80 lines on purpose: a released migration is a frozen record of the schema it
+    # created, table after table; splitting it would only scatter that record.
+    op.create_table(
+        "jobs",
+        sa.Column("id", sa.Integer(), nullable=False),
+        sa.Column("kind", sa.String(16), nullable=False),
+        sa.Column("state", sa.String(16), nullable=False),
+        sa.Column("progress", sa.Float(), nullable=False),
+        sa.Column("message", sa.Text(), nullable=False),
+        sa.Column("error", sa.Text(), nullable=True),
+        sa.Column("params", sa.JSON(), nullable=False),
+        sa.Column("attempts", sa.Integer(), nullable=False),
+        sa.Column("created_at", TZ, nullable=False),
+        sa.Column("started_at", TZ, nullable=True),
+        sa.Column("finished_at", TZ, nullable=True),
+        sa.Column("updated_at", TZ, nullable=False),
+        sa.PrimaryKeyConstraint("id", name=op.f("pk_jobs")),
+    )
+    op.create_index(op.f("ix_jobs_created_at"), "jobs", ["created_at"])
+    op.create_index(op.f("ix_jobs_kind"), "jobs", ["kind"])
+    op.create_index(op.f("ix_jobs_state"), "jobs", ["state"])
+
+    op.create_table(
+        "recording_sessions",
+        sa.Column("id", sa.Integer(), nullable=False),
+        sa.Column("subject", sa.String(200), nullable=True),
+        sa.Column("task", sa.String(200), nullable=True),
+        sa.Column("load_kg", sa.Float(), nullable=True),
+        sa.Column("notes", sa.Text(), nullable=True),
+        sa.Column("options", sa.JSON(), nullable=False),
+        sa.Column("created_at", TZ, nullable=False),
+        sa.PrimaryKeyConstraint("id", name=op.f("pk_recording_sessions")),
+    )
+    op.create_index(op.f("ix_recording_sessions_created_at"), "recording_sessions", ["created_at"])
+    op.create_index(op.f("ix_recording_sessions_subject"), "recording_sessions", ["subject"])
+    op.create_index(op.f("ix_recording_sessions_task"), "recording_sessions", ["task"])
+
+    op.create_table(
+        "recording_files",
+        sa.Column("id", sa.Integer(), nullable=False),
+        sa.Column("session_id", sa.Integer(), nullable=False),
+        sa.Column("original_name", sa.String(255), nullable=False),
+        sa.Column("format", sa.String(64), nullable=False),
+        sa.Column("size", sa.BigInteger(), nullable=False),
+        sa.Column("sha256", sa.String(64), nullable=False),
+        sa.Column("file_metadata", sa.JSON(), nullable=False),
+        sa.ForeignKeyConstraint(
+            ["session_id"],
+            ["recording_sessions.id"],
+            name=op.f("fk_recording_files_session_id_recording_sessions"),
+            ondelete="CASCADE",
+        ),
+        sa.PrimaryKeyConstraint("id", name=op.f("pk_recording_files")),
+    )
+    op.create_index(op.f("ix_recording_files_format"), "recording_files", ["format"])
+    op.create_index(op.f("ix_recording_files_session_id"), "recording_files", ["session_id"])
+    op.create_index(op.f("ix_recording_files_sha256"), "recording_files", ["sha256"])
+
+    op.create_table(
+        "channels",
+        sa.Column("id", sa.Integer(), nullable=False),
+        sa.Column("file_id", sa.Integer(), nullable=False),
+        sa.Column("name", sa.String(200), nullable=False),
+        sa.Column("kind", sa.String(16), nullable=False),
+        sa.Column("unit", sa.String(32), nullable=False),
+        sa.Column("rate", sa.Float(), nullable=False),
+        sa.Column("start", sa.Float(), nullable=False),
+        sa.Column("site", sa.String(16), nullable=True),
+        sa.Column("n_samples", sa.Integer(), nullable=False),
+        sa.Column("dims", sa.Integer(), nullable=False),
+        sa.Column("data", sa.LargeBinary(), nullable=False),
+        sa.Column("confidence", sa.LargeBinary(), nullable=True),
+        sa.Column("time", sa.LargeBinary(), nullable=True),
+        sa.ForeignKeyConstraint(
+            ["file_id"],
+            ["recording_files.id"],
+            name=op.f("fk_channels_file_id_recording_files"),
+            ondelete="CASCADE",
+        ),
+        sa.PrimaryKeyConstraint("id", name=op.f("pk_channels")),
+    )
+    op.create_index(op.f("ix_channels_file_id"), "channels", ["file_id"])
+
+    op.create_table(
+        "robots",
+        sa.Column("id", sa.Integer(), nullable=False),
+        sa.Column("name", sa.String(100), nullable=False),
+        sa.Column("urdf_sha256", sa.String(64), nullable=False),
+        sa.Column("urdf_name", sa.String(255), nullable=False),
+        sa.Column("mjcf_sha256", sa.String(64), nullable=True),
+        sa.Column("mjcf_name", sa.String(255), nullable=True),
+        sa.Column("payload", sa.Float(), nullable=True),
+        sa.Column("description", sa.JSON(), nullable=False),
+        sa.Column("created_at", TZ, nullable=False),
+        sa.PrimaryKeyConstraint("id", name=op.f("pk_robots")),
+        sa.UniqueConstraint("name", name=op.f("uq_robots_name")),
+    )
+
+    _result_table(
+        "analyses",
+        sa.Column("recording_id", sa.Integer(), nullable=True),
+        sa.Column("template", sa.JSON(), nullable=True),
+        sa.ForeignKeyConstraint(
+            ["recording_id"],
+            ["recording_sessions.id"],
+            name=op.f("fk_analyses_recording_id_recording_sessions"),
+            ondelete="SET NULL",
+        ),
+        arrays=False,
+    )
+    op.create_index(op.f("ix_analyses_recording_id"), "analyses", ["recording_id"])
+    for name, arrays in (("plans", True), ("simulations", True), ("sweeps", False)):
+        _result_table(name, sa.Column("robot", sa.String(100), nullable=False), arrays=arrays)
+        op.create_index(op.f(f"ix_{name}_robot"), name, ["robot"])
+
+
+def downgrade() -> None:
+    for name in ("sweeps", "simulations", "plans", "analyses"):
+        op.drop_table(name)
+    op.drop_table("robots")
+    op.drop_table("channels")
+    op.drop_table("recording_files")
+    op.drop_table("recording_sessions")
+    op.drop_table("jobs")

@@ -1,0 +1,79 @@
+// The dashboard shell: hash routes, navigation, service status, API token.
+
+import { api, setToken, token } from "./api.js";
+import { loadNames } from "./names.js";
+import { colours } from "./plots.js";
+import { banner, clear, messageOf } from "./ui.js";
+
+const routes = [
+  { re: /^#\/recordings\/(\d+)$/, page: "recordings", load: () => import("./recording.js") },
+  { re: /^#\/recordings\/?$/, page: "recordings", load: () => import("./recordings.js") },
+  { re: /^#\/plan\/?(?:\?(.*))?$/, page: "plan", load: () => import("./plan.js") },
+  { re: /^#\/compare(?:\/(plan|simulation)\/(\d+))?\/?$/, page: "compare", load: () => import("./compare.js") },
+];
+
+const main = document.getElementById("app");
+let current = null; // the page's cleanup function
+
+async function route() {
+  const hash = location.hash || "#/recordings";
+  const match = routes.map((r) => [r, hash.match(r.re)]).find(([, m]) => m);
+  if (current) {
+    try {
+      current();
+    } catch {
+      /* a page that failed to clean up must not block the next one */
+    }
+    current = null;
+  }
+  document.querySelectorAll(".tabs a").forEach((a) => a.classList.toggle("active", match && a.dataset.page === match[0].page));
+  clear(main);
+  if (!match) {
+    main.append(banner("error", `No page at ${hash}.`));
+    return;
+  }
+  const [r, m] = match;
+  try {
+    await loadNames();
+    // The stylesheet's trajectory colours follow the shared names too.
+    for (const [k, v] of Object.entries({ "--std": colours().standard, "--opt": colours().optimized })) {
+      document.documentElement.style.setProperty(k, v);
+    }
+    const mod = await r.load();
+    current = (await mod.render(main, m.slice(1))) || null;
+  } catch (err) {
+    main.append(banner("error", `This page could not be shown: ${messageOf(err)}`));
+  }
+  main.focus({ preventScroll: true });
+}
+
+async function status() {
+  const dot = document.getElementById("status-dot");
+  const text = document.getElementById("status-text");
+  try {
+    const [health, viewer] = await Promise.all([api("/api/health"), api("/api/viewer")]);
+    dot.className = `dot ${health.status === "ok" ? "ok" : "bad"}`;
+    const jobs = health.running ? `${health.running} running` : "idle";
+    text.textContent = `${health.executor} executor, ${jobs} · viewer ${viewer.enabled ? `:${viewer.port}` : "off"}`;
+  } catch (err) {
+    dot.className = "dot bad";
+    text.textContent = `service unreachable: ${messageOf(err)}`;
+  }
+}
+
+const tokenButton = document.getElementById("token-button");
+tokenButton.hidden = !token();
+tokenButton.addEventListener("click", () => {
+  const value = prompt("API token for writes (BIOPLAN_API_TOKEN); empty to forget it:", token());
+  if (value !== null) setToken(value.trim());
+  tokenButton.hidden = !token();
+});
+document.addEventListener("bioplan:unauthorized", () => {
+  tokenButton.hidden = false;
+});
+
+window.addEventListener("hashchange", route);
+if (!location.hash) history.replaceState(null, "", "#/recordings");
+route();
+status();
+setInterval(status, 15000);

@@ -1,0 +1,258 @@
+// Plan: robot, task, duration, payload, objective, template, PSO settings; submit; live
+// progress (Server-Sent Events) and the convergence curve as it grows; cancel.
+
+import { api, followJob, qs } from "./api.js";
+import { names } from "./names.js";
+import { colours, draw, layout } from "./plots.js";
+import { DEG, banner, clear, fmt, h, messageOf, pct, tag, when } from "./ui.js";
+
+/**
+ * The optimisers' convergence from a job's structured progress: one curve per stage that
+ * reports a best value (PSO iterations; optimal control), point `done` -> `best`.
+ */
+export function addProgressPoint(curves, job) {
+  if (job.best === null || job.best === undefined || !job.stage) return false;
+  const curve = curves[job.stage] || (curves[job.stage] = { x: [], y: [] });
+  if (curve.x.length && job.done <= curve.x.at(-1)) return false;
+  curve.x.push(job.done);
+  curve.y.push(job.best);
+  return true;
+}
+
+export async function render(main, [query]) {
+  const params = new URLSearchParams(query || "");
+  const stops = [];
+  const [robots, analyses] = await Promise.all([
+    api("/api/robots"),
+    api(`/api/analyses${qs({ state: "succeeded", limit: 100 })}`).catch(() => ({ items: [] })),
+  ]);
+
+  // ---- form --------------------------------------------------------------------------
+  const robot = h("select", { id: "robot" }, robots.map((r) => h("option", { value: r.name }, `${r.name}${r.builtin ? "" : " (uploaded)"}`)));
+  const kind = h("select", { id: "kind" },
+    h("option", { value: "simulation" }, "plan + MuJoCo simulation"),
+    h("option", { value: "plan" }, "plan only"),
+  );
+  const duration = h("input", { id: "duration", type: "number", min: "0.05", max: "600", step: "0.05", value: "1.0", required: true });
+  const payload = h("input", { id: "payload", type: "number", min: "0", max: "10000", step: "0.1" });
+  const objective = h("select", { id: "objective" }, names.metrics.map((m) => h("option", { value: m.name }, `${m.name}: ${m.label} ${m.formula} [${m.unit}]`)));
+  const template = h("select", { id: "template" },
+    h("option", { value: "" }, "paper defaults (velocity peak in the middle of phase B)"),
+    analyses.items.map((a) => {
+      const t = a.template || {};
+      const peak = t.peak_velocity_angle_deg ? `${fmt(t.peak_velocity_angle_deg, 3)}°` : "?";
+      return h("option", { value: String(a.id), selected: params.get("analysis") === String(a.id) }, `analysis #${a.id} of recording #${a.recording_id}: peak ${peak}, ${t.n_lifts ?? 0} lifts`);
+    }),
+  );
+  const peak = h("input", { id: "peak-angle", type: "number", min: "1", max: "179", step: "0.5", placeholder: "from the template" });
+  const pso = names.pso_defaults;
+  const particles = h("input", { id: "particles", type: "number", min: "2", max: "1000", step: "1", value: String(pso.particles) });
+  const iterations = h("input", { id: "iterations", type: "number", min: "1", max: "10000", step: "1", value: String(pso.iterations) });
+  const seed = h("input", { id: "seed", type: "number", min: "0", step: "1", value: String(pso.seed) });
+  const jointsBody = h("tbody", {});
+  const robotInfo = h("div", { class: "small muted", id: "robot-info" });
+
+  function showRobot() {
+    const r = robots.find((x) => x.name === robot.value);
+    payload.placeholder = r && r.payload !== null ? `default ${r.payload} kg` : "robot default";
+    clear(jointsBody);
+    r.joint_names.forEach((name, i) => {
+      const lim = (v) => (v === null ? "∞" : fmt(v * DEG, 3));
+      jointsBody.append(h("tr", {},
+        h("td", { class: "mono" }, name),
+        h("td", { class: "small muted nowrap" }, `${lim(r.q_min[i])} … ${lim(r.q_max[i])}`),
+        h("td", {}, h("input", { type: "number", step: "1", placeholder: "default", "aria-label": `${name} start [deg]`, dataset: { joint: String(i), end: "start" } })),
+        h("td", {}, h("input", { type: "number", step: "1", placeholder: "default", "aria-label": `${name} goal [deg]`, dataset: { joint: String(i), end: "goal" } })),
+      ));
+    });
+    clear(robotInfo).append(`${r.joint_names.length} joints${r.has_mjcf ? ", MJCF for simulation" : ", no MJCF: plan only"}`);
+    kind.value = r.has_mjcf ? kind.value : "plan";
+    kind.options[0].disabled = !r.has_mjcf;
+  }
+  robot.addEventListener("change", showRobot);
+  showRobot();
+
+  function angles(end) {
+    const inputs = [...jointsBody.querySelectorAll(`input[data-end="${end}"]`)];
+    if (inputs.every((x) => x.value.trim() === "")) return null;
+    // A partly filled task takes the curl task's value for the rest (as the API does).
+    return inputs.map((x) => (x.value.trim() === "" ? null : Number(x.value)));
+  }
+
+  function body() {
+    const num = (el) => (el.value.trim() === "" ? null : Number(el.value));
+    const b = {
+      robot: robot.value,
+      duration: num(duration),
+      payload: num(payload),
+      objective: objective.value,
+      seed: num(seed) ?? pso.seed,
+      particles: num(particles) ?? pso.particles,
+      iterations: num(iterations) ?? pso.iterations,
+      peak_angle_deg: num(peak),
+      template_analysis_id: template.value ? Number(template.value) : null,
+      start_deg: angles("start"),
+      goal_deg: angles("goal"),
+    };
+    for (const k of ["start_deg", "goal_deg"]) {
+      if (b[k] && b[k].some((v) => v === null)) throw new Error(`${k === "start_deg" ? "Start" : "Goal"} angles: give every joint or none (empty = the default curl task)`);
+    }
+    for (const k of Object.keys(b)) if (b[k] === null) delete b[k];
+    return b;
+  }
+
+  const submit = h("button", { class: "primary", type: "submit", id: "submit-plan" }, "Plan");
+  const formError = h("div", {});
+  const form = h("form", { class: "card", id: "plan-form", novalidate: true, onsubmit: onSubmit },
+    h("h2", {}, "New plan"),
+    h("div", { class: "fields" },
+      h("div", {}, h("label", { for: "robot" }, "Robot"), robot, robotInfo),
+      h("div", {}, h("label", { for: "kind" }, "Run"), kind),
+      h("div", {}, h("label", { for: "duration" }, "Duration ", h("span", { class: "hint" }, "[s]")), duration),
+      h("div", {}, h("label", { for: "payload" }, "Payload ", h("span", { class: "hint" }, "[kg]")), payload),
+      h("div", { class: "wide" }, h("label", { for: "objective" }, "Objective (what PSO minimises)"), objective),
+      h("div", { class: "wide" }, h("label", { for: "template" }, "Human template"), template),
+      h("div", { class: "wide" }, h("label", { for: "peak-angle" }, "Elbow velocity-peak angle ", h("span", { class: "hint" }, "[deg], overrides the template")), peak),
+    ),
+    h("details", {},
+      h("summary", {}, "Task: start and goal angles [deg]"),
+      h("p", { class: "small muted" }, "Empty: the robot's curl task (shoulder 0→20°, elbow 0→150°)."),
+      h("div", { class: "table-wrap" }, h("table", {}, h("thead", {}, h("tr", {}, h("th", {}, "joint"), h("th", {}, "limits [deg]"), h("th", {}, "start"), h("th", {}, "goal"))), jointsBody)),
+    ),
+    h("fieldset", {},
+      h("legend", {}, "Particle swarm"),
+      h("div", { class: "fields" },
+        h("div", {}, h("label", { for: "particles" }, "Particles"), particles),
+        h("div", {}, h("label", { for: "iterations" }, "Iterations (at most)"), iterations),
+        h("div", {}, h("label", { for: "seed" }, "Seed"), seed),
+      ),
+    ),
+    formError,
+    h("div", { class: "row", style: "margin-top:14px" }, submit),
+  );
+
+  // ---- job monitor -------------------------------------------------------------------
+  const monitor = h("section", { class: "card", id: "job-card" },
+    h("h2", {}, "Progress"),
+    h("p", { class: "muted" }, "Submit a plan: its progress, the optimiser's convergence and the result appear here."),
+  );
+  const jobsBody = h("tbody", { id: "jobs-body" });
+  const jobsCard = h("section", { class: "card" }, h("h2", {}, "Recent jobs"),
+    h("div", { class: "table-wrap" }, h("table", {}, h("thead", {}, h("tr", {}, ["#", "kind", "state", "robot", "created", "run [s]", ""].map((c, i) => h("th", { class: i === 5 ? "num" : "" }, c)))), jobsBody)));
+
+  async function refreshJobs() {
+    try {
+      const page = await api(`/api/jobs${qs({ limit: 12 })}`);
+      clear(jobsBody);
+      for (const j of page.items) {
+        const link = j.state === "succeeded" && ["plan", "simulation"].includes(j.kind)
+          ? h("a", { href: `#/compare/${j.kind}/${j.id}` }, "compare")
+          : j.state === "succeeded" && j.kind === "analysis" ? h("a", { href: `#/plan?analysis=${j.id}` }, "use template") : "";
+        jobsBody.append(h("tr", {},
+          h("td", { class: "mono" }, j.id), h("td", {}, j.kind), h("td", {}, tag(j.state)),
+          h("td", { class: "mono small" }, j.params.robot || (j.params.recording_id ? `recording #${j.params.recording_id}` : "")),
+          h("td", { class: "small nowrap" }, when(j.created_at)),
+          h("td", { class: "num" }, j.run_seconds === null ? "–" : fmt(j.run_seconds, 3)),
+          h("td", {}, link),
+        ));
+      }
+    } catch {
+      /* the list is secondary */
+    }
+  }
+
+  function startMonitor(job) {
+    const bar = h("div", {});
+    const prog = h("div", { class: "progress", id: "job-progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": "0" }, bar);
+    const state = h("span", { id: "job-state" }, tag(job.state));
+    const message = h("span", { class: "small muted", id: "job-message" }, job.message);
+    const cancel = h("button", { type: "button", class: "danger small", id: "cancel-job" }, "Cancel");
+    const plotDiv = h("div", { class: "plot", id: "convergence-plot", style: "min-height:240px" });
+    const result = h("div", { id: "job-result" });
+    clear(monitor).append(
+      h("div", { class: "row" }, h("h2", { style: "margin:0" }, `${job.kind === "simulation" ? "Simulation" : "Plan"} #${job.id}`), state, h("span", { style: "margin-left:auto" }, cancel)),
+      prog, message, plotDiv, result,
+    );
+    let curves = {};
+    const objectiveName = job.params.objective;
+    const drawCurve = () => {
+      const stages = Object.keys(curves);
+      const traces = stages.map((stage, i) => ({ x: curves[stage].x, y: curves[stage].y, mode: "lines+markers", line: { color: i ? colours().standard : colours().optimized, width: 2 }, marker: { size: 4 }, name: stage }));
+      const xTitle = stages.length === 1 && stages[0] === "pso" ? "PSO iteration" : "iteration";
+      return draw(plotDiv, traces, layout({ height: 240, showlegend: stages.length > 1, xaxis: { title: { text: xTitle }, gridcolor: "#eceff3" }, yaxis: { title: { text: `best ${objectiveName}` }, gridcolor: "#eceff3" } }));
+    };
+    drawCurve();
+    cancel.addEventListener("click", async () => {
+      cancel.disabled = true;
+      try {
+        await api(`/api/jobs/${job.id}/cancel`, { method: "POST" });
+      } catch (err) {
+        result.append(banner("error", messageOf(err)));
+      }
+    });
+    const follow = followJob(job, (j) => {
+      const p = Math.round(100 * j.progress);
+      bar.style.width = `${p}%`;
+      prog.setAttribute("aria-valuenow", String(p));
+      prog.dataset.stage = j.stage;
+      clear(state).append(tag(j.state));
+      message.textContent = j.error || j.message;
+      if (addProgressPoint(curves, j)) drawCurve();
+    });
+    stops.push(follow.stop);
+    follow.done.then(async (final) => {
+      cancel.hidden = true;
+      refreshJobs();
+      if (final.state === "succeeded") {
+        prog.classList.add("done");
+        const out = await api(final.result_url);
+        const r = out.result;
+        const hist = r.optimizer && r.optimizer.history;
+        if (hist && hist.length) {
+          curves = { pso: { x: hist.map((_, i) => i + 1), y: hist } };
+          drawCurve();
+        }
+        const imp = r.improvement_pct || {};
+        clear(result).append(
+          h("div", { class: "facts" },
+            ...["abs_work", "pos_work", "electrical_energy", "peak_power"].map((k) =>
+              h("div", { class: "fact" }, h("div", { class: "k" }, `${k} change`), h("div", { class: `v ${imp[k] > 0 ? "better" : imp[k] < 0 ? "worse" : ""}` }, pct(imp[k])))),
+          ),
+          h("p", { class: "small muted" }, "Change = 100 (standard − optimised) / standard: positive means the bio-inspired plan uses less."),
+          h("a", { class: "button primary", id: "open-compare", href: `#/compare/${final.kind}/${final.id}` }, "Open in Compare →"),
+        );
+      } else {
+        prog.classList.add("failed");
+        result.append(banner(final.state === "cancelled" ? "warn" : "error", final.state === "cancelled" ? "Cancelled." : `Failed: ${final.error}`));
+      }
+    });
+  }
+
+  async function onSubmit(e) {
+    e.preventDefault();
+    clear(formError);
+    let b;
+    try {
+      b = body();
+    } catch (err) {
+      formError.append(banner("error", err.message));
+      return;
+    }
+    submit.disabled = true;
+    try {
+      const route = kind.value === "simulation" ? "/api/simulations" : "/api/plans";
+      const job = await api(route, { method: "POST", body: b });
+      startMonitor(job);
+      refreshJobs();
+    } catch (err) {
+      const field = err.problem && err.problem.field ? ` (${err.problem.field})` : "";
+      formError.append(banner("error", `${messageOf(err)}${field}`));
+    } finally {
+      submit.disabled = false;
+    }
+  }
+
+  main.append(h("div", { class: "grid-2" }, form, h("div", {}, monitor, jobsCard)));
+  refreshJobs();
+  return () => stops.forEach((f) => f());
+}

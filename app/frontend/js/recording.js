@@ -1,0 +1,424 @@
+// Recording detail: raw EMG and envelopes with onsets, arm angles and velocities, lifts with
+// their A/B/C phases, the human template. Zooming fetches the window again (server-side
+// min/max downsampling), so long recordings stay light.
+
+import { ApiError, api, followJob, qs } from "./api.js";
+import { names } from "./names.js";
+import { draw, layout, phaseFill, phaseLegend, plotly } from "./plots.js";
+import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
+
+const POINTS = 1600;
+// Channels mapped to a site take the site's colour (app/names.py); the others these.
+const EXTRA_COLORS = ["#6e7781", "#bc4c00", "#116329", "#953800", "#0550ae"];
+
+function emgScale(unit) {
+  // Readers deliver EMG in volts; microvolts read better.
+  return unit === "V" ? { k: 1e6, unit: "µV" } : { k: 1, unit: unit || "" };
+}
+
+function muscleColor(name, i) {
+  return names.muscle_colours[name] || EXTRA_COLORS[i % EXTRA_COLORS.length];
+}
+
+/**
+ * Rectangles [x0, x1] x [y0, y1] as one filled trace (null-separated polygons). A few traces
+ * draw far faster than layout shapes: a 10-minute session has over a thousand phase and onset
+ * rectangles, which as shapes cost Plotly about half a second per plot.
+ */
+function rectTrace(spans, y0, y1, style) {
+  const x = [];
+  const y = [];
+  for (const [a, b] of spans) {
+    x.push(a, b, b, a, a, null);
+    y.push(y0, y0, y1, y1, y0, null);
+  }
+  return { x, y, type: "scatter", mode: "lines", fill: "toself", line: { width: 0 }, hoverinfo: "skip", showlegend: false, ...style };
+}
+
+/** The A/B/C phases (or the rising part when a lift has none) and lift tops on one subplot. */
+function liftTraces(lifts, [y0, y1], axes) {
+  const spans = new Map();
+  const add = (key, a, b) => (spans.get(key) || spans.set(key, []).get(key)).push([a, b]);
+  const tops = { x: [], y: [] };
+  for (const lift of lifts) {
+    if (lift.phases.length) lift.phases.forEach((p) => add(p.name, p.start_s, p.end_s));
+    else add("rising", lift.start_s, lift.top_s);
+    tops.x.push(lift.top_s, lift.top_s, null);
+    tops.y.push(y0, y1, null);
+  }
+  const traces = [...spans].map(([name, list]) => rectTrace(list, y0, y1, { ...axes, name: `phase ${name}`, fillcolor: names.phases.some((p) => p.name === name) ? phaseFill(name) : name === "rising" ? "rgba(37,99,235,0.06)" : "rgba(0,0,0,0.04)" }));
+  if (lifts.length) traces.push({ ...tops, ...axes, type: "scatter", mode: "lines", name: "lift tops", line: { color: "#9ca3af", width: 1, dash: "dot" }, hoverinfo: "skip", showlegend: false });
+  return traces;
+}
+
+/** [min, max] of the finite values of several series (null when there is none). */
+function extent(...series) {
+  let lo = Infinity;
+  let hi = -Infinity;
+  for (const ys of series) for (const v of ys) if (v !== null && Number.isFinite(v)) { if (v < lo) lo = v; if (v > hi) hi = v; }
+  return lo <= hi ? [lo, hi] : null;
+}
+
+export async function render(main, [idText]) {
+  const id = Number(idText);
+  const state = { window: [null, null], analysis: null, emgChannels: [], stop: [] };
+  let rec;
+  try {
+    rec = await api(`/api/recordings/${id}`);
+  } catch (err) {
+    main.append(banner("error", messageOf(err)), h("a", { href: "#/recordings" }, "← All recordings"));
+    return;
+  }
+  const channels = rec.files.flatMap((f) => f.channels.map((c) => ({ ...c, file: f.original_name })));
+  const allEmg = channels.filter((c) => c.kind === "emg");
+  // Shown at first: the channels mapped to the method's four sites (or the first six).
+  const mapped = allEmg.filter((c) => c.site);
+  state.emgChannels = mapped.length ? mapped : allEmg.slice(0, 6);
+  const duration = Math.max(0, ...channels.map((c) => c.start + c.duration));
+
+  // ---- header and files -----------------------------------------------------------------
+  const title = [rec.subject, rec.task].filter(Boolean).join(" · ") || rec.file_names.join(", ");
+  const analysisStatus = h("div", { id: "analysis-status" });
+  const analyseButton = h("button", { type: "button", onclick: () => runAnalysis() }, "Run analysis job");
+  main.append(
+    h("div", { class: "page-head" },
+      h("div", {},
+        h("a", { href: "#/recordings", class: "small" }, "← All recordings"),
+        h("h1", {}, `Recording #${rec.id}: ${title}`),
+        h("div", { class: "muted small" }, `${rec.load_kg !== null ? `${rec.load_kg} kg · ` : ""}${fmt(duration, 4)} s · uploaded ${when(rec.created_at)}`),
+      ),
+      h("div", { class: "actions" }, analyseButton),
+    ),
+    analysisStatus,
+  );
+  if (rec.notes) main.append(h("p", { class: "muted" }, rec.notes));
+
+  const fileRows = channels.map((c) =>
+    h("tr", {},
+      h("td", { class: "mono" }, c.file),
+      h("td", {}, c.name),
+      h("td", {}, c.kind),
+      h("td", {}, c.site || h("span", { class: "muted" }, "–")),
+      h("td", { class: "num" }, `${fmt(c.rate)} Hz`),
+      h("td", { class: "num" }, c.n_samples.toLocaleString("en-US")),
+      h("td", { class: "num" }, `${fmt(c.duration)} s`),
+      h("td", {}, c.unit),
+    ));
+  const filesCard = h("details", { class: "card" },
+    h("summary", {}, `${rec.files.length} file(s), ${channels.length} channel(s): ${rec.files.map((f) => `${f.original_name} (${f.format}, ${bytes(f.size)})`).join(", ")}`),
+    h("div", { class: "table-wrap", style: "margin-top:8px" },
+      h("table", {}, h("thead", {}, h("tr", {}, ["File", "Channel", "Kind", "Site", "Rate", "Samples", "Duration", "Unit"].map((c, i) => h("th", { class: [4, 5, 6].includes(i) ? "num" : "" }, c)))), h("tbody", {}, fileRows)),
+    ),
+  );
+  main.append(filesCard);
+
+  // ---- plot cards --------------------------------------------------------------------
+  const emgDiv = h("div", { class: "plot tall", id: "emg-plot" });
+  const angleDiv = h("div", { class: "plot", id: "angle-plot" });
+  const templateDiv = h("div", { class: "plot", id: "template-plot" });
+  const analysisNote = h("div", { id: "analysis-note" }, h("p", { class: "muted small" }, "Analysing the recording (envelopes, onsets, angles, lifts)…"));
+  const liftsBox = h("div", { id: "lifts" });
+  const templateFacts = h("div", { class: "facts", id: "template-facts" });
+  const legend = h("div", { class: "legend-inline" },
+    phaseLegend(),
+    h("span", {}, "· drag to zoom, double-click to reset; zooming loads the window at full detail"),
+  );
+  const picker = h("details", { class: "small", id: "channel-picker" },
+    h("summary", {}, `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`),
+    h("div", { class: "row", style: "margin-top:6px" }, allEmg.map((c) =>
+      h("label", { class: "nowrap", style: "font-weight:400; margin:0 10px 0 0" },
+        h("input", { type: "checkbox", checked: state.emgChannels.includes(c), dataset: { channel: String(c.id) }, onchange: (e) => {
+          state.emgChannels = allEmg.filter((x) => x === c ? e.target.checked : state.emgChannels.includes(x));
+          picker.querySelector("summary").textContent = `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`;
+          reload();
+        } }),
+        ` ${c.name}${c.site ? ` (${c.site})` : ""}`))),
+  );
+  main.append(
+    h("section", { class: "card" }, h("h2", {}, "EMG: raw signal and envelope, onsets, lifts"), legend, allEmg.length > state.emgChannels.length || allEmg.length > 1 ? picker : null, analysisNote, emgDiv),
+    h("section", { class: "card" }, h("h2", {}, "Shoulder and elbow flexion"), angleDiv),
+    h("div", { class: "grid-2" },
+      h("section", { class: "card" }, h("h2", {}, "Human template"), templateFacts, templateDiv),
+      h("section", { class: "card" }, h("h2", {}, "Lifts and phases"), liftsBox),
+    ),
+  );
+  if (!allEmg.length) emgDiv.replaceWith(h("p", { class: "muted" }, "This recording has no EMG channels."));
+
+  // ---- data ----------------------------------------------------------------------------
+  async function fetchRaw() {
+    if (!state.emgChannels.length) return null;
+    const [t0, t1] = state.window;
+    return api(`/api/recordings/${id}/signals${qs({ channel: state.emgChannels.map((c) => c.id), points: POINTS, t0, t1 })}`);
+  }
+  async function fetchAnalysis() {
+    const [t0, t1] = state.window;
+    return api(`/api/viewer/recordings/${id}/analysis${qs({ points: POINTS, t0, t1 })}`);
+  }
+
+  function range() {
+    const [t0, t1] = state.window;
+    return t0 === null ? undefined : [t0, t1];
+  }
+
+  async function drawEmg(raw, analysis) {
+    if (!raw) {
+      if (allEmg.length && window.Plotly) window.Plotly.purge(emgDiv);
+      return;
+    }
+    const n = raw.channels.length;
+    const under = [];
+    const traces = [];
+    const lay = layout({ height: Math.max(260, 150 * n + 60), showlegend: true, uirevision: "emg", hovermode: "x", margin: { l: 78, r: 12, t: 30, b: 40 } });
+    const gap = 0.04;
+    const envByChannel = new Map((analysis ? analysis.emg : []).map((e) => [e.channel, e]));
+    raw.channels.forEach((ch, i) => {
+      const axis = i === 0 ? "" : String(i + 1);
+      const axes = { xaxis: `x${axis}`, yaxis: `y${axis}` };
+      const info = state.emgChannels.find((c) => c.id === ch.channel_id) || {};
+      const scale = emgScale(ch.unit);
+      const s = ch.series[0];
+      const env = envByChannel.get(ch.name);
+      const label = info.site || (env ? env.muscle : ch.name);
+      const color = muscleColor(label, i);
+      const rawY = s.y.map((v) => (v === null ? null : v * scale.k));
+      traces.push({ x: s.t, y: rawY, type: "scatter", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, ...axes, showlegend: false, hoverinfo: "skip" });
+      const es = env ? emgScale(env.unit) : null;
+      const envY = env ? env.envelope.y.map((v) => (v === null ? null : v * es.k)) : [];
+      if (env) traces.push({ x: env.envelope.t, y: envY, type: "scatter", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, ...axes });
+      const span = extent(rawY, envY);
+      if (analysis && span) {
+        // Shading first, so that the signals are drawn over it.
+        under.push(...liftTraces(analysis.lifts, span, axes));
+        if (env && env.onsets.length) {
+          const top = span[1] - 0.1 * (span[1] - span[0]);
+          under.push(rectTrace(env.onsets, top, span[1], { ...axes, name: `${label} onsets`, fillcolor: color, opacity: 0.45 }));
+        }
+      }
+      const top = 1 - i / n;
+      const bottom = 1 - (i + 1) / n;
+      lay[`yaxis${axis}`] = { domain: [bottom + gap / 2, top - gap / 2], title: { text: `${ch.name.length > 14 ? `${ch.name.slice(0, 13)}…` : ch.name}<br>${label !== ch.name ? `${label} ` : ""}[${scale.unit}]`, font: { size: 10.5 } }, gridcolor: "#eceff3", zeroline: false };
+      lay[`xaxis${axis}`] = { anchor: `y${axis}`, matches: i === 0 ? undefined : "x", showticklabels: i === n - 1, gridcolor: "#eceff3", range: range(), title: i === n - 1 ? { text: "t [s]" } : undefined };
+    });
+    await draw(emgDiv, [...under, ...traces], lay);
+    emgDiv.style.minHeight = "0";
+    hook(emgDiv);
+  }
+
+  async function drawAngles(analysis) {
+    if (!analysis || !analysis.angles) {
+      angleDiv.style.minHeight = "0";
+      clear(angleDiv).append(h("p", { class: "muted" }, analysis ? "No shoulder or elbow angle in this recording (EMG only): lifts come from EMG bursts." : "Waiting for the analysis…"));
+      return;
+    }
+    const a = analysis.angles;
+    const line = (s, name, color, axis, dash) => ({ x: s.t, y: s.y, type: "scatter", mode: "lines", name, line: { color, width: 2, dash }, xaxis: "x", yaxis: axis });
+    const traces = [
+      line(a.elbow_deg, "elbow flexion", "#cf222e", "y"),
+      line(a.shoulder_deg, "shoulder flexion", "#8250df", "y"),
+      line(a.elbow_velocity_deg_s, "elbow velocity", "#cf222e", "y2", "dot"),
+      line(a.shoulder_velocity_deg_s, "shoulder velocity", "#8250df", "y2", "dot"),
+    ];
+    const under = [];
+    const angles = extent(a.elbow_deg.y, a.shoulder_deg.y);
+    const velocities = extent(a.elbow_velocity_deg_s.y, a.shoulder_velocity_deg_s.y);
+    if (angles) under.push(...liftTraces(analysis.lifts, angles, { xaxis: "x", yaxis: "y" }));
+    if (velocities) under.push(...liftTraces(analysis.lifts, velocities, { xaxis: "x", yaxis: "y2" }));
+    const lay = layout({ height: 400, uirevision: "angles", hovermode: "x" });
+    lay.xaxis = { anchor: "y2", range: range(), title: { text: "t [s]" }, gridcolor: "#eceff3" };
+    lay.yaxis = { domain: [0.53, 1], title: { text: "angle [deg]" }, gridcolor: "#eceff3" };
+    lay.yaxis2 = { domain: [0, 0.47], title: { text: "velocity [deg/s]" }, gridcolor: "#eceff3", zerolinecolor: "#c9ced6" };
+    if (!angleDiv.on) clear(angleDiv);
+    angleDiv.style.minHeight = "";
+    await draw(angleDiv, [...under, ...traces], lay);
+    hook(angleDiv);
+  }
+
+  async function drawTemplate(template) {
+    const T = template;
+    clear(templateFacts).append(
+      fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}° ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`),
+      fact("lifts", String(T.n_lifts)),
+      fact("peak at", T.peak_velocity_time_fraction === null ? "–" : `${Math.round(100 * T.peak_velocity_time_fraction)} % of the lift`),
+      fact("activation order", (T.activation_order || []).join(" → ") || "–"),
+    );
+    if (!T.normalized_time || !T.normalized_time.length) {
+      clear(templateDiv).append(h("p", { class: "muted small" }, `${T.source}: no kinematic profile; the planner uses the paper's defaults (velocity peak at 62°).`));
+      return;
+    }
+    const x = T.normalized_time.map((v) => 100 * v);
+    const band = (mean, sd, color, name, axis) => [
+      { x, y: mean.map((m, i) => m + sd[i]), mode: "lines", line: { width: 0 }, showlegend: false, hoverinfo: "skip", yaxis: axis },
+      { x, y: mean.map((m, i) => m - sd[i]), mode: "lines", line: { width: 0 }, fill: "tonexty", fillcolor: color.replace("1)", "0.18)"), name: `${name} ± SD`, hoverinfo: "skip", yaxis: axis },
+      { x, y: mean, mode: "lines", line: { color, width: 2 }, name: `${name} (mean)`, yaxis: axis },
+    ];
+    const traces = [
+      ...band(T.velocity_mean, T.velocity_sd, "rgba(207,34,46,1)", "elbow velocity", "y"),
+      ...band(T.acceleration_mean, T.acceleration_sd, "rgba(37,99,235,1)", "elbow acceleration", "y2"),
+    ];
+    const lay = layout({ height: 400, hovermode: "x", legend: { orientation: "h", y: -0.22, x: 0 }, margin: { l: 56, r: 12, t: 10, b: 40 } });
+    lay.xaxis = { title: { text: "lift [% of the concentric part]", standoff: 4 }, anchor: "y2", gridcolor: "#eceff3" };
+    lay.yaxis = { domain: [0.54, 1], title: { text: "velocity / peak" }, gridcolor: "#eceff3" };
+    lay.yaxis2 = { domain: [0, 0.46], title: { text: "accel. / peak" }, gridcolor: "#eceff3" };
+    clear(templateDiv);
+    await draw(templateDiv, traces, lay);
+  }
+
+  function hook(div) {
+    // Zoom on either plot loads that window at full detail into both.
+    if (div.dataset.hooked) return;
+    div.dataset.hooked = "1";
+    div.on("plotly_relayout", onRelayout);
+  }
+
+  function fact(k, v) {
+    return h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v" }, v));
+  }
+
+  function drawLifts(analysis) {
+    clear(liftsBox);
+    if (!analysis.lifts.length) {
+      liftsBox.append(h("p", { class: "muted" }, "No lift found."));
+      return;
+    }
+    const dur = (lift, name) => {
+      const p = lift.phases.find((x) => x.name === name && x.part !== "eccentric");
+      return p ? fmt(p.end_s - p.start_s, 3) : "–";
+    };
+    liftsBox.append(
+      h("div", { class: "table-wrap" },
+        h("table", { id: "lifts-table" },
+          h("thead", {}, h("tr", {}, ["#", "start [s]", "top [s]", "end [s]", "A [s]", "B [s]", "C [s]", "v-peak [deg]", "onset order"].map((c, i) => h("th", { class: i > 0 && i < 8 ? "num" : "" }, c)))),
+          h("tbody", {}, analysis.lifts.map((l) =>
+            h("tr", {},
+              h("td", {}, `${l.index}`, h("div", { class: "small muted" }, l.source)),
+              h("td", { class: "num" }, fmt(l.start_s)),
+              h("td", { class: "num" }, fmt(l.top_s)),
+              h("td", { class: "num" }, fmt(l.end_s)),
+              h("td", { class: "num" }, dur(l, "A")),
+              h("td", { class: "num" }, dur(l, "B")),
+              h("td", { class: "num" }, dur(l, "C")),
+              h("td", { class: "num" }, fmt(l.peak_velocity_angle_deg, 3)),
+              h("td", { class: "small" }, l.activation_order.join(" → ")),
+            ))),
+        ),
+      ),
+    );
+    if (analysis.warnings.length) liftsBox.append(h("details", { class: "small" }, h("summary", {}, `${analysis.warnings.length} note(s) from the analysis`), h("ul", {}, analysis.warnings.map((w) => h("li", {}, w)))));
+  }
+
+  // The overlays come from the newest finished analysis job; "ready" once one was loaded,
+  // "waiting" while a job runs, "failed" when the last one failed (the button runs it again).
+  let analysisState = "unknown";
+  async function load({ initial = false } = {}) {
+    const rawPromise = fetchRaw();
+    const analysisPromise = analysisState === "ready" || analysisState === "unknown"
+      ? fetchAnalysis().catch((err) => {
+        noAnalysis(err);
+        return null;
+      })
+      : Promise.resolve(null);
+    // Both arrive in a fraction of a second (the overlays are stored by the analysis job):
+    // draw each plot once, with its overlays.
+    const [raw, analysis] = await Promise.all([rawPromise, analysisPromise]);
+    await drawEmg(raw, analysis || state.analysis);
+    if (!analysis) return;
+    const first = state.analysis === null || state.analysis.analysis_id !== analysis.analysis_id;
+    analysisState = "ready";
+    state.analysis = analysis;
+    clear(analysisNote);
+    await drawAngles(analysis);
+    if (initial || first) {
+      await drawTemplate(analysis.template);
+      drawLifts(analysis);
+    }
+  }
+
+  /** No overlays yet (409): follow the running job, report the failed one, or start one. */
+  function noAnalysis(err) {
+    const job = err instanceof ApiError && err.status === 409 ? err.problem.job : undefined;
+    if (job === undefined) {
+      analysisState = "failed";
+      clear(analysisNote).append(banner("warn", `The analysis of this recording could not be loaded: ${messageOf(err)}`));
+      clear(angleDiv).append(h("p", { class: "muted" }, "No analysis: raw signals only."));
+      return;
+    }
+    if (job && job.state !== "queued" && job.state !== "running") {
+      analysisState = "failed";
+      clear(analysisNote).append(banner("warn", `${messageOf(err)}. Raw signals only; “Run analysis job” tries again.`));
+      clear(angleDiv).append(h("p", { class: "muted" }, "No analysis: raw signals only."));
+      return;
+    }
+    analysisState = "waiting";
+    clear(analysisNote).append(h("p", { class: "muted small" }, job
+      ? `Analysis job #${job.id} is ${job.state}: envelopes, onsets, angles and lifts appear when it ends.`
+      : "This recording has not been analysed yet: starting the analysis job…"));
+    runAnalysis(job);
+  }
+
+  const reload = debounce(() => load().catch((err) => clear(analysisNote).append(banner("error", messageOf(err)))), 200);
+  function onRelayout(ev) {
+    const keys = Object.keys(ev);
+    if (keys.some((k) => /^xaxis\d*\.autorange$/.test(k))) {
+      if (state.window[0] === null) return;
+      state.window = [null, null];
+      reload();
+      return;
+    }
+    const k0 = keys.find((k) => /^xaxis\d*\.range\[0\]$/.test(k));
+    if (!k0) return;
+    const t0 = Number(ev[k0]);
+    const t1 = Number(ev[k0.replace("[0]", "[1]")]);
+    if (!(t1 > t0)) return;
+    state.window = [Math.max(0, t0), t1];
+    reload();
+  }
+
+  /** Submit an analysis job (or follow `existing`), with its progress; then load its overlays. */
+  async function runAnalysis(existing = null) {
+    analyseButton.disabled = true;
+    clear(analysisStatus);
+    const bar = h("div", {});
+    const text = h("span", { class: "small" }, "queued");
+    analysisStatus.append(h("div", { class: "card" }, h("div", { class: "row" }, h("strong", {}, "Analysis job "), text), h("div", { class: "progress" }, bar)));
+    try {
+      const job = existing || await api("/api/analyses", { method: "POST", body: { recording_id: id } });
+      const follow = followJob(job, (j) => {
+        bar.style.width = `${Math.round(100 * j.progress)}%`;
+        text.textContent = `#${j.id} ${j.state}: ${j.error || j.message}`;
+      });
+      state.stop.push(follow.stop);
+      const final = await follow.done;
+      if (final.state === "succeeded") {
+        bar.parentElement.classList.add("done");
+        text.append(" · ", h("a", { href: `#/plan?analysis=${final.id}` }, "plan with this template"));
+        analysisState = "unknown";
+        await load({ initial: true });
+      } else {
+        bar.parentElement.classList.add("failed");
+        analysisState = "failed";
+        clear(analysisNote).append(banner("warn", `Analysis job #${final.id} ${final.state}: ${final.error || final.message}`));
+      }
+    } catch (err) {
+      clear(analysisStatus).append(banner("error", messageOf(err)));
+    } finally {
+      analyseButton.disabled = false;
+    }
+  }
+
+  // Analyses already run on this recording.
+  api(`/api/analyses${qs({ state: "succeeded", recording_id: id, limit: 50 })}`).then((page) => {
+    const mine = page.items;
+    if (mine.length) {
+      analysisStatus.append(h("p", { class: "small muted" }, "Finished analyses: ", mine.map((a, i) => [i ? ", " : "", h("a", { href: `#/plan?analysis=${a.id}` }, `#${a.id}`)]), " (use as planning template)"));
+    }
+  }).catch(() => {});
+
+  await plotly();
+  try {
+    await load({ initial: true });
+  } catch (err) {
+    main.append(banner("error", messageOf(err)));
+  }
+  return () => state.stop.forEach((f) => f());
+}
+

@@ -1,0 +1,71 @@
+"""Finished plans and simulations, read from the database as the viewer's ``Comparison``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session, sessionmaker, undefer
+
+from app.db.arrays import decode_arrays
+from app.db.models import RESULT_MODELS, JobRecord
+from app.jobs.tasks import robot_from_spec
+from app.services.errors import ConflictError, NotFoundError
+from app.services.robots import RobotCatalog
+from app.viewer.comparison import KINDS, Comparison, comparison_from_arrays
+
+if TYPE_CHECKING:
+    from app.planning.robots import Robot
+
+
+def load_robot_spec(spec: dict[str, Any], payload: float | None) -> tuple[Robot, str]:
+    """Load a robot from a job spec: ``{"name"}`` (built in) or uploaded URDF/MJCF bytes.
+
+    Returns:
+        The robot (with ``payload`` kg, or its default when None) and its URDF text.
+    """
+    with robot_from_spec(spec, payload) as robot:
+        if spec.get("urdf") is not None:
+            return robot, bytes(spec["urdf"]).decode("utf-8")
+        return robot, Path(robot.urdf_path).read_text(encoding="utf-8")
+
+
+class ComparisonLoader:
+    """Reads finished plans and simulations as :class:`Comparison` (``(kind, id) -> ...``).
+
+    Args:
+        sessions: session factory of the service database.
+        robots: the robot catalogue (uploaded robots' files).
+    """
+
+    def __init__(self, sessions: sessionmaker[Session], robots: RobotCatalog) -> None:
+        self.sessions = sessions
+        self.robots = robots
+
+    def __call__(self, kind: str, result_id: int) -> Comparison:
+        """The comparison of plan or simulation ``result_id``.
+
+        Raises:
+            NotFoundError: unknown kind or id.
+            ConflictError: the job has not succeeded (no result or arrays yet).
+        """
+        if kind not in KINDS:
+            raise NotFoundError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
+        model: Any = RESULT_MODELS[kind]
+        with self.sessions() as session:
+            row = session.scalars(
+                select(model).where(model.id == result_id).options(undefer(model.arrays))
+            ).first()
+            if row is None:
+                raise NotFoundError(f"{kind} {result_id} does not exist")
+            if row.result is None or row.arrays is None:
+                job = session.get(JobRecord, result_id)
+                state = "unknown" if job is None else job.state
+                raise ConflictError(f"{kind} {result_id} has no result yet (job state {state})")
+            result = dict(row.result)
+            arrays = decode_arrays(row.arrays)
+            spec = self.robots.spec(session, row.robot)
+        payload = (result.get("conditions") or {}).get("payload")
+        robot, urdf = load_robot_spec(spec, None if payload is None else float(payload))
+        return comparison_from_arrays(kind, result_id, arrays, result, robot, urdf=urdf)

@@ -1,0 +1,142 @@
+"""The running services of one server process, built once by ``app.main.create_app``.
+
+``start_services`` migrates the database, opens it and the file store, removes files a crash
+left unreferenced, starts the job runner and recovers the jobs a previous server left queued or
+running. ``Services.start_viewer`` starts the 3-D viewer on them. ``stop_services`` undoes it all.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.config import Settings
+from app.db import crud
+from app.db.blobs import BlobStore
+from app.db.session import make_engine, make_sessionmaker, upgrade
+from app.jobs.runner import JobRunner, make_runner
+from app.services.broker import JobBroker
+from app.services.cache import ResponseCache
+from app.services.comparisons import ComparisonLoader
+from app.services.jobs import JobService
+from app.services.overlays import RecordingOverlays
+from app.services.robots import RobotCatalog
+from app.viewer.scene import PreparedCache
+from app.viewer.server import ViewerServer
+
+logger = logging.getLogger(__name__)
+
+#: Viewer playback updates per second.
+VIEWER_FPS = 60.0
+
+
+@dataclass
+class Services:
+    """Everything the routes use.
+
+    Attributes:
+        settings: the configuration the services run with.
+        engine, sessions: the database.
+        blobs: the file store.
+        broker: job updates to SSE subscribers.
+        jobs: submits, tracks and cancels jobs (the only writer of job rows).
+        robots: built-in and uploaded robots.
+        overlays: the recording detail page's analysis overlays.
+        comparisons: finished plans and simulations prepared for the viewer and the Compare
+            page (kept in memory, most recently used first).
+        viewer: the 3-D viewer, once started.
+        recordings_cache: cached ``GET /api/recordings`` pages.
+        started: ``time.monotonic()`` at start.
+    """
+
+    settings: Settings
+    engine: Engine
+    sessions: sessionmaker[Session]
+    blobs: BlobStore
+    broker: JobBroker
+    jobs: JobService
+    robots: RobotCatalog
+    overlays: RecordingOverlays
+    comparisons: PreparedCache
+    viewer: ViewerServer | None = None
+    recordings_cache: ResponseCache = field(default_factory=ResponseCache)
+    started: float = field(default_factory=time.monotonic)
+
+    def start_viewer(self) -> ViewerServer:
+        """Start the viser viewer on ``settings.viewer_host``/``viewer_port``.
+
+        viser takes the next free port when the one asked for is busy; ``viewer.port`` is the
+        real one.
+        """
+        if self.viewer is None:
+            viewer = ViewerServer(
+                self.comparisons,
+                host=self.settings.viewer_host,
+                port=self.settings.viewer_port,
+                fps=VIEWER_FPS,
+            )
+            viewer.start()
+            self.viewer = viewer
+            logger.info("3-D viewer at %s", viewer.url)
+        return self.viewer
+
+    def viewer_info(self) -> dict[str, Any]:
+        """Where the viewer listens (``GET /api/viewer``); ``enabled`` is false without one."""
+        v = self.viewer
+        if v is None or not v.running:
+            return {"enabled": False, "url": None, "host": None, "port": None}
+        return {"enabled": True, "url": v.url, "host": v.host, "port": v.port}
+
+
+def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Services:
+    """Migrate, open the database and the file store, start and recover jobs.
+
+    Args:
+        settings: the configuration.
+        runner: job runner to use instead of the one ``settings.executor`` names (tests).
+    """
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    upgrade(settings.db_url)
+    engine = make_engine(settings.db_url)
+    sessions = make_sessionmaker(engine)
+    blobs = BlobStore(settings.blob_dir)
+    with sessions() as session:
+        removed = crud.collect_garbage(session=session, blobs=blobs)
+    if removed:
+        logger.warning("removed %d stored files no row referred to (interrupted writes)", removed)
+    broker = JobBroker()
+    robots = RobotCatalog(blobs=blobs)
+    jobs = JobService(
+        sessions=sessions,
+        blobs=blobs,
+        runner=runner or make_runner(settings.executor, max_workers=settings.max_workers),
+        broker=broker,
+        robots=robots,
+        max_attempts=settings.job_max_attempts,
+    )
+    jobs.start()
+    return Services(
+        settings=settings,
+        engine=engine,
+        sessions=sessions,
+        blobs=blobs,
+        broker=broker,
+        jobs=jobs,
+        robots=robots,
+        overlays=RecordingOverlays(sessions),
+        comparisons=PreparedCache(ComparisonLoader(sessions, robots)),
+    )
+
+
+def stop_services(services: Services) -> None:
+    """Stop the viewer and the jobs (running ones go back to the queue), close the database."""
+    if services.viewer is not None:
+        services.viewer.stop()
+        services.viewer = None
+    services.jobs.close()
+    services.engine.dispose()

@@ -1,0 +1,423 @@
+"""The job service: the API process's side of background jobs.
+
+It creates job rows, builds each job's plain-data payload from the database and the file store,
+hands it to a ``JobRunner``, and is the only writer of job state: runner events go through one
+queue to one writer thread, which updates the rows (progress at most every ``progress_interval``
+seconds, state changes at once) and publishes each update to the SSE broker.
+
+Progress is stored and served structured (``app.progress.Progress``): the overall fraction, the
+stage, its units done of all, the best objective so far and a line for people.
+
+Restart semantics (``recover``, run at start-up before requests are served): a job found
+``queued`` is submitted again; a job found ``running`` (the server stopped or crashed under it)
+is run again while it has attempts left (``max_attempts`` starts in all), otherwise marked
+``failed`` with the reason. A graceful shutdown kills running jobs and puts them back to
+``queued`` without spending an attempt, so they run at the next start. No job stays ``running``.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.db import crud
+from app.db.blobs import BlobStore
+from app.db.models import Analysis, JobRecord, RecordingSession, utcnow
+from app.errors import BioPlanError
+from app.jobs.runner import JobEvent, JobRunner
+from app.names import TERMINAL_JOB_STATES
+from app.services.broker import JobBroker
+from app.services.errors import ConflictError, NotFoundError
+from app.services.robots import RobotCatalog
+
+logger = logging.getLogger(__name__)
+
+#: Where each kind of job's result is served (``/api/<path>/<id>``).
+KIND_PATHS = {
+    "analysis": "analyses",
+    "plan": "plans",
+    "simulation": "simulations",
+    "sweep": "sweeps",
+}
+
+#: Structured progress of a job that has not reported any yet.
+NO_PROGRESS: dict[str, Any] = {"progress": 0.0, "stage": "", "done": 0, "of": 1, "best": None}
+
+
+def _aware(value: datetime | None) -> datetime | None:
+    # SQLite drops the time zone; every time stored here is UTC.
+    if value is None or value.tzinfo is not None:
+        return value
+    return value.replace(tzinfo=UTC)
+
+
+def _seconds(job: JobRecord) -> tuple[float | None, float | None]:
+    """(queue time, run time so far or in all) [s] of a job."""
+    created, started = _aware(job.created_at), _aware(job.started_at)
+    finished = _aware(job.finished_at)
+    queue_s = None if started is None or created is None else (started - created).total_seconds()
+    run_s = None
+    if started is not None:
+        run_s = max(((finished or datetime.now(UTC)) - started).total_seconds(), 0.0)
+    return (None if queue_s is None else max(queue_s, 0.0)), run_s
+
+
+def job_to_dict(job: JobRecord) -> dict[str, Any]:
+    """The JSON form of a job (``app.api.schemas.Job``)."""
+    queue_s, run_s = _seconds(job)
+    return {
+        "id": job.id,
+        "kind": job.kind,
+        "state": job.state,
+        "progress": job.progress,
+        "stage": job.stage or "",
+        "done": job.done or 0,
+        "of": job.of or 1,
+        "best": job.best,
+        "message": job.message,
+        "error": job.error,
+        "attempts": job.attempts,
+        "params": job.params,
+        "created_at": _aware(job.created_at),
+        "started_at": _aware(job.started_at),
+        "finished_at": _aware(job.finished_at),
+        "queue_seconds": queue_s,
+        "run_seconds": run_s,
+        "result_url": f"/api/{KIND_PATHS.get(job.kind, job.kind)}/{job.id}",
+        "events_url": f"/api/jobs/{job.id}/events",
+    }
+
+
+def _progress_columns(ev: JobEvent) -> dict[str, Any]:
+    """Job columns from a ``progress`` event's structured detail."""
+    detail = ev.detail or {}
+    return {
+        "progress": float(detail.get("fraction", ev.progress or 0.0)),
+        "stage": str(detail.get("stage", ""))[:32],
+        "done": int(detail.get("done", 0)),
+        "of": int(detail.get("of", 1)),
+        "best": detail.get("best"),
+        "message": ev.message,
+    }
+
+
+_STOP = object()
+
+
+class JobService:
+    """Submits, tracks, cancels and recovers jobs.
+
+    Args:
+        sessions: session factory of the service database.
+        blobs: the file store (raw recordings, robot models).
+        runner: where jobs run.
+        broker: SSE fan-out.
+        robots: built-in and uploaded robots (jobs receive their specs).
+        max_attempts: starts allowed per job (a restart under a running job spends one).
+        progress_interval: shortest time between two progress writes of one job [s].
+    """
+
+    def __init__(
+        self,
+        *,
+        sessions: sessionmaker[Session],
+        blobs: BlobStore,
+        runner: JobRunner,
+        broker: JobBroker,
+        robots: RobotCatalog | None = None,
+        max_attempts: int = 2,
+        progress_interval: float = 0.25,
+    ) -> None:
+        self.sessions = sessions
+        self.blobs = blobs
+        self.runner = runner
+        self.broker = broker
+        self.robots = robots or RobotCatalog(blobs=blobs)
+        self.max_attempts = max_attempts
+        self.progress_interval = progress_interval
+        self._events: queue.Queue[Any] = queue.Queue()
+        self._writer: threading.Thread | None = None
+        self._closed = False
+
+    # lifecycle -------------------------------------------------------------------------------
+
+    def start(self) -> dict[str, int]:
+        """Start the writer thread and the runner, then recover jobs left by a previous run."""
+        self._writer = threading.Thread(target=self._write_loop, name="bioplan-job-writer")
+        self._writer.daemon = True
+        self._writer.start()
+        self.runner.start(self._events.put)
+        return self.recover()
+
+    def close(self) -> None:
+        """Stop the runner and put interrupted jobs back in the queue for the next start."""
+        if self._closed:
+            return
+        self._closed = True
+        self.runner.shutdown()
+        self._events.put(_STOP)
+        if self._writer is not None:
+            self._writer.join(timeout=10)
+        with self.sessions() as session:
+            for job in crud.active_jobs(session=session):
+                if job.state == "running":
+                    crud.update_job(
+                        session=session,
+                        job_id=job.id,
+                        state="queued",
+                        attempts=max(job.attempts - 1, 0),
+                        message="interrupted by a server shutdown; runs again at the next start",
+                    )
+
+    # API --------------------------------------------------------------------------------------
+
+    def submit(
+        self, *, kind: str, params: dict[str, Any], resource: dict[str, Any]
+    ) -> dict[str, Any]:
+        """Create a queued job (and its result row) and hand it to the runner."""
+        with self.sessions() as session:
+            job = crud.create_job(session=session, kind=kind, params=params, resource=resource)
+            data = job_to_dict(job)
+        self._dispatch(job.id)
+        return data
+
+    def cancel(self, job_id: int) -> dict[str, Any]:
+        """Cancel a queued or running job.
+
+        Returns:
+            The job as it is now.
+
+        Raises:
+            NotFoundError: no such job.
+            ConflictError: the job already ended.
+        """
+        job = self.get(job_id)
+        if job["state"] in TERMINAL_JOB_STATES:
+            raise ConflictError(f"job {job_id} already ended ({job['state']})", job=job)
+        self.runner.cancel(job_id)
+        self._set_state(job_id, "cancelled", message="cancelled by request")
+        return self.get(job_id)
+
+    def find(self, job_id: int) -> dict[str, Any] | None:
+        """The job's JSON form, or None when there is no such job."""
+        with self.sessions() as session:
+            job = crud.get_job(session=session, job_id=job_id)
+            return None if job is None else job_to_dict(job)
+
+    def get(self, job_id: int) -> dict[str, Any]:
+        """The job's JSON form.
+
+        Raises:
+            NotFoundError: no such job.
+        """
+        job = self.find(job_id)
+        if job is None:
+            raise NotFoundError(f"job {job_id} does not exist")
+        return job
+
+    def recover(self) -> dict[str, int]:
+        """Resubmit or fail the jobs a previous server left queued or running."""
+        counts = {"requeued": 0, "failed": 0}
+        with self.sessions() as session:
+            jobs = [(j.id, j.state, j.attempts) for j in crud.active_jobs(session=session)]
+            for job_id, state, attempts in jobs:
+                outcome = self._recover_one(session, job_id, state, attempts)
+                counts[outcome] += 1
+        for job_id, state, attempts in jobs:
+            if not (state == "running" and attempts >= self.max_attempts):
+                self._dispatch(job_id)
+        if any(counts.values()):
+            logger.warning("recovered jobs after restart: %s", counts)
+        return counts
+
+    def _recover_one(self, session: Session, job_id: int, state: str, attempts: int) -> str:
+        """Fail or requeue one job found active at start-up; returns what was done."""
+        if state == "running" and attempts >= self.max_attempts:
+            crud.update_job(
+                session=session,
+                job_id=job_id,
+                state="failed",
+                finished_at=utcnow(),
+                error=(
+                    "the server stopped while this job was running "
+                    f"(attempt {attempts} of {self.max_attempts}); not run again"
+                ),
+                message="failed",
+            )
+            return "failed"
+        message = "queued"
+        if state == "running":
+            message = (
+                "the server stopped while this job was running; queued again "
+                f"(attempt {attempts + 1} of {self.max_attempts})"
+            )
+        crud.update_job(
+            session=session, job_id=job_id, state="queued", message=message, **NO_PROGRESS
+        )
+        return "requeued"
+
+    # payloads ---------------------------------------------------------------------------------
+
+    @staticmethod
+    def analysis_template(session: Session, analysis_id: int) -> dict[str, Any]:
+        """The human template of a finished analysis.
+
+        Raises:
+            NotFoundError: no such analysis.
+            ConflictError: it has no template (yet).
+        """
+        row = session.get(Analysis, analysis_id)
+        if row is None:
+            raise NotFoundError(f"analysis {analysis_id} does not exist")
+        if row.template is None:
+            job = session.get(JobRecord, analysis_id)
+            state = "unknown" if job is None else job.state
+            raise ConflictError(f"analysis {analysis_id} has no template yet (job state {state})")
+        return row.template
+
+    def _analysis_payload(self, session: Session, params: dict[str, Any]) -> dict[str, Any]:
+        """An analysis job's input: the recording's raw files and the options."""
+        rec = session.get(RecordingSession, params["recording_id"])
+        if rec is None:
+            raise NotFoundError(f"recording {params['recording_id']} no longer exists")
+        read_options = dict(rec.options)
+        for key in ("emg_rate", "muscle_map"):
+            if params.get(key) is not None:
+                read_options[key] = params[key]
+        load = params.get("load_mass")
+        options = {
+            "emg_rate": params.get("emg_rate"),
+            "muscle_map": read_options.get("muscle_map"),
+            "phase_bounds_deg": params.get("phase_bounds_deg"),
+            "body_mass": params.get("body_mass"),
+            "body_height": params.get("body_height"),
+            "load_mass": load if load is not None else rec.load_kg,
+            "together": params.get("together") or None,
+            "offset": params.get("offset"),
+        }
+        files = [{"name": f.original_name, "data": self.blobs.get(f.sha256)} for f in rec.files]
+        return {"files": files, "read_options": read_options, "options": options}
+
+    def build_payload(self, session: Session, job: JobRecord) -> dict[str, Any]:
+        """The job function's input, from the request stored with the job."""
+        params = job.params
+        if job.kind == "analysis":
+            return self._analysis_payload(session, params)
+        payload = dict(params)
+        payload["robot"] = self.robots.spec(session, params["robot"])
+        if job.kind in ("plan", "simulation") and params.get("template_analysis_id") is not None:
+            payload["template"] = self.analysis_template(session, params["template_analysis_id"])
+        payload.pop("template_analysis_id", None)
+        return payload
+
+    def _dispatch(self, job_id: int) -> None:
+        try:
+            with self.sessions() as session:
+                job = crud.get_job(session=session, job_id=job_id)
+                if job is None:
+                    return
+                kind = job.kind
+                payload = self.build_payload(session, job)
+        except Exception as exc:
+            # Its inputs vanished (recording or robot deleted while it was queued): the job
+            # fails with the reason instead of running; anything else is logged as the bug it is.
+            if isinstance(exc, BioPlanError):
+                logger.warning("job %d cannot start: %s", job_id, exc)
+            else:
+                logger.exception("job %d cannot start", job_id)
+            self._set_state(job_id, "failed", error=f"cannot start: {exc}", message="failed")
+            return
+        self.runner.submit(job_id, kind, payload)
+
+    # event writer ------------------------------------------------------------------------------
+
+    def _set_state(self, job_id: int, state: str, **values: Any) -> None:
+        with self.sessions() as session:
+            if state in TERMINAL_JOB_STATES:
+                values.setdefault("finished_at", utcnow())
+            crud.update_job(session=session, job_id=job_id, state=state, **values)
+        self._publish(job_id)
+
+    def _publish(self, job_id: int) -> None:
+        if self.broker.subscribers(job_id) == 0:
+            return
+        data = self.find(job_id)
+        if data is not None:
+            self.broker.publish(job_id, data)
+
+    def _update(self, job_id: int, **values: Any) -> None:
+        with self.sessions() as session:
+            crud.update_job(session=session, job_id=job_id, **values)
+        self._publish(job_id)
+
+    def _apply(self, ev: JobEvent) -> None:
+        if ev.type == "started":
+            self._update(
+                ev.job_id,
+                state="running",
+                started_at=utcnow(),
+                message=ev.message or "running",
+                attempts=JobRecord.attempts + 1,
+                **NO_PROGRESS,
+            )
+        elif ev.type == "progress":
+            self._update(ev.job_id, **_progress_columns(ev))
+        elif ev.type == "succeeded":
+            self._store(ev)
+        elif ev.type == "failed":
+            self._set_state(ev.job_id, "failed", error=ev.error or "failed", message="failed")
+        elif ev.type == "cancelled":
+            self._set_state(ev.job_id, "cancelled", message=ev.message or "cancelled")
+
+    def _store(self, ev: JobEvent) -> None:
+        out = ev.result or {}
+        try:
+            with self.sessions() as session:
+                job = crud.get_job(session=session, job_id=ev.job_id)
+                if job is None:
+                    return
+                crud.store_result(
+                    session=session,
+                    job_id=ev.job_id,
+                    kind=job.kind,
+                    result=out["result"],
+                    arrays=out.get("arrays"),
+                    template=out.get("template"),
+                )
+        except Exception as exc:
+            logger.exception("cannot store the result of job %d", ev.job_id)
+            self._set_state(ev.job_id, "failed", error=f"cannot store the result: {exc}")
+            return
+        self._publish(ev.job_id)
+
+    def _write_loop(self) -> None:
+        pending: dict[int, JobEvent] = {}
+        last_flush = time.monotonic()
+        while True:
+            try:
+                ev = self._events.get(timeout=self.progress_interval)
+            except queue.Empty:
+                ev = None
+            try:
+                if ev is _STOP:
+                    return
+                if isinstance(ev, JobEvent):
+                    if ev.type == "progress":
+                        pending[ev.job_id] = ev  # only the latest progress is written
+                    else:
+                        pending.pop(ev.job_id, None)
+                        self._apply(ev)
+                now = time.monotonic()
+                if pending and now - last_flush >= self.progress_interval:
+                    for p in list(pending.values()):
+                        self._apply(p)
+                    pending.clear()
+                    last_flush = now
+            except Exception:  # keep writing whatever one bad event did
+                logger.exception("job event could not be written: %r", ev)

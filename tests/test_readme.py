@@ -1,0 +1,149 @@
+"""The README's and the docs' examples run as written, in order.
+
+Every ```bash / ```python block in ``README.md`` and ``docs/*.md`` carries a marker on the line
+before it (a new command cannot slip in untested)::
+
+    <!-- readme-test: shell -->            run with bash, line by line, stopping at an error
+    <!-- readme-test: python -->           run with this environment's Python
+    <!-- readme-test: shell, server -->    the same, with ``bioplan serve`` answering at the
+    <!-- readme-test: python, server -->   address the block names (127.0.0.1:8000 is replaced
+                                           by the test server's, the only change made)
+    <!-- readme-test: skip (why) -->       not run, for the reason given
+
+The blocks run in one scratch folder laid out like a checkout: ``.venv`` is this environment,
+``../shared/data`` the real recordings, and ``bioplan`` is on PATH (as after ``source
+.venv/bin/activate``). What they write stays in that folder.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from tests.utils.data import REPO_ROOT, SHARED_DATA
+from tests.utils.server import Server
+
+DOCS = [REPO_ROOT / "README.md", *sorted((REPO_ROOT / "docs").glob("*.md"))]
+MARKER = re.compile(r"<!--\s*readme-test:\s*(?P<spec>[^>]*?)\s*-->\s*$")
+FENCE = re.compile(r"^```(?P<lang>\w*)\s*$")
+RUNNABLE = {"bash", "sh", "shell", "python", "py"}
+#: Where the examples say the server is.
+EXAMPLE_SERVER = "127.0.0.1:8000"
+
+
+@dataclass(frozen=True)
+class Block:
+    """One fenced code block of a document and how it is run."""
+
+    doc: Path
+    line: int  # of the opening fence, 1-based
+    lang: str
+    code: str
+    spec: str  # the marker's text, "" when there is none
+
+    @property
+    def id(self) -> str:
+        return f"{self.doc.name}:{self.line}"
+
+    @property
+    def kind(self) -> str:
+        return self.spec.split(",")[0].split("(")[0].strip()
+
+    @property
+    def needs_server(self) -> bool:
+        return "server" in [p.strip() for p in self.spec.split(",")[1:]]
+
+
+def blocks(doc: Path) -> list[Block]:
+    """The fenced blocks of ``doc``, with the marker (if any) on the line before each."""
+    lines = doc.read_text(encoding="utf-8").splitlines()
+    out, i = [], 0
+    while i < len(lines):
+        fence = FENCE.match(lines[i])
+        if fence is None:
+            i += 1
+            continue
+        end = next(j for j in range(i + 1, len(lines)) if lines[j].startswith("```"))
+        marker = MARKER.search(lines[i - 1]) if i else None
+        spec = marker.group("spec") if marker else ""
+        out.append(Block(doc, i + 1, fence.group("lang"), "\n".join(lines[i + 1 : end]), spec))
+        i = end + 1
+    return out
+
+
+ALL = [b for doc in DOCS for b in blocks(doc)]
+RUN = [b for b in ALL if b.kind in ("shell", "python")]
+
+
+def test_every_command_block_says_how_it_is_tested() -> None:
+    missing = [
+        b.id for b in ALL if b.lang in RUNNABLE and b.kind not in ("shell", "python", "skip")
+    ]
+    assert not missing, f"blocks without a readme-test marker (run, or skip with why): {missing}"
+    bad_skips = [b.id for b in ALL if b.kind == "skip" and "(" not in b.spec]
+    assert not bad_skips, f"a skip needs its reason in parentheses: {bad_skips}"
+    assert any(b.kind == "shell" for b in RUN) and any(b.kind == "python" for b in RUN)
+
+
+def test_what_the_examples_write_is_ignored_by_git() -> None:
+    """Run from a checkout, the examples write into out/ (and the server into data/): git
+    ignores both, so nothing they write gets committed by accident."""
+    for path in ("out/template.json", "out/figs/a.html", "out/report/index.html", "data/x.db"):
+        done = subprocess.run(["git", "check-ignore", "-q", path], cwd=REPO_ROOT)
+        assert done.returncode == 0, f"{path} is not ignored by git"
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A scratch folder shaped like a checkout: .venv, and ../shared/data beside it."""
+    if not SHARED_DATA.is_dir():
+        pytest.skip(f"real test data not found at {SHARED_DATA} (set BIOPLAN_SHARED_DATA)")
+    root = tmp_path_factory.mktemp("readme")
+    (root / "shared").mkdir()
+    (root / "shared" / "data").symlink_to(SHARED_DATA, target_is_directory=True)
+    work = root / "checkout"
+    work.mkdir()
+    (work / ".venv").symlink_to(Path(sys.prefix), target_is_directory=True)
+    return work
+
+
+@pytest.fixture(scope="module")
+def server(workdir: Path) -> Iterator[Server]:
+    """A real server for the blocks that talk to one (started on first use)."""
+    s = Server(workdir.parent / "server" / "data").start()
+    yield s
+    s.stop()
+
+
+def _env() -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("BIOPLAN_")}
+    env["PATH"] = f"{Path(sys.prefix) / 'bin'}{os.pathsep}{env.get('PATH', '')}"
+    env["BIOPLAN_SHARED_DATA"] = str(SHARED_DATA)
+    return env
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("block", RUN, ids=[b.id for b in RUN])
+def test_example_runs_as_written(
+    block: Block, workdir: Path, request: pytest.FixtureRequest
+) -> None:
+    code = block.code
+    if block.needs_server:
+        server: Server = request.getfixturevalue("server")
+        assert EXAMPLE_SERVER in code, f"{block.id}: a server block names {EXAMPLE_SERVER}"
+        code = code.replace(EXAMPLE_SERVER, server.url.removeprefix("http://"))
+    if block.kind == "shell":
+        cmd = ["bash", "-euo", "pipefail", "-c", code]
+    else:
+        cmd = [sys.executable, "-c", code]
+    done = subprocess.run(cmd, cwd=workdir, env=_env(), capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, (
+        f"{block.id} failed (exit {done.returncode}):\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
+    )

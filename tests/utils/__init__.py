@@ -1,0 +1,1 @@
+"""Helpers the test packages share (import from here, never from another test module)."""
