@@ -6,7 +6,15 @@
 """
 
 from app.planning.robots._human import HumanArmSegments, human_arm_segments, segment_masses
-from app.planning.robots._loader import BUILTIN_ROBOTS, builtin_files, cache_dir, load_robot
+from app.planning.robots._loader import (
+    BUILTIN_ROBOTS,
+    builtin_files,
+    cache_dir,
+    load_robot,
+    load_robot_spec,
+    locks_from_display,
+)
+from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import IDEAL_ACTUATOR, Payload, Robot, RobotError
 
 __all__ = [
@@ -16,9 +24,13 @@ __all__ = [
     "Payload",
     "Robot",
     "RobotError",
+    "Sidecar",
     "builtin_files",
     "cache_dir",
     "human_arm_segments",
     "load_robot",
+    "load_robot_spec",
+    "locks_from_display",
+    "read_sidecar",
     "segment_masses",
 ]
