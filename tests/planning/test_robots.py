@@ -323,14 +323,16 @@ def test_load_errors_are_one_line(tmp_path: Path) -> None:
 
     good = write(tmp_path, "good.urdf", GOOD.format(kind="revolute", limit=LIMIT))
     mismatch = write(tmp_path, "other.xml", Path(ROBOT_DIR / "human_arm_2dof.xml").read_text())
-    assert "do not match the URDF's" in one_line_error(good, mjcf=mismatch)
+    assert "no joint 'j1': expected the URDF's joints" in one_line_error(good, mjcf=mismatch)
     broken = write(tmp_path, "broken.xml", "<mujoco><worldbody><body></mujoco>")
     assert one_line_error(good, mjcf=broken).startswith("broken.xml: ")
 
     assert "expected 20-250 kg" in one_line_error("human_arm_2dof", body_mass=5.0)
     assert "expected 'male' or 'female'" in one_line_error("human_arm_2dof", sex="x")
     assert "expected a finite mass" in one_line_error("curtain_wall_6dof", payload=-2.0)
-    assert "expected mjcf only with a URDF" in one_line_error("curtain_wall_6dof", mjcf=mismatch)
+    assert "expected them only with a robot file" in one_line_error(
+        "curtain_wall_6dof", mjcf=mismatch
+    )
 
 
 def test_pinocchio_dynamics_errors(tmp_path: Path) -> None:
