@@ -14,6 +14,7 @@ from app.planning.robots._loader import (
     load_robot_spec,
     locks_from_display,
 )
+from app.planning.robots._package import RobotPackage, open_robot_package, resolve_mesh
 from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import IDEAL_ACTUATOR, Payload, Robot, RobotError
 
@@ -24,6 +25,7 @@ __all__ = [
     "Payload",
     "Robot",
     "RobotError",
+    "RobotPackage",
     "Sidecar",
     "builtin_files",
     "cache_dir",
@@ -31,6 +33,8 @@ __all__ = [
     "load_robot",
     "load_robot_spec",
     "locks_from_display",
+    "open_robot_package",
     "read_sidecar",
+    "resolve_mesh",
     "segment_masses",
 ]
