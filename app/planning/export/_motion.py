@@ -131,6 +131,11 @@ class MethodMotion:
             )
             q[inside], qd[inside], qdd[inside] = qi[0], qdi[0], qddi[0]
         q[~inside] = self.q[-1]
+        # At a knot's own time, its stored values themselves (the spline equals them up to
+        # rounding; a controller file should carry the planned sample bit for bit).
+        index = np.minimum(np.searchsorted(self.t, t), self.t.size - 1)
+        hit = self.t[index] == t
+        q[hit], qd[hit], qdd[hit] = self.q[index[hit]], self.qd[index[hit]], self.qdd[index[hit]]
         return q, qd, qdd
 
     def to_dict(self) -> dict[str, Any]:
