@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.errors import BioPlanError
+from app.planning.jsonsafe import json_safe
 
 if TYPE_CHECKING:
     from app.planning.planner import EvaluatedTrajectory, PlanResult
@@ -145,7 +146,7 @@ class MethodMotion:
             "q": self.q.tolist(),
             "qd": self.qd.tolist(),
             "qdd": self.qdd.tolist(),
-            "metrics": dict(self.metrics),
+            "metrics": json_safe(dict(self.metrics)),
             "check": {"t": self.check_t.tolist(), "tau": self.check_tau.tolist()},
         }
 
@@ -251,8 +252,8 @@ class PlanMotion:
             "duration": self.duration,
             "default_method": self.default_method,
             "methods": {name: m.to_dict() for name, m in self.methods.items()},
-            "floors": dict(self.floors),
-            "conditions": dict(self.conditions),
+            "floors": json_safe(dict(self.floors)),
+            "conditions": json_safe(dict(self.conditions)),
         }
 
     @classmethod
