@@ -145,8 +145,8 @@ def test_onboarding_flags_on_a_ur5(capsys: pytest.CaptureFixture[str], tmp_path:
     assert locked["motion"]["locks"] == {"wrist_3_joint": pytest.approx(math.radians(30.0))}
     lines = [x for x in (tmp_path / "ur5.script").read_text().splitlines() if "servoj(" in x]
     assert lines[0].split("[")[1].split("]")[0].split(", ")[5] == repr(math.radians(30.0))
-    code, roles, _ = run(capsys, *base, "--shoulder-joint", "shoulder_pan_joint",
-                         "--elbow-joint", "shoulder_lift_joint", "--goal-deg", "30,-60,0,0,0,0")  # fmt: skip
+    roles_args = ["--shoulder-joint", "shoulder_pan_joint", "--elbow-joint", "shoulder_lift_joint"]
+    code, roles, _ = run(capsys, *base, *roles_args, "--goal-deg", "30,-60,0,0,0,0")
     assert code == 0 and roles["motion"]["robot_spec"]["elbow_joint"] == "shoulder_lift_joint"
     assert roles["standard"]["abs_work"] != plain["standard"]["abs_work"]
     code, modelled, _ = run(capsys, *base, "--sidecar", str(SIDECAR))
