@@ -122,7 +122,7 @@ def test_mcap_bag_reads_back_with_rosbags(human: Any, tmp_path: Path) -> None:
         for connection, _, raw in reader.messages():
             message = store.deserialize_cdr(raw, connection.msgtype)
             (trajectories if connection.topic == "/joint_trajectory" else states).append(message)
-    assert len(trajectories) == 1 and len(states) == 1001
+    assert len(trajectories) == 1 and not states
     points = trajectories[0].points
     got = {
         "t": np.array([p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in points]),
@@ -132,8 +132,7 @@ def test_mcap_bag_reads_back_with_rosbags(human: Any, tmp_path: Path) -> None:
         "tau": np.array([p.effort for p in points]),
     }
     _assert_matches_plan(result, "paper", got)
-    assert list(states[500].name) == list(robot.joint_names)
-    np.testing.assert_allclose(states[500].position, result.optimized.trajectory.q[500], atol=TOL)
+    assert list(trajectories[0].joint_names) == list(robot.joint_names)
 
 
 def test_opensim_motion_file_reads_back_in_radians(human: Any, tmp_path: Path) -> None:

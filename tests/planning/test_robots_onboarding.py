@@ -251,3 +251,26 @@ def test_a_negative_gear_ratio_says_what_was_expected(tmp_path: Path) -> None:
     with pytest.raises(RobotError) as info:
         read_sidecar(bad)
     assert one_line(info) == "neg.yaml: motors.j.gear_ratio is -50: expected a number >= 1"
+
+
+def test_electrical_metrics_are_not_modelled_without_motors() -> None:
+    from app.cli._common import metrics_table
+    from app.errors import BioPlanError
+    from app.planning import plan
+    from app.planning.energy import electrical_power, energy_metrics, improvement_pct
+    from app.planning.jsonsafe import json_safe
+
+    robot = load_robot(robot_file(UR5), payload=1.0)
+    t = np.linspace(0.0, 1.0, 11)
+    qd = np.ones((11, 6))
+    tau = np.full((11, 6), 2.0)
+    metrics = energy_metrics(t, qd, tau, motors=robot.motors)
+    assert math.isnan(metrics.electrical_energy) and metrics.abs_work == pytest.approx(12.0)
+    assert json_safe(metrics.to_dict())["electrical_energy"] is None
+    assert math.isnan(improvement_pct(metrics, metrics)["electrical_energy"])  # never "+100 %"
+    assert np.isnan(electrical_power(qd, tau, robot.motors)).all()
+    table = metrics_table([("quintic", json_safe(metrics.to_dict()))], {"delta_potential": 0.0,
+                          "min_peak_power": 0.0})  # fmt: skip
+    assert "not modelled" in table
+    with pytest.raises(BioPlanError, match="electrical_energy needs a motor model"):
+        plan(robot, duration=2.0, objective="electrical_energy", particles=4, iterations=2)

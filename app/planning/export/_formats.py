@@ -8,12 +8,14 @@ whose rotational coordinates are in degrees as OpenSim expects (``inDegrees=yes`
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import tempfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -147,20 +149,25 @@ def write_yaml(motion: PlanMotion, method: MethodMotion, samples: Samples) -> by
     return ("\n".join(lines) + "\n").encode()
 
 
-def write_mcap(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
-    """A rosbag2 in MCAP storage: the whole ``JointTrajectory`` on ``/joint_trajectory`` at
-    time 0, and one ``sensor_msgs/msg/JointState`` per sample on ``/joint_states``."""
-    from rosbags.rosbag2 import StoragePlugin, Writer
+@functools.cache
+def _typestore() -> Any:
+    """ROS 2 Humble's message types; built once (rosbags compiles a serializer per type)."""
     from rosbags.typesys import Stores, get_typestore
 
-    store = get_typestore(Stores.ROS2_HUMBLE)
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+def write_mcap(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
+    """A rosbag2 in MCAP storage holding the whole ``trajectory_msgs/msg/JointTrajectory`` as
+    one message on ``/joint_trajectory`` at log time 0 (what a trajectory controller takes)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    store = _typestore()
     types = store.types
     header_t, time_t = types["std_msgs/msg/Header"], types["builtin_interfaces/msg/Time"]
     point_t = types["trajectory_msgs/msg/JointTrajectoryPoint"]
     trajectory_t = types["trajectory_msgs/msg/JointTrajectory"]
-    state_t = types["sensor_msgs/msg/JointState"]
     duration_t = types["builtin_interfaces/msg/Duration"]
-    names = list(motion.joint_names)
     points = [
         point_t(
             positions=samples.q[k],
@@ -173,31 +180,15 @@ def write_mcap(motion: PlanMotion, method: MethodMotion, samples: Samples) -> by
     ]
     trajectory = trajectory_t(
         header=header_t(stamp=time_t(sec=0, nanosec=0), frame_id=""),
-        joint_names=names,
+        joint_names=list(motion.joint_names),
         points=points,
     )
+    msgtype = trajectory_t.__msgtype__
     with tempfile.TemporaryDirectory(prefix="bioplan-bag-") as tmp:
         bag = Path(tmp) / "bag"
         with Writer(bag, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
-            topic = writer.add_connection(
-                "/joint_trajectory", trajectory_t.__msgtype__, typestore=store
-            )
-            writer.write(topic, 0, store.serialize_cdr(trajectory, trajectory_t.__msgtype__))
-            states = writer.add_connection("/joint_states", state_t.__msgtype__, typestore=store)
-            for k, t in enumerate(samples.t):
-                sec, nanosec = _duration(float(t))
-                state = state_t(
-                    header=header_t(stamp=time_t(sec=sec, nanosec=nanosec), frame_id=""),
-                    name=names,
-                    position=samples.q[k],
-                    velocity=samples.qd[k],
-                    effort=samples.tau[k],
-                )
-                writer.write(
-                    states,
-                    sec * 1_000_000_000 + nanosec,
-                    store.serialize_cdr(state, state_t.__msgtype__),
-                )
+            topic = writer.add_connection("/joint_trajectory", msgtype, typestore=store)
+            writer.write(topic, 0, store.serialize_cdr(trajectory, msgtype))
         return next(bag.glob("*.mcap")).read_bytes()
 
 
