@@ -66,7 +66,7 @@ def test_panda_needs_its_fingers_locked_and_then_uses_joints_2_and_4() -> None:
     assert (robot.shoulder_joint_name, robot.elbow_joint_name) == ("panda_joint2", "panda_joint4")
     # joint 4's range is [-176, -4] deg: the elbow stroke goes the way there is room
     start, goal = np.degrees(robot.default_start[3]), np.degrees(robot.default_goal[3])
-    assert start == pytest.approx(-3.9992, abs=1e-3) and goal == pytest.approx(start - 150.0)
+    assert start == pytest.approx(-4.9992, abs=1e-3) and goal == pytest.approx(start - 150.0)
 
 
 def test_reduced_model_equals_the_full_model_with_fingers_held() -> None:

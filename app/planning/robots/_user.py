@@ -191,8 +191,10 @@ def _motors(
 
 
 def _default_task(q_min: Any, q_max: Any, shoulder: int, elbow: int) -> tuple[Any, Any]:
-    """Start at zero (clipped into the limits); shoulder 20 deg, elbow 150 deg toward more room."""
-    start = np.clip(np.zeros(len(q_min)), q_min, q_max)
+    """Start at zero, clipped 1 deg inside the limits (a start on a limit leaves a plan no room
+    for round-off); shoulder 20 deg and elbow 150 deg toward the side with more room."""
+    margin = np.minimum(math.radians(1.0), (q_max - q_min) / 10.0)
+    start = np.clip(np.zeros(len(q_min)), q_min + margin, q_max - margin)
     goal = start.copy()
     for joint, stroke in ((shoulder, 20.0), (elbow, 150.0)):
         up, down = q_max[joint] - start[joint], start[joint] - q_min[joint]
