@@ -22,11 +22,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from app.planning.energy import NOT_MODELLED, MotorModel
 from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import Payload, Robot, RobotError
-from app.planning.robots._urdf import UrdfModel, parse_urdf, read_xml
+from app.planning.robots._urdf import UrdfJoint, UrdfModel, parse_urdf, read_xml
 
 __all__ = ["locks_from_display", "mujoco_ready_urdf", "user_robot"]
 
@@ -244,6 +245,55 @@ def _payload(
     return Payload.point(kg, com), body, "point mass" + (" (sidecar)" if fields else "")
 
 
+def _sidecar_of(urdf: Path, model: UrdfModel, sidecar: Path | None) -> Sidecar | None:
+    car = read_sidecar(sidecar) if sidecar is not None else None
+    if car is not None and car.robot is not None and car.robot != model.name:
+        raise RobotError(
+            f"{car.path.name}: robot is '{car.robot}' but {urdf.name} is '{model.name}': "
+            "expected the sidecar of this robot"
+        )
+    return car
+
+
+def _free_joints(
+    urdf: Path, model: UrdfModel, car: Sidecar | None, locks: Mapping[str, float] | None
+) -> tuple[dict[str, float], list[str], list[str]]:
+    """(all locks [SI], every movable joint in Pinocchio's order, the free ones)."""
+    from app.planning.dynamics import PinocchioDynamics
+
+    display = dict(car.locks) if car is not None else {}
+    merged = {**(locks_from_display(urdf, display) if display else {}), **dict(locks or {})}
+    all_locks = _resolve_locks(model, urdf.name, merged)
+    order = PinocchioDynamics.joint_order(urdf)
+    free = [name for name in order if name not in all_locks]
+    if len(free) < 2:
+        raise RobotError(
+            f"{urdf.name}: {len(free)} free joint(s) {free}: expected at least two "
+            "(human shoulder and elbow map onto two joints)"
+        )
+    return all_locks, order, free
+
+
+def _speed_limits(
+    joints: Sequence[UrdfJoint], car: Sidecar | None, mjcf_only: bool
+) -> NDArray[np.float64]:
+    """The file's speed limits, the sidecar's overrides; an MJCF's (it has none) unlimited."""
+    from app.planning.robots._mjcf_urdf import UNLIMITED_SPEED
+
+    free = [j.name for j in joints]
+    speeds = dict(car.velocity_limits) if car is not None else {}
+    for name in speeds:
+        if name not in free:
+            raise RobotError(
+                f"{car.path.name if car else ''}: velocity_limits.{name} is not a free joint: "
+                f"expected one of {_listing(free)}"
+            )
+    default = [
+        math.inf if mjcf_only and j.velocity == UNLIMITED_SPEED else j.velocity for j in joints
+    ]
+    return np.array([speeds.get(j.name, d) for j, d in zip(joints, default, strict=True)])
+
+
 def user_robot(
     urdf: Path,
     *,
@@ -257,48 +307,19 @@ def user_robot(
     mjcf_only: bool = False,
 ) -> Robot:
     """A robot from a user URDF; see :func:`app.planning.robots.load_robot` for the arguments."""
-    from app.planning.dynamics import PinocchioDynamics
-
     model = parse_urdf(urdf)
-    car = read_sidecar(sidecar) if sidecar is not None else None
-    if car is not None and car.robot is not None and car.robot != model.name:
-        raise RobotError(
-            f"{car.path.name}: robot is '{car.robot}' but {urdf.name} is '{model.name}': "
-            "expected the sidecar of this robot"
-        )
-    display = dict(car.locks) if car is not None else {}
-    all_locks = {**(locks_from_display(urdf, display) if display else {}), **dict(locks or {})}
-    all_locks = _resolve_locks(model, urdf.name, all_locks)
-    order = PinocchioDynamics.joint_order(urdf)
-    free = [name for name in order if name not in all_locks]
-    if len(free) < 2:
-        raise RobotError(
-            f"{urdf.name}: {len(free)} free joint(s) {free}: expected at least two "
-            "(human shoulder and elbow map onto two joints)"
-        )
+    car = _sidecar_of(urdf, model, sidecar)
+    all_locks, order, free = _free_joints(urdf, model, car, locks)
     joints = [model.joint(name) for name in free]
-    shoulder_name = shoulder_joint or (car.shoulder_joint if car else None)
-    elbow_name = elbow_joint or (car.elbow_joint if car else None)
-    shoulder, elbow, how = _roles(urdf, free, all_locks, shoulder_name, elbow_name)
+    shoulder, elbow, how = _roles(
+        urdf,
+        free,
+        all_locks,
+        shoulder_joint or (car.shoulder_joint if car else None),
+        elbow_joint or (car.elbow_joint if car else None),
+    )
     q_min = np.array([j.lower for j in joints])
     q_max = np.array([j.upper for j in joints])
-    speeds = dict(car.velocity_limits) if car is not None else {}
-    for name in speeds:
-        if name not in free:
-            raise RobotError(
-                f"{car.path.name if car else ''}: velocity_limits.{name} is not a free joint: "
-                f"expected one of {_listing(free)}"
-            )
-    from app.planning.robots._mjcf_urdf import UNLIMITED_SPEED
-
-    # An MJCF has no speed limits: unlimited unless the sidecar gives them.
-    unlimited = [mjcf_only and j.velocity == UNLIMITED_SPEED for j in joints]
-    qd_max = np.array(
-        [
-            speeds.get(j.name, math.inf if u else j.velocity)
-            for j, u in zip(joints, unlimited, strict=True)
-        ]
-    )
     motors, motor_source = _motors(urdf.name, free, car)
     body_payload, body, payload_kind = _payload(
         car, payload, joints[-1].child, model.links, urdf.name
@@ -311,7 +332,7 @@ def user_robot(
         mjcf_path=mjcf.resolve() if mjcf is not None else mujoco_ready_urdf(urdf),
         q_min=q_min,
         q_max=q_max,
-        qd_max=qd_max,
+        qd_max=_speed_limits(joints, car, mjcf_only),
         tau_max=np.array([j.effort for j in joints]),
         motors=motors,
         payload=body_payload,
