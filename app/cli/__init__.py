@@ -13,14 +13,14 @@ import sys
 from collections.abc import Callable
 
 from app import __version__
-from app.cli import analyze, demo, plan, serve, simulate, submit
+from app.cli import analyze, demo, export, plan, serve, simulate, submit
 from app.cli._common import EXIT_BAD_INPUT, Parser
 from app.errors import BioPlanError
 
 __all__ = ["build_parser", "main"]
 
 #: Command groups, in the order ``bioplan --help`` lists them.
-_COMMANDS = (plan, analyze, simulate, demo, serve, submit)
+_COMMANDS = (plan, analyze, simulate, export, demo, serve, submit)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -97,13 +97,20 @@ def floats(text: str, name: str) -> list[float]:
 
 
 def add_robot_args(p: argparse.ArgumentParser) -> None:
-    """--robot, --mjcf, --duration, --payload, --start-deg, --goal-deg."""
+    """--robot, --mjcf, the onboarding options, --duration, --payload, --start-deg, --goal-deg."""
     p.add_argument(
         "--robot",
         default="curtain_wall_6dof",
-        help="built-in robot name (human_arm_2dof, curtain_wall_6dof) or a URDF path",
+        help="built-in robot name (human_arm_2dof, curtain_wall_6dof), a URDF path, or an MJCF "
+        "path alone",
     )
-    p.add_argument("--mjcf", default=None, help="MJCF file matching a URDF given by path")
+    p.add_argument(
+        "--mjcf",
+        default=None,
+        help="MJCF of the same robot as the URDF (compared with it at load; default: MuJoCo "
+        "compiles the URDF itself)",
+    )
+    add_onboarding_args(p)
     p.add_argument("--duration", type=float, default=1.0, help="motion time [s]")
     p.add_argument(
         "--payload",
@@ -119,11 +126,147 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def load_robot(args: argparse.Namespace) -> Any:
-    """The robot named by ``--robot`` with ``--payload`` and ``--mjcf``."""
-    from app.planning.robots import load_robot as load
+def add_onboarding_args(p: argparse.ArgumentParser) -> None:
+    """--shoulder-joint, --elbow-joint, --lock NAME=VALUE (repeatable), --sidecar FILE."""
+    p.add_argument(
+        "--shoulder-joint",
+        default=None,
+        help="joint that human shoulder flexion maps to (default: the sidecar's, else the first "
+        "pitch pair of the arm; see docs/robots.md)",
+    )
+    p.add_argument(
+        "--elbow-joint",
+        default=None,
+        help="joint that human elbow flexion maps to (default: as --shoulder-joint)",
+    )
+    p.add_argument(
+        "--lock",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="hold a joint fixed, degrees for revolute and metres for prismatic joints "
+        "(repeatable; e.g. fingers, a gripper, a torso; default: none)",
+    )
+    p.add_argument(
+        "--sidecar",
+        default=None,
+        help="robot sidecar YAML: motors, gears, payload, locks (docs/robots.md; default: none, "
+        "electrical metrics not modelled)",
+    )
 
-    return load(args.robot, payload=args.payload, mjcf=getattr(args, "mjcf", None))
+
+def parse_locks(entries: Sequence[str]) -> dict[str, float]:
+    """``--lock NAME=VALUE`` entries as {name: value} (display units)."""
+    out: dict[str, float] = {}
+    for entry in entries:
+        name, sep, text = entry.partition("=")
+        if not sep or not name.strip():
+            raise CliError(f"--lock {entry!r}: expected NAME=VALUE")
+        try:
+            value = float(text)
+        except ValueError:
+            raise CliError(f"--lock {entry!r}: expected a number after '='") from None
+        if not math.isfinite(value):
+            raise CliError(f"--lock {entry!r}: expected a finite number")
+        out[name.strip()] = value
+    return out
+
+
+def load_robot(args: argparse.Namespace) -> Any:
+    """The robot of ``--robot`` with ``--payload``, ``--mjcf`` and the onboarding options.
+
+    Also checks the export options (``--export``, ``--export-rate``) first, so that a bad one
+    fails before any planning.
+    """
+    from app.planning.robots import load_robot as load
+    from app.planning.robots import locks_from_display
+
+    check_export_args(args)
+    locks = parse_locks(getattr(args, "lock", []) or [])
+    robot_file = str(args.robot)
+    if locks and robot_file.lower().endswith((".xml", ".mjcf")):
+        from app.planning.robots._mjcf_urdf import urdf_from_mjcf
+
+        locks = locks_from_display(urdf_from_mjcf(Path(robot_file)), locks)
+    elif locks and Path(robot_file).suffix.lower() == ".urdf":
+        locks = locks_from_display(robot_file, locks)
+    elif locks:
+        raise CliError(f"--lock given for built-in robot '{robot_file}': expected a robot file")
+    return load(
+        args.robot,
+        payload=args.payload,
+        mjcf=getattr(args, "mjcf", None),
+        shoulder_joint=getattr(args, "shoulder_joint", None),
+        elbow_joint=getattr(args, "elbow_joint", None),
+        locks=locks or None,
+        sidecar=getattr(args, "sidecar", None),
+    )
+
+
+def add_export_args(p: argparse.ArgumentParser) -> None:
+    """--export FILE, --export-rate HZ, --export-method NAME."""
+    from app.planning.export import FORMATS
+
+    rates = ", ".join(f"{f.extension} {f.default_rate:g} Hz" for f in FORMATS.values())
+    p.add_argument(
+        "--export",
+        default=None,
+        metavar="FILE",
+        help="also write the trajectory to FILE, the format from its extension "
+        f"({', '.join(f.extension for f in FORMATS.values())}; docs/export.md; default: none)",
+    )
+    p.add_argument(
+        "--export-rate",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help=f"sample rate of the export (default: the format's: {rates})",
+    )
+    p.add_argument(
+        "--export-method",
+        default="paper",
+        metavar="NAME",
+        help="planning method to export (quintic, paper)",
+    )
+
+
+def check_export_args(args: argparse.Namespace) -> None:
+    """Refuse bad export options before any work (unknown extension, bad rate, no folder)."""
+    target = getattr(args, "export", None)
+    if target is None:
+        if getattr(args, "export_rate", None) is not None:
+            raise CliError("--export-rate given without --export FILE")
+        return
+    from app.planning.export import FORMATS, check_rate, format_of
+
+    fmt = format_of(target)
+    check_rate(FORMATS[fmt].default_rate if args.export_rate is None else args.export_rate)
+    folder = Path(target).parent
+    if not folder.is_dir():
+        raise CliError(f"--export {target}: folder {folder} does not exist")
+
+
+def attach_motion(args: argparse.Namespace, robot: Any, plan: Any, payload: dict[str, Any]) -> None:
+    """Put the plan's exact motion into ``payload["motion"]`` and write ``--export`` if asked.
+
+    Args:
+        args: the parsed options (``--export``, ``--export-rate``, ``--export-method``).
+        robot: the robot the plan was made with.
+        plan: the ``PlanResult`` (for ``simulate``: the simulation's plan).
+        payload: the command's JSON object (gets the ``motion`` block).
+    """
+    from app.planning.export import plan_motion, write_export
+
+    motion = plan_motion(plan, robot)
+    payload["motion"] = motion.to_dict()
+    if getattr(args, "export", None):
+        write_export(
+            args.export,
+            motion,
+            method=args.export_method,
+            rate=args.export_rate,
+            robot=robot,
+        )
 
 
 def task_from_args(args: argparse.Namespace, robot: Any) -> Any:
@@ -174,7 +317,9 @@ def metrics_table(rows: Sequence[tuple[str, dict[str, Any]]], floors: dict[str, 
     lines = [header, " " * 20 + "".join(f"{'[' + m.unit + ']':>19}" for m in shown)]
     for label, values in rows:
         cells = "".join(
-            f"{values[m.name]:>19.4g}" if values.get(m.name) is not None else f"{'n/a':>19}"
+            f"{values[m.name]:>19.4g}"
+            if values.get(m.name) is not None
+            else f"{'not modelled' if m.name == 'electrical_energy' else 'n/a':>19}"
             for m in shown
         )
         angle = values.get("peak_velocity_angle_deg")

@@ -6,7 +6,9 @@ import argparse
 from typing import Any
 
 from app.cli._common import (
+    add_export_args,
     add_robot_args,
+    attach_motion,
     emit,
     load_robot,
     load_template,
@@ -37,6 +39,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         progress=progress_printer(not args.json),
     )
     payload = json_safe(result.to_dict())
+    attach_motion(args, robot, result, payload)
     emit(args, payload, _plan_text(robot, args, payload))
     return 0
 
@@ -63,6 +66,16 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
             f"(target {payload['target_peak_velocity_angle_deg']:.1f} deg); PSO "
             f"{opt['iterations']} iterations, {opt['evaluations']} evaluations, "
             f"{opt['seconds']:.2f} s, seed {opt['seed']}",
+            *(
+                ["electrical_energy: not modelled (no motor model: give --sidecar with motors)"]
+                if not robot.motors_modelled
+                else []
+            ),
+            *(
+                [f"trajectory ({args.export_method}) written to {args.export}"]
+                if args.export
+                else []
+            ),
             *[f"warning: {w}" for w in payload["warnings"]],
         ]
     )
@@ -97,6 +110,7 @@ def register(sub: Any) -> None:
         help="elbow velocity-peak angle [deg] (default: the template's)",
     )
     p.add_argument("--template", default=None, help="HumanTemplate JSON from `bioplan analyze`")
+    add_export_args(p)
     p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
     p.add_argument("--particles", type=int, default=PSO_DEFAULTS.particles, help="PSO swarm size")
     p.add_argument(

@@ -7,12 +7,15 @@ from typing import Any
 
 from app.cli._common import (
     CliError,
+    add_export_args,
     add_robot_args,
+    attach_motion,
     emit,
     floats,
     load_robot,
     positive,
     progress_printer,
+    task_from_args,
 )
 from app.names import OBJECTIVES, PSO_DEFAULTS
 from app.planning.jsonsafe import json_safe
@@ -25,12 +28,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     robot = load_robot(args)
     result = simulate_comparison(
         robot,
+        task=task_from_args(args, robot),
         duration=args.duration,
         objective=args.objective,
         seed=args.seed,
         progress=progress_printer(not args.json),
     )
-    emit(args, json_safe(result.to_dict()), result.summary())
+    payload = json_safe(result.to_dict())
+    attach_motion(args, robot, result.plan, payload)
+    emit(args, payload, result.summary())
     return 0
 
 
@@ -61,6 +67,7 @@ def register(sub: Any) -> None:
     add_robot_args(p)
     p.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
     p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
+    add_export_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     p.set_defaults(handler=cmd_simulate)

@@ -15,6 +15,7 @@ human arm in the sagittal plane, x forward, z up, q1 = shoulder flexion, q2 = el
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
@@ -330,6 +331,25 @@ def _build_model(path: Path) -> Any:
         ) from None
 
 
+def _reduce(pin: Any, model: Any, locks: Mapping[str, float], file: str) -> Any:
+    """Pinocchio's reduced model with ``locks`` (joint name -> value [rad or m]) held fixed."""
+    reference = pin.neutral(model)
+    ids = []
+    for name, value in locks.items():
+        if not model.existJointName(name):
+            raise RobotError(
+                f"{file}: cannot lock '{name}': expected one of {list(model.names[1:])}"
+            )
+        joint_id = model.getJointId(name)
+        joint = model.joints[joint_id]
+        if joint.nq == 2:  # continuous joint: (cos, sin)
+            reference[joint.idx_q : joint.idx_q + 2] = (math.cos(value), math.sin(value))
+        else:
+            reference[joint.idx_q] = value
+        ids.append(joint_id)
+    return pin.buildReducedModel(model, sorted(ids), reference)
+
+
 class PinocchioDynamics:
     """Rigid-body dynamics of a URDF chain of revolute joints through Pinocchio, batched.
 
@@ -356,6 +376,7 @@ class PinocchioDynamics:
         payload_body: str | None = None,
         armature: ArrayLike | None = None,
         num_threads: int = 1,
+        locks: Mapping[str, float] | None = None,
     ) -> None:
         """Build the model.
 
@@ -366,6 +387,8 @@ class PinocchioDynamics:
                 the link moved by the last joint.
             armature: (n,) reflected rotor inertia added to M's diagonal [kg m^2].
             num_threads: threads for ``rneaInParallel`` (1 = one core).
+            locks: joints held at fixed values (name -> rad, or m for prismatic joints);
+                Pinocchio's reduced model (``buildReducedModel``) has only the other joints.
 
         Raises:
             RobotError: missing / malformed URDF, non-revolute joint, unknown payload body.
@@ -378,16 +401,20 @@ class PinocchioDynamics:
             "payload_body": payload_body,
             "armature": None if armature is None else np.array(armature, dtype=np.float64),
             "num_threads": num_threads,
+            "locks": dict(locks or {}),
         }
         pin = _pinocchio()
         path = Path(urdf)
-        model = _align_negative_axes(pin, _build_model(path))
+        model = _build_model(path)
+        if locks:
+            model = _reduce(pin, model, locks, path.name)
+        model = _align_negative_axes(pin, model)
         for joint_id in range(1, model.njoints):
             kind = model.joints[joint_id].shortname()
             if kind not in _REVOLUTE:
                 raise RobotError(
                     f"{path.name}: joint '{model.names[joint_id]}' is {kind}: "
-                    "expected revolute or continuous joints only"
+                    "expected revolute or continuous joints only (lock the others)"
                 )
         if model.nv == 0:
             raise RobotError(f"{path.name}: no movable joint: expected at least one")

@@ -60,6 +60,9 @@ class MotorModel:
         viscous_friction: viscous friction at the joint [Nm s/rad].
         coulomb_friction: Coulomb friction at the joint [Nm].
         regen_efficiency: fraction of negative (generated) electrical power recovered, in [0, 1].
+        modelled: False for :data:`NOT_MODELLED`, the placeholder of a robot whose motors are
+            unknown (a user URDF without a sidecar): its joint torques are produced without
+            loss or armature, and every electrical quantity is reported as not modelled.
     """
 
     gear_ratio: float
@@ -69,11 +72,31 @@ class MotorModel:
     viscous_friction: float
     coulomb_friction: float
     regen_efficiency: float = 0.0
+    modelled: bool = True
 
     @property
     def armature(self) -> float:
         """Reflected rotor inertia at the joint, N^2 J_m [kg m^2]."""
         return self.gear_ratio**2 * self.rotor_inertia
+
+
+#: The motor of a joint whose drive is unknown: no armature, no friction, and electrical
+#: quantities reported as not modelled (NaN in arrays and metrics, ``None`` in JSON).
+NOT_MODELLED = MotorModel(
+    gear_ratio=1.0,
+    torque_constant=1.0,
+    winding_resistance=0.0,
+    rotor_inertia=0.0,
+    viscous_friction=0.0,
+    coulomb_friction=0.0,
+    regen_efficiency=0.0,
+    modelled=False,
+)
+
+
+def motors_modelled(motors: Sequence[MotorModel] | None) -> bool:
+    """True unless some motor is :data:`NOT_MODELLED` (``None`` means ideal actuators)."""
+    return motors is None or all(m.modelled for m in motors)
 
 
 @dataclass(frozen=True)
@@ -85,7 +108,8 @@ class EnergyMetrics:
         abs_work: ∫ Σ |τ q̇| dt [J].
         pos_work: ∫ Σ max(τ q̇, 0) dt [J].
         electrical_energy: energy drawn from the DC bus [J] (motor model; ideal actuators when
-            no motors are given).
+            no motors are given); NaN when the robot's motors are not modelled (``to_dict``
+            keeps the NaN, ``json_safe`` writes it as ``null``; tables say "not modelled").
         peak_power: max over time of Σ |τ q̇| [W].
         peak_torque: (n,) max over time of |τ_j| per joint [Nm].
     """
@@ -247,6 +271,8 @@ def _electrical_power(
     """Bus power (..., T) and the regeneration efficiency used for it."""
     if motors is None:
         return _joint_sum(v * f), 0.0
+    if not motors_modelled(motors):
+        return np.full(v.shape[:-1], np.nan), 0.0
     gear, kt, res, visc, coul, eta = _motor_arrays(motors, v.shape[-1])
     total = f + visc * v + coul * np.tanh(v / FRICTION_VELOCITY_SCALE)
     current = total / (gear * kt)
@@ -350,6 +376,11 @@ def objective_values(
     elif objective == "pos_work":
         result = _integrate(tt, _joint_sum(np.maximum(v * f, 0.0)))
     elif objective == "electrical_energy":
+        if not motors_modelled(motors):
+            raise BioPlanError(
+                "objective electrical_energy needs a motor model, and this robot's motors are not "
+                "modelled: expected a sidecar with motors (docs/robots.md) or another objective"
+            )
         p_bus, eta = _electrical_power(v, f, motors)
         result = _bus_energy(tt, p_bus, eta)
     elif objective == "peak_power":

@@ -139,6 +139,7 @@ class PlanResult:
     elbow_joint: int
     phase_bounds_deg: tuple[float, float]
     warnings: tuple[str, ...] = field(default=())
+    joint_names: tuple[str, ...] = field(default=())
 
     @property
     def improvement_pct(self) -> dict[str, Any]:
@@ -147,6 +148,12 @@ class PlanResult:
 
     def to_dict(self) -> dict[str, Any]:
         return {
+            "joint_names": list(self.joint_names),
+            "duration": self.duration,
+            "task": {
+                "start_deg": np.degrees(self.task.start).tolist(),
+                "goal_deg": np.degrees(self.task.goal).tolist(),
+            },
             "standard": self.standard.to_dict(),
             "optimized": self.optimized.to_dict(),
             "floors": self.floors.to_dict(),
@@ -576,6 +583,7 @@ def plan(
         elbow_joint=elbow,
         phase_bounds_deg=(float(template.phase_bounds_deg[0]), float(template.phase_bounds_deg[1])),
         warnings=tuple(warnings),
+        joint_names=tuple(robot.joint_names),
     )
 
 

@@ -38,6 +38,8 @@ class Trajectory:
         qdd: (T, n) joint accelerations [rad/s^2].
         jerk: (T, n) joint jerks [rad/s^3].
         name: profile name (e.g. ``"quintic"``, ``"bio_optimized"``).
+        knots: for a piecewise quintic, its knots (t (K,) [s], q, qd, qdd each (K, n)), which
+            define it exactly at any time (the exporter resamples from them); None otherwise.
     """
 
     t: NDArray[np.float64]
@@ -46,6 +48,7 @@ class Trajectory:
     qdd: NDArray[np.float64]
     jerk: NDArray[np.float64]
     name: str = ""
+    knots: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None = None
 
     @property
     def duration(self) -> float:
@@ -587,7 +590,8 @@ def piecewise_quintic(
     btk, qk, qdk, qddk = _check_knots(tk[None], qk, qdk, qddk)
     t = time_grid(float(tk[-1]), n_samples)
     q, qd, qdd, jerk = _evaluate_quintic_segments(btk, qk, qdk, qddk, t, with_jerk=True)
-    return Trajectory(t=t, q=q[0], qd=qd[0], qdd=qdd[0], jerk=jerk[0], name=name)
+    knots = (btk[0].copy(), qk[0].copy(), qdk[0].copy(), qddk[0].copy())
+    return Trajectory(t=t, q=q[0], qd=qd[0], qdd=qdd[0], jerk=jerk[0], name=name, knots=knots)
 
 
 # ----------------------------------------------------------------------------------------------

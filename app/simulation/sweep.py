@@ -265,6 +265,9 @@ class SimulationResult:
             f"{'  (planned: standard, optimized)':>34}",
         ]
         for k in METRICS:
+            if math.isnan(std[k]) and k == "electrical_energy":  # the robot has no motor model
+                lines.append(f"{k + ' [' + units[k] + ']':<24}{'not modelled':>24}")
+                continue
             change = _pct_change(std[k], opt[k])
             ch = f"{change:+.1f}%" if math.isfinite(change) else "-"
             lines.append(

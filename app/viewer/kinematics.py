@@ -8,6 +8,8 @@ as arrays, keeps the playback loop down to assigning precomputed poses; yourdfpy
 
 from __future__ import annotations
 
+import io
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,36 +55,77 @@ class UrdfJoint:
         return self.type in _REVOLUTE or self.type in _PRISMATIC
 
 
-def load_urdf(source: str | Path, *, meshes: bool = False) -> Any:
-    """A ``yourdfpy.URDF`` from a file path or URDF text.
+_XML_DECLARATION = re.compile(r"^\s*<\?xml[^>]*\?>")
+
+
+def _mesh_handler(
+    base_dir: Path | None, package_dirs: Sequence[Path], allowed_roots: Sequence[Path] | None
+) -> Any:
+    """yourdfpy's filename handler: ``package://``, ``file://`` and relative mesh paths.
+
+    A mesh that cannot be found (or lies outside ``allowed_roots``) resolves to a path that
+    does not exist; yourdfpy then skips that mesh and the rest of the robot is still drawn.
+    """
+    from app.planning.robots import resolve_mesh
+
+    def handler(fname: str) -> str:
+        found = resolve_mesh(
+            fname, base_dir=base_dir, package_dirs=package_dirs, allowed_roots=allowed_roots
+        )
+        return str(found) if found is not None else f"/nonexistent/bioplan-missing-mesh/{fname}"
+
+    return handler
+
+
+def load_urdf(
+    source: str | bytes | Path,
+    *,
+    meshes: bool = False,
+    base_dir: Path | None = None,
+    package_dirs: Sequence[Path] = (),
+    allowed_roots: Sequence[Path] | None = None,
+) -> Any:
+    """A ``yourdfpy.URDF`` from a file path or URDF text (str or bytes).
+
+    Text is parsed whatever its XML declaration says: bytes as they are, a ``str`` with its
+    ``<?xml ... encoding=...?>`` declaration removed (lxml refuses a str that declares an
+    encoding, as every UR file does).
 
     Args:
         source: path of a ``.urdf`` file, or the URDF XML itself.
-        meshes: build the visual scene graph (primitives become trimesh meshes).
+        meshes: build the visual scene graph (meshes loaded, primitives meshed).
+        base_dir: folder that relative mesh paths start from (default: the file's folder).
+        package_dirs: folders holding ``package://`` packages (the file's ancestors are tried
+            too, see ``app.planning.robots.resolve_mesh``).
+        allowed_roots: when given, meshes outside these folders are not read (uploads).
 
     Raises:
         KinematicsError: the file is missing or is not a URDF.
     """
-    import io
-
     import yourdfpy  # type: ignore[import-untyped]
 
-    text = str(source)
     handle: Any
-    if text.lstrip().startswith("<"):
-        handle = io.StringIO(text)
-        name = "URDF text"
+    if isinstance(source, bytes):
+        handle, name = io.BytesIO(source), "URDF text"
+    elif isinstance(source, str) and source.lstrip().startswith("<"):
+        handle, name = io.StringIO(_XML_DECLARATION.sub("", source, count=1)), "URDF text"
     else:
         path = Path(source)
         if not path.is_file():
             raise KinematicsError(f"URDF file not found: {path}")
-        handle, name = path, str(path)
+        handle, name = io.BytesIO(path.read_bytes()), str(path)
+        base_dir = base_dir or path.resolve().parent
     try:
         return yourdfpy.URDF.load(
-            handle, build_scene_graph=meshes, load_meshes=meshes, build_collision_scene_graph=False
+            handle,
+            build_scene_graph=meshes,
+            load_meshes=meshes,
+            build_collision_scene_graph=False,
+            filename_handler=_mesh_handler(base_dir, package_dirs, allowed_roots),
         )
     except Exception as exc:  # yourdfpy raises assorted lxml/ValueError types
-        raise KinematicsError(f"{name}: not a readable URDF ({exc})") from None
+        detail = " ".join(str(exc).split())
+        raise KinematicsError(f"{name}: not a readable URDF ({detail})") from None
 
 
 class UrdfChain:

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -65,6 +66,11 @@ class PreparedComparison:
 
     Args:
         comparison: the comparison to show.
+        urdf_path: the robot's URDF file, so that its meshes (relative or ``package://`` paths)
+            are found; default: ``comparison.urdf`` text, which shows primitives only.
+        package_dirs: folders holding ``package://`` packages (see ``Robot.package_dirs``).
+        allowed_roots: when given, meshes outside these folders are not read (uploads).
+        locks: locked joints drawn at their values (``Robot.locks``; default: at zero).
 
     Attributes:
         link_paths: link -> names from the root link down to it.
@@ -76,13 +82,27 @@ class PreparedComparison:
         reach: largest distance of the payload from the base over both trajectories [m].
     """
 
-    def __init__(self, comparison: Comparison) -> None:
+    def __init__(
+        self,
+        comparison: Comparison,
+        *,
+        urdf_path: Path | None = None,
+        package_dirs: Sequence[Path] = (),
+        allowed_roots: Sequence[Path] | None = None,
+        locks: Mapping[str, float] | None = None,
+    ) -> None:
         self.comparison = comparison
-        urdf = load_urdf(comparison.urdf, meshes=True)
+        urdf = load_urdf(
+            urdf_path if urdf_path is not None else comparison.urdf,
+            meshes=True,
+            package_dirs=package_dirs,
+            allowed_roots=allowed_roots,
+        )
         self.chain = UrdfChain(urdf)
         self.link_paths = {link: self.chain.link_path(link) for link in self.chain.links}
         self.meshes = _link_meshes(urdf)
-        names = comparison.joint_names
+        names = tuple(comparison.joint_names)
+        held = dict(locks or {})
         # Joints that actually turn in either trajectory (J1 of a planar curl does not).
         moving = {
             name
@@ -101,10 +121,12 @@ class PreparedComparison:
         com = np.append(comparison.payload_com, 1.0)
         for label in LABELS:
             q = comparison.q[label]
-            local = self.chain.joint_transforms(q, names)
+            if held:  # locked joints as constant columns (a gripper held open, ...)
+                q = np.column_stack([q, np.tile(list(held.values()), (q.shape[0], 1))])
+            local = self.chain.joint_transforms(q, names + tuple(held))
             self.joint_wxyz[label] = {j: matrices_to_wxyz(m[:, :3, :3]) for j, m in local.items()}
             self.joint_position[label] = {j: m[:, :3, 3].copy() for j, m in local.items()}
-            world = self.chain.link_poses(q, names)
+            world = self.chain.link_poses(q, names + tuple(held))
             if comparison.payload_body not in world:
                 raise ValueError(
                     f"payload body {comparison.payload_body!r} is not a link of the URDF"
@@ -221,7 +243,10 @@ def _link_meshes(urdf: Any) -> list[LinkMesh]:
     meshes = []
     for node in scene.graph.nodes_geometry:
         transform, geometry_name = scene.graph.get(frame_to=node, frame_from=parents[node])
-        mesh = scene.geometry[geometry_name].copy()
+        geometry = scene.geometry[geometry_name]
+        if not hasattr(geometry, "faces"):  # a COLLADA file may carry lines or points too
+            continue
+        mesh = geometry.copy()
         mesh.apply_transform(transform)
         color = getattr(mesh.visual, "main_color", None)
         rgb = (160, 160, 165) if color is None else tuple(int(c) for c in color[:3])

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from app.planning.dynamics import PinocchioDynamics
-from app.planning.energy import MotorModel
+from app.planning.energy import NOT_MODELLED, MotorModel
 from app.planning.robots import (
     BUILTIN_ROBOTS,
     IDEAL_ACTUATOR,
@@ -231,7 +231,7 @@ def test_user_urdf_round_trip_with_mjcf() -> None:
     np.testing.assert_array_equal(user.tau_max, builtin.tau_max)
     np.testing.assert_array_equal(user.qd_max, builtin.qd_max)
     assert user.payload_body == "flange" and user.payload.mass == 3.0
-    assert all(m == IDEAL_ACTUATOR for m in user.motors)
+    assert all(m == NOT_MODELLED for m in user.motors) and not user.motors_modelled
     np.testing.assert_allclose(np.degrees(user.default_goal), [0, 20, 150, 0, 0, 0])
     model = user.mujoco_model()
     data = mujoco.MjData(model)
@@ -279,8 +279,9 @@ def test_user_urdf_with_continuous_joint(tmp_path: Path) -> None:
     np.testing.assert_allclose(revolute.default_goal, [math.radians(20.0), 2.5])  # clipped
     assert revolute.payload.mass == 0.0
     assert robot.payload_body == "b"
-    with pytest.raises(RobotError, match="has no MJCF"):
-        robot.mujoco_model()
+    # No MJCF: MuJoCo's own URDF compiler builds the simulation model from the URDF.
+    model = robot.mujoco_model()
+    assert [model.joint(i).name for i in range(model.njnt)] == ["j1", "j2"]
 
 
 def one_line_error(target: str | Path, **kwargs: object) -> str:
@@ -310,7 +311,7 @@ def test_load_errors_are_one_line(tmp_path: Path) -> None:
     assert "joint 'j2' <limit> lacks 'upper'" in one_line_error(partial)
 
     prismatic = write(tmp_path, "slide.urdf", GOOD.format(kind="prismatic", limit=LIMIT))
-    assert "joint 'j2' has type 'prismatic'" in one_line_error(prismatic)
+    assert "joint 'j2' is prismatic (a gripper?): expected it locked" in one_line_error(prismatic)
 
     wrong_root = write(tmp_path, "root.urdf", "<sdf version='1.6'/>")
     assert "root element is <sdf>: expected <robot>" in one_line_error(wrong_root)
@@ -322,14 +323,16 @@ def test_load_errors_are_one_line(tmp_path: Path) -> None:
 
     good = write(tmp_path, "good.urdf", GOOD.format(kind="revolute", limit=LIMIT))
     mismatch = write(tmp_path, "other.xml", Path(ROBOT_DIR / "human_arm_2dof.xml").read_text())
-    assert "do not match the URDF's" in one_line_error(good, mjcf=mismatch)
+    assert "no joint 'j1': expected the URDF's joints" in one_line_error(good, mjcf=mismatch)
     broken = write(tmp_path, "broken.xml", "<mujoco><worldbody><body></mujoco>")
     assert one_line_error(good, mjcf=broken).startswith("broken.xml: ")
 
     assert "expected 20-250 kg" in one_line_error("human_arm_2dof", body_mass=5.0)
     assert "expected 'male' or 'female'" in one_line_error("human_arm_2dof", sex="x")
     assert "expected a finite mass" in one_line_error("curtain_wall_6dof", payload=-2.0)
-    assert "expected mjcf only with a URDF" in one_line_error("curtain_wall_6dof", mjcf=mismatch)
+    assert "expected them only with a robot file" in one_line_error(
+        "curtain_wall_6dof", mjcf=mismatch
+    )
 
 
 def test_pinocchio_dynamics_errors(tmp_path: Path) -> None:

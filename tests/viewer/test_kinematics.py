@@ -126,3 +126,59 @@ def test_bad_input_is_named() -> None:
         load_urdf("/nonexistent/robot.urdf")
     with pytest.raises(KinematicsError, match="not a readable URDF"):
         load_urdf("<robot><joint></robot>")
+
+
+# --- third-party URDFs: encoding declarations, meshes, package:// paths -----------------------
+
+
+def test_urdf_text_with_an_encoding_declaration_loads() -> None:
+    from tests.utils.example_robots import UR5, robot_file
+
+    path = robot_file(UR5)
+    text = path.read_text(encoding="utf-8")
+    assert text.startswith('<?xml version="1.0" encoding="utf-8"?>')
+    for source in (text, path.read_bytes(), path):
+        urdf = load_urdf(source)
+        assert "elbow_joint" in urdf.joint_map
+
+
+def test_ur5_kinematics_match_pinocchio() -> None:
+    import pinocchio as pin
+
+    from tests.utils.example_robots import UR5, robot_file
+
+    path = robot_file(UR5)
+    chain = UrdfChain.from_source(path.read_text(encoding="utf-8"))
+    model = pin.buildModelFromUrdf(str(path))
+    data = model.createData()
+    names = list(model.names[1:])
+    q = np.random.default_rng(5).uniform(-3.0, 3.0, size=(4, len(names)))
+    poses = chain.link_poses(q, names)
+    for k in range(len(q)):
+        pin.framesForwardKinematics(model, data, q[k])
+        for link in ("forearm_link", "wrist_3_link", "tool0"):
+            ref = data.oMf[model.getFrameId(link)].homogeneous
+            np.testing.assert_allclose(poses[link][k], ref, atol=1e-12)
+
+
+def test_package_meshes_are_found_next_to_the_file_and_confined_on_request() -> None:
+    from tests.utils.example_robots import UR5, robot_file, robots_dir
+
+    path = robot_file(UR5)
+    urdf = load_urdf(path, meshes=True)
+    names = set(urdf.scene.geometry)
+    assert {"base.dae", "forearm.dae", "wrist3.dae"} <= {n.split("_")[0] for n in names}
+    # text has no folder: package:// paths resolve only through package_dirs
+    text = path.read_text(encoding="utf-8")
+    assert not load_urdf(text, meshes=True).scene.geometry
+    share = robots_dir().parent.parent  # the folder that holds example-robot-data/
+    assert load_urdf(text, meshes=True, package_dirs=[share]).scene.geometry
+    # confined to an unrelated folder: no mesh is read, the robot still loads
+    confined = load_urdf(path, meshes=True, allowed_roots=[path.parent / "nowhere"])
+    assert not confined.scene.geometry and "elbow_joint" in confined.joint_map
+
+
+def test_a_broken_urdf_is_one_line() -> None:
+    with pytest.raises(KinematicsError) as info:
+        load_urdf(b"<?xml version='1.0' encoding='utf-8'?><robot name='x'><link></robot>")
+    assert "\n" not in str(info.value) and "not a readable URDF" in str(info.value)

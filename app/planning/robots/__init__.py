@@ -6,7 +6,16 @@
 """
 
 from app.planning.robots._human import HumanArmSegments, human_arm_segments, segment_masses
-from app.planning.robots._loader import BUILTIN_ROBOTS, builtin_files, cache_dir, load_robot
+from app.planning.robots._loader import (
+    BUILTIN_ROBOTS,
+    builtin_files,
+    cache_dir,
+    load_robot,
+    load_robot_spec,
+    locks_from_display,
+)
+from app.planning.robots._package import RobotPackage, open_robot_package, resolve_mesh
+from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import IDEAL_ACTUATOR, Payload, Robot, RobotError
 
 __all__ = [
@@ -16,9 +25,16 @@ __all__ = [
     "Payload",
     "Robot",
     "RobotError",
+    "RobotPackage",
+    "Sidecar",
     "builtin_files",
     "cache_dir",
     "human_arm_segments",
     "load_robot",
+    "load_robot_spec",
+    "locks_from_display",
+    "open_robot_package",
+    "read_sidecar",
+    "resolve_mesh",
     "segment_masses",
 ]

@@ -6,9 +6,9 @@ import hashlib
 import math
 import os
 import tempfile
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,6 +28,7 @@ from app.planning.robots._human import (
     human_arm_segments,
 )
 from app.planning.robots._types import IDEAL_ACTUATOR, Payload, Robot, RobotError
+from app.planning.robots._user import locks_from_display, user_robot
 
 __all__ = [
     "BUILTIN_ROBOTS",
@@ -35,6 +36,9 @@ __all__ = [
     "builtin_files",
     "cache_dir",
     "load_robot",
+    "load_robot_spec",
+    "locks_from_display",
+    "write_cached",
 ]
 
 BUILTIN_ROBOTS: tuple[str, ...] = ("human_arm_2dof", "curtain_wall_6dof")
@@ -70,7 +74,7 @@ def cache_dir() -> Path:
     return fallback
 
 
-def _write_cached(text: str, stem: str, suffix: str) -> Path:
+def write_cached(text: str, stem: str, suffix: str) -> Path:
     """Write ``text`` under a content-addressed name, atomically (no half-written file)."""
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
     path = cache_dir() / f"{stem}-{digest}{suffix}"
@@ -121,8 +125,8 @@ def _human_arm(payload: float | None, body_mass: float, body_height: float, sex:
         urdf, mjcf = builtin_files(
             "human_arm_2dof", body_mass=body_mass, body_height=body_height, sex=sex
         )
-        urdf_path = _write_cached(urdf, "human_arm_2dof", ".urdf")
-        mjcf_path = _write_cached(mjcf, "human_arm_2dof", ".xml")
+        urdf_path = write_cached(urdf, "human_arm_2dof", ".urdf")
+        mjcf_path = write_cached(mjcf, "human_arm_2dof", ".xml")
     spec = human_arm_chain(segments)
     mass = HUMAN_PAYLOAD_MASS if payload is None else payload
     return Robot(
@@ -144,6 +148,13 @@ def _human_arm(payload: float | None, body_mass: float, body_height: float, sex:
         parameters=human_arm_parameters(
             segments, body_mass=body_mass, body_height=body_height, sex=sex
         ),
+        spec={
+            "source": "human_arm_2dof",
+            "payload": float(mass),
+            "body_mass": float(body_mass),
+            "body_height": float(body_height),
+            "sex": sex,
+        },
     )
 
 
@@ -169,265 +180,120 @@ def _curtain_wall(payload: float | None) -> Robot:
         shoulder_joint=1,
         elbow_joint=2,
         parameters=curtain_wall_parameters(),
+        spec={"source": "curtain_wall_6dof", "payload": float(mass)},
     )
-
-
-@dataclass(frozen=True)
-class _UrdfJoint:
-    name: str
-    kind: str
-    parent: str
-    child: str
-    lower: float
-    upper: float
-    velocity: float
-    effort: float
-
-
-def _number(file: str, joint: str, limit: ET.Element, key: str) -> float:
-    text = limit.get(key)
-    if text is None:
-        raise RobotError(
-            f"{file}: joint '{joint}' <limit> lacks '{key}': "
-            "expected lower, upper, velocity and effort (velocity and effort for continuous)"
-        )
-    try:
-        value = float(text)
-    except ValueError:
-        raise RobotError(
-            f"{file}: joint '{joint}' <limit {key}=\"{text}\">: expected a number"
-        ) from None
-    if not math.isfinite(value):
-        raise RobotError(
-            f"{file}: joint '{joint}' <limit {key}=\"{text}\">: expected a finite number"
-        )
-    return value
-
-
-def _parse_urdf(path: Path) -> tuple[str, list[_UrdfJoint]]:
-    """Validate a URDF enough to give one-line errors; returns (robot name, movable joints)."""
-    file = path.name
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise RobotError(f"{file}: no such file ({path}): expected a URDF file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RobotError(f"{file}: cannot be read ({exc}): expected a UTF-8 URDF file") from None
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        line, column = exc.position
-        raise RobotError(
-            f"{file}: not well-formed XML at line {line}, column {column + 1}: "
-            "expected a URDF document"
-        ) from None
-    if root.tag != "robot":
-        raise RobotError(f"{file}: root element is <{root.tag}>: expected <robot>")
-    links = [link.get("name") for link in root.findall("link")]
-    if any(name is None for name in links):
-        raise RobotError(f"{file}: a <link> has no name: expected <link name=...>")
-    if len(set(links)) != len(links):
-        raise RobotError(f"{file}: duplicate link names: expected unique link names")
-    movable: list[_UrdfJoint] = []
-    children: set[str] = set()
-    for element in root.findall("joint"):
-        name = element.get("name")
-        if not name:
-            raise RobotError(f"{file}: a <joint> has no name: expected <joint name=... type=...>")
-        kind = element.get("type")
-        parent = element.find("parent")
-        child = element.find("child")
-        parent_link = parent.get("link") if parent is not None else None
-        child_link = child.get("link") if child is not None else None
-        if parent_link is None or child_link is None:
-            raise RobotError(
-                f"{file}: joint '{name}' lacks <parent link> or <child link>: expected both"
-            )
-        for role, link_name in (("parent", parent_link), ("child", child_link)):
-            if link_name not in links:
-                raise RobotError(
-                    f"{file}: joint '{name}' {role} link '{link_name}' is not defined: "
-                    "expected a <link> of that name"
-                )
-        if child_link in children:
-            raise RobotError(
-                f"{file}: link '{child_link}' is the child of two joints: expected a tree"
-            )
-        children.add(child_link)
-        if element.find("mimic") is not None:
-            raise RobotError(
-                f"{file}: joint '{name}' is a mimic joint: expected independent joints"
-            )
-        if kind == "fixed":
-            continue
-        if kind not in ("revolute", "continuous"):
-            raise RobotError(
-                f"{file}: joint '{name}' has type '{kind}': expected revolute, continuous or fixed"
-            )
-        limit = element.find("limit")
-        if limit is None:
-            raise RobotError(
-                f"{file}: joint '{name}' has no <limit>: expected lower, upper, velocity and "
-                "effort" + (" (velocity and effort for continuous)" if kind == "continuous" else "")
-            )
-        if kind == "revolute":
-            lower = _number(file, name, limit, "lower")
-            upper = _number(file, name, limit, "upper")
-            if not lower < upper:
-                raise RobotError(
-                    f"{file}: joint '{name}' limits lower={lower} upper={upper}: "
-                    "expected lower < upper"
-                )
-        else:
-            lower, upper = -math.inf, math.inf
-        velocity = _number(file, name, limit, "velocity")
-        effort = _number(file, name, limit, "effort")
-        for key, value in (("velocity", velocity), ("effort", effort)):
-            if value <= 0.0:
-                raise RobotError(
-                    f"{file}: joint '{name}' <limit {key}=\"{value:g}\">: expected a value > 0"
-                )
-        movable.append(
-            _UrdfJoint(name, kind, parent_link, child_link, lower, upper, velocity, effort)
-        )
-    roots = [name for name in links if name not in children]
-    if len(roots) != 1:
-        raise RobotError(f"{file}: {len(roots)} root links {roots}: expected exactly one")
-    if not movable:
-        raise RobotError(f"{file}: no revolute or continuous joint: expected at least two")
-    return root.get("name") or path.stem, movable
-
-
-def _user_robot(urdf: Path, mjcf: Path | None, payload: float | None) -> Robot:
-    robot_name, joints = _parse_urdf(urdf)
-    from app.planning.dynamics import PinocchioDynamics
-
-    # Joint order is Pinocchio's depth-first order from the root (the file order for a
-    # serial chain); the dynamics and the limits must use the same order.
-    order = PinocchioDynamics.joint_order(urdf)
-    by_name = {joint.name: joint for joint in joints}
-    if sorted(order) != sorted(by_name):
-        raise RobotError(
-            f"{urdf.name}: pinocchio found joints {order}, the file has {sorted(by_name)}: "
-            "expected the same movable joints"
-        )
-    if len(order) < 2:
-        raise RobotError(
-            f"{urdf.name}: {len(order)} movable joint: expected at least two "
-            "(human shoulder and elbow map onto two joints)"
-        )
-    ordered = [by_name[name] for name in order]
-    n = len(ordered)
-    q_min = np.array([joint.lower for joint in ordered])
-    q_max = np.array([joint.upper for joint in ordered])
-    shoulder, elbow = (1, 2) if n >= 3 else (0, 1)
-    start = np.clip(np.zeros(n), q_min, q_max)
-    goal = start.copy()
-    goal[shoulder] += math.radians(20.0)
-    goal[elbow] += math.radians(150.0)
-    goal = np.clip(goal, q_min, q_max)
-    payload_body = ordered[-1].child
-    if mjcf is not None:
-        _check_mjcf(mjcf, order, payload_body)
-    return Robot(
-        name=robot_name,
-        joint_names=tuple(order),
-        urdf_path=urdf.resolve(),
-        mjcf_path=mjcf.resolve() if mjcf is not None else None,
-        q_min=q_min,
-        q_max=q_max,
-        qd_max=np.array([joint.velocity for joint in ordered]),
-        tau_max=np.array([joint.effort for joint in ordered]),
-        motors=tuple(IDEAL_ACTUATOR for _ in ordered),
-        payload=Payload.point(0.0 if payload is None else payload),
-        payload_body=payload_body,
-        default_start=start,
-        default_goal=goal,
-        shoulder_joint=shoulder,
-        elbow_joint=elbow,
-        parameters=(
-            {"name": "urdf", "value": str(urdf), "unit": "", "source": "user file"},
-            {
-                "name": "motors",
-                "value": "ideal actuator",
-                "unit": "",
-                "source": "default for user URDFs: gear 1, no losses, no rotor inertia",
-            },
-            {
-                "name": "payload.body",
-                "value": payload_body,
-                "unit": "",
-                "source": "default: the link moved by the last joint, point mass at its origin",
-            },
-        ),
-    )
-
-
-def _check_mjcf(mjcf: Path, joint_names: list[str], payload_body: str) -> None:
-    import mujoco
-
-    if not mjcf.is_file():
-        raise RobotError(f"{mjcf.name}: no such file ({mjcf}): expected an MJCF file")
-    try:
-        model = mujoco.MjModel.from_xml_path(str(mjcf))
-    except Exception as exc:  # mujoco raises ValueError with a multi-line message
-        detail = " ".join(str(exc).split())
-        raise RobotError(f"{mjcf.name}: {detail}: expected a valid MJCF model") from None
-    names = [model.joint(i).name for i in range(model.njnt)]
-    if names != joint_names:
-        raise RobotError(
-            f"{mjcf.name}: joints {names} do not match the URDF's {joint_names}: "
-            "expected the same joints in the same order"
-        )
-    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, payload_body) < 0:
-        raise RobotError(
-            f"{mjcf.name}: no body '{payload_body}': "
-            "expected the URDF link that carries the payload"
-        )
 
 
 def load_robot(
-    name_or_urdf: str | Path,
+    name_or_file: str | Path,
     *,
     payload: float | None = None,
     mjcf: str | Path | None = None,
     body_mass: float = 75.0,
     body_height: float = 1.75,
     sex: str = "male",
+    shoulder_joint: str | None = None,
+    elbow_joint: str | None = None,
+    locks: Mapping[str, float] | None = None,
+    sidecar: str | Path | None = None,
+    package_dirs: Sequence[str | Path] = (),
 ) -> Robot:
-    """A built-in robot by name, or a user robot from a URDF (+ optional MJCF) path.
+    """A built-in robot by name, or a user robot from a URDF (+ MJCF) or an MJCF alone.
 
     Args:
-        name_or_urdf: "human_arm_2dof", "curtain_wall_6dof", or the path of a URDF file.
+        name_or_file: "human_arm_2dof", "curtain_wall_6dof", a ``.urdf`` path, or an MJCF
+            (``.xml``) path alone (a URDF is then generated from it for Pinocchio and the viewer).
         payload: payload mass [kg]; None = the robot's default (12 kg dumbbell for the human
-            arm, 4 kg panel for curtain_wall_6dof, nothing for a user URDF).
-        mjcf: MJCF file matching a user URDF (same joints in the same order, a body named like
-            the payload link); built-in robots ship their own.
+            arm, 4 kg panel for curtain_wall_6dof; the sidecar's, else nothing, for a user robot).
+        mjcf: MJCF file of the same robot as a user URDF (compared with it at load: joints,
+            axes, masses and inverse dynamics; a disagreement is refused naming the joint).
+            Without one, MuJoCo compiles the URDF itself.
         body_mass: subject's body mass [kg] (human_arm_2dof only).
         body_height: subject's stature [m] (human_arm_2dof only).
         sex: "male" or "female" (de Leva's table; human_arm_2dof only).
+        shoulder_joint, elbow_joint: joints human shoulder / elbow flexion map to (user robots;
+            default: the sidecar's, else the first pitch pair, see ``docs/robots.md``).
+        locks: joints held fixed, name -> value [rad, or m for prismatic joints] (user robots;
+            Pinocchio's reduced model; :func:`locks_from_display` converts degrees).
+        sidecar: motor, gear, payload, lock and role sidecar (YAML, ``docs/robots.md``); without
+            motors the electrical metrics are reported as not modelled.
+        package_dirs: folders searched for ``package://NAME/...`` mesh paths (viewer).
 
     Returns:
-        The robot. For a user URDF: joints in kinematic order from the root, limits from the
-        URDF (continuous joints get infinite position limits), ideal actuators, the payload as a
-        point mass at the origin of the link moved by the last joint, shoulder/elbow = joints
-        1/2 (0/1 for two joints), default task = shoulder +20 deg, elbow +150 deg from 0,
-        clipped to the limits.
+        The robot. For a user robot: free joints in kinematic order from the root, limits from
+        the URDF (continuous joints get infinite position limits), motors from the sidecar or
+        not modelled, the payload at the origin of the link moved by the last free joint unless
+        the sidecar says otherwise, default task = shoulder 20 deg and elbow 150 deg from zero
+        (clipped into the limits, each toward the side with more room).
 
     Raises:
-        RobotError: unknown name, missing or malformed file, missing limit, bad subject.
+        RobotError: unknown name, missing or malformed file, missing limit, unknown joint name,
+            an unlocked prismatic or mimic joint, a bad sidecar, a URDF/MJCF disagreement.
     """
     if payload is not None and not (math.isfinite(payload) and payload >= 0.0):
         raise RobotError(f"payload is {payload}: expected a finite mass >= 0 kg")
-    if isinstance(name_or_urdf, str) and name_or_urdf in BUILTIN_ROBOTS:
-        if mjcf is not None:
+    user_options = (shoulder_joint, elbow_joint, sidecar) + ((None,) if not locks else (locks,))
+    if isinstance(name_or_file, str) and name_or_file in BUILTIN_ROBOTS:
+        if mjcf is not None or any(v is not None for v in user_options):
             raise RobotError(
-                f"mjcf given for built-in robot '{name_or_urdf}': expected mjcf only with a URDF"
+                f"mjcf, locks, sidecar or joint roles given for built-in robot '{name_or_file}': "
+                "expected them only with a robot file"
             )
-        if name_or_urdf == "human_arm_2dof":
+        if name_or_file == "human_arm_2dof":
             return _human_arm(payload, float(body_mass), float(body_height), sex)
         return _curtain_wall(payload)
-    path = Path(name_or_urdf)
-    if isinstance(name_or_urdf, str) and path.suffix.lower() != ".urdf" and not path.exists():
-        raise RobotError(_unknown(name_or_urdf))
-    return _user_robot(path, Path(mjcf) if mjcf is not None else None, payload)
+    path = Path(name_or_file)
+    suffix = path.suffix.lower()
+    if (
+        isinstance(name_or_file, str)
+        and suffix not in (".urdf", ".xml", ".mjcf")
+        and not path.exists()
+    ):
+        raise RobotError(_unknown(name_or_file))
+    options: dict[str, Any] = {
+        "payload": payload,
+        "shoulder_joint": shoulder_joint,
+        "elbow_joint": elbow_joint,
+        "locks": locks,
+        "sidecar": None if sidecar is None else Path(sidecar),
+        "package_dirs": tuple(Path(p) for p in package_dirs),
+    }
+    if suffix in (".xml", ".mjcf"):
+        if mjcf is not None:
+            raise RobotError(f"{path.name} is an MJCF and mjcf is given too: expected a URDF first")
+        from app.planning.robots._mjcf_urdf import urdf_from_mjcf
+
+        return user_robot(urdf_from_mjcf(path), mjcf=path, mjcf_only=True, **options)
+    return user_robot(path, mjcf=Path(mjcf) if mjcf is not None else None, **options)
+
+
+def load_robot_spec(spec: Mapping[str, Any]) -> Robot:
+    """The robot ``Robot.spec`` describes (how a saved plan names its robot).
+
+    Raises:
+        RobotError: the spec is malformed or its files are gone or changed.
+    """
+    if not isinstance(spec, Mapping) or not isinstance(spec.get("source"), str):
+        raise RobotError(f"robot spec {spec!r}: expected a mapping with a 'source' name or file")
+    known = {
+        "source",
+        "mjcf",
+        "payload",
+        "body_mass",
+        "body_height",
+        "sex",
+        "shoulder_joint",
+        "elbow_joint",
+        "locks",
+        "sidecar",
+        "package_dirs",
+        "mjcf_only",
+    }
+    extra = sorted(set(spec) - known)
+    if extra:
+        raise RobotError(f"robot spec field '{extra[0]}': expected one of {sorted(known)}")
+    kwargs = {k: v for k, v in spec.items() if k not in ("source", "mjcf_only")}
+    if spec.get("mjcf_only"):
+        kwargs.pop("mjcf", None)
+        return load_robot(str(spec["mjcf"]), **kwargs)
+    return load_robot(spec["source"], **kwargs)

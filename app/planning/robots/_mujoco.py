@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,8 +60,12 @@ def build_mujoco_model(
     payload_body: str,
     armature: NDArray[np.float64] | None,
     motors: Sequence[MotorModel] | None,
+    locks: Mapping[str, float] | None = None,
 ) -> mujoco.MjModel:
-    """Load ``mjcf_path`` through MjSpec, apply payload/armature/friction, compile.
+    """Load ``mjcf_path`` through MjSpec, apply locks/payload/armature/friction, compile.
+
+    A URDF works too (MuJoCo's own URDF compiler reads it; it has no actuators, so the
+    simulator drives it through ``qfrc_applied``).
 
     Args:
         mjcf_path: the MJCF file.
@@ -71,6 +75,8 @@ def build_mujoco_model(
         armature: (n,) joint armature [kg m^2], or None to leave the file's values.
         motors: (n,) motor models whose viscous / Coulomb friction become ``damping`` /
             ``frictionloss``, or None for no friction.
+        locks: joints removed from the model, their bodies fixed at the given values (name ->
+            rad, or m for slide joints).
 
     Returns:
         The compiled model.
@@ -84,6 +90,8 @@ def build_mujoco_model(
     except Exception as exc:  # mujoco reports parse and compile errors as ValueError
         raise RobotError(f"{name}: {_one_line(exc)}: expected a valid MJCF model") from exc
 
+    if locks:
+        _lock_joints(spec, base_model, locks, name)
     joints = []
     for joint_name in joint_names:
         joint = spec.joint(joint_name)
@@ -138,3 +146,53 @@ def build_mujoco_model(
         return spec.compile()
     except Exception as exc:
         raise RobotError(f"{name}: {_one_line(exc)}: expected a valid MJCF model") from exc
+
+
+def _lock_joints(spec: Any, model: Any, locks: Mapping[str, float], file: str) -> None:
+    """Remove each locked joint and pose its body as the joint at the locked value would.
+
+    A hinge at ``pos`` p about unit axis a turned by (value - ref) moves the body by
+    Trans(p) Rot(a, angle) Trans(-p); a slide moves it by (value - ref) a. The compiled
+    model's relative body pose is the starting point, so any orientation form of the file works.
+    """
+    import mujoco
+
+    for joint_name, value in locks.items():
+        joint = spec.joint(joint_name)
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint_name)
+        if joint is None or jid < 0:
+            raise RobotError(f"{file}: no joint '{joint_name}' to lock: expected a joint name")
+        kind = int(model.jnt_type[jid])
+        body_id = int(model.jnt_bodyid[jid])
+        offset = float(value) - float(model.qpos0[model.jnt_qposadr[jid]])
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, model.body_quat[body_id])
+        rot_b = rot.reshape(3, 3)
+        pos = np.array(model.body_pos[body_id], dtype=np.float64)
+        axis = np.array(model.jnt_axis[jid], dtype=np.float64)
+        quat = np.array(model.body_quat[body_id], dtype=np.float64)
+        if kind == int(mujoco.mjtJoint.mjJNT_SLIDE):
+            pos = pos + rot_b @ (offset * axis)
+        elif kind == int(mujoco.mjtJoint.mjJNT_HINGE):
+            turn = np.zeros(4)
+            mujoco.mju_axisAngle2Quat(turn, axis, offset)
+            turn_m = np.zeros(9)
+            mujoco.mju_quat2Mat(turn_m, turn)
+            p = np.array(model.jnt_pos[jid], dtype=np.float64)
+            pos = pos + rot_b @ (p - turn_m.reshape(3, 3) @ p)
+            mujoco.mju_mulQuat(quat, quat.copy(), turn)
+        else:
+            raise RobotError(
+                f"{file}: joint '{joint_name}' is not a hinge or slide: cannot lock it"
+            )
+        body = spec.body(model.body(body_id).name)
+        body.pos = pos
+        body.quat = quat
+        body.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
+        for actuator in list(spec.actuators):
+            if actuator.target == joint_name:
+                spec.delete(actuator)
+        for equality in list(spec.equalities):
+            if joint_name in (equality.name1, equality.name2):
+                spec.delete(equality)
+        spec.delete(joint)

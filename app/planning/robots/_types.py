@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -11,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from app.errors import BioPlanError
-from app.planning.energy import MotorModel
+from app.planning.energy import MotorModel, motors_modelled
 
 if TYPE_CHECKING:
     import mujoco
@@ -125,6 +126,15 @@ class Robot:
         default_start, default_goal: (n,) the default curl task [rad].
         shoulder_joint, elbow_joint: indices that human shoulder / elbow flexion map to.
         parameters: the parameter table, rows with keys name, value, unit, source.
+        locks: joints of the file held at fixed values [rad, or m for prismatic joints]; they
+            are not in ``joint_names`` (the planner sees Pinocchio's reduced model) but the
+            viewer and the exporters need them.
+        all_joint_names: every movable joint of the file in Pinocchio's order, the locked ones
+            included (empty: the same as ``joint_names``).
+        package_dirs: folders that ``package://NAME/...`` mesh paths resolve against (the
+            folder that holds a package ``NAME``); the URDF's own folder is always searched.
+        spec: how to rebuild this robot, as JSON-ready ``load_robot`` arguments (stored with
+            every plan, so that a saved result can be exported again).
     """
 
     name: str
@@ -143,6 +153,10 @@ class Robot:
     shoulder_joint: int
     elbow_joint: int
     parameters: tuple[dict[str, object], ...] = ()
+    locks: Mapping[str, float] = field(default_factory=dict)
+    all_joint_names: tuple[str, ...] = ()
+    package_dirs: tuple[Path, ...] = ()
+    spec: Mapping[str, Any] = field(default_factory=dict)
     _cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -166,6 +180,19 @@ class Robot:
             if not 0 <= index < n:
                 raise RobotError(f"robot '{self.name}' {attr}={index}: expected 0 <= index < {n}")
         object.__setattr__(self, "urdf_path", Path(self.urdf_path))
+        object.__setattr__(self, "locks", {str(k): float(v) for k, v in self.locks.items()})
+        overlap = sorted(set(self.locks) & set(self.joint_names))
+        if overlap:
+            raise RobotError(f"robot '{self.name}' joints {overlap} are both free and locked")
+        if not self.all_joint_names:
+            object.__setattr__(self, "all_joint_names", tuple(self.joint_names))
+        missing = sorted((set(self.joint_names) | set(self.locks)) - set(self.all_joint_names))
+        if missing or len(self.all_joint_names) != n + len(self.locks):
+            raise RobotError(
+                f"robot '{self.name}' all_joint_names {list(self.all_joint_names)}: expected the "
+                "free and the locked joints, each once"
+            )
+        object.__setattr__(self, "package_dirs", tuple(Path(p) for p in self.package_dirs))
         if self.mjcf_path is not None:
             object.__setattr__(self, "mjcf_path", Path(self.mjcf_path))
 
@@ -181,6 +208,42 @@ class Robot:
     @property
     def n_joints(self) -> int:
         return len(self.joint_names)
+
+    @property
+    def shoulder_joint_name(self) -> str:
+        """The joint human shoulder flexion maps to."""
+        return self.joint_names[self.shoulder_joint]
+
+    @property
+    def elbow_joint_name(self) -> str:
+        """The joint human elbow flexion maps to."""
+        return self.joint_names[self.elbow_joint]
+
+    @property
+    def motors_modelled(self) -> bool:
+        """False when the motors are unknown (electrical metrics are then "not modelled")."""
+        return motors_modelled(self.motors)
+
+    def full_configuration(self, q: ArrayLike) -> NDArray[np.float64]:
+        """Free-joint values with the locked joints inserted, in ``all_joint_names`` order.
+
+        Args:
+            q: (..., n) values of ``joint_names`` [rad or m].
+
+        Returns:
+            (..., N) values of ``all_joint_names`` (N = n + number of locks).
+        """
+        values = np.asarray(q, dtype=np.float64)
+        if values.ndim == 0 or values.shape[-1] != self.n_joints:
+            raise RobotError(
+                f"robot '{self.name}' configuration has shape {values.shape}: "
+                f"expected (..., {self.n_joints})"
+            )
+        out = np.empty((*values.shape[:-1], len(self.all_joint_names)))
+        column = {name: i for i, name in enumerate(self.joint_names)}
+        for k, name in enumerate(self.all_joint_names):
+            out[..., k] = values[..., column[name]] if name in column else self.locks[name]
+        return out
 
     @property
     def armature(self) -> NDArray[np.float64]:
@@ -214,13 +277,15 @@ class Robot:
                 payload_body=self.payload_body,
                 armature=self.armature if armature else None,
                 num_threads=threads,
+                locks=self.locks,
             )
         result: Dynamics = self._cache[key]
         return result
 
     def with_payload(self, mass: float) -> Robot:
         """The same robot carrying a payload of the same shape with ``mass`` [kg]."""
-        return dataclasses.replace(self, payload=self.payload.with_mass(mass))
+        spec = {**self.spec, "payload": float(mass)} if self.spec else {}
+        return dataclasses.replace(self, payload=self.payload.with_mass(mass), spec=spec)
 
     def mujoco_model(self, *, armature: bool = True, friction: bool = False) -> mujoco.MjModel:
         """The MJCF compiled with the payload and armature applied exactly as in ``dynamics()``.
@@ -252,4 +317,5 @@ class Robot:
             payload_body=self.payload_body,
             armature=self.armature if armature else None,
             motors=self.motors if friction else None,
+            locks=self.locks,
         )

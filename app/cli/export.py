@@ -1,0 +1,104 @@
+"""``bioplan export``: a saved ``plan``/``simulate`` JSON result as a controller file."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from app.cli._common import CliError, emit
+
+
+def _read_result(path: str) -> dict[str, Any]:
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CliError(f"{path}: cannot read the result ({exc.strerror})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise CliError(
+            f"{path}: not JSON (line {exc.lineno}): expected the --json output of plan/simulate"
+        ) from None
+    if not isinstance(data, dict):
+        raise CliError(f"{path}: expected a JSON object (the --json output of plan/simulate)")
+    return data
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from app.planning.export import (
+        FORMATS,
+        check_rate,
+        format_of,
+        motion_of_result,
+        write_export,
+    )
+
+    fmt = args.format or format_of(args.out_file)
+    if fmt not in FORMATS:
+        raise CliError(f"--format {fmt}: expected one of {', '.join(FORMATS)}")
+    if args.format and Path(args.out_file).suffix and format_of(args.out_file) != args.format:
+        raise CliError(
+            f"--out {args.out_file} has extension {Path(args.out_file).suffix} but --format is "
+            f"{args.format}: expected them to agree"
+        )
+    rate = check_rate(FORMATS[fmt].default_rate if args.rate is None else args.rate)
+    try:
+        motion = motion_of_result(_read_result(args.result))
+    except CliError:
+        raise
+    except ValueError as exc:  # ExportError names the field; prefix the file
+        raise CliError(f"{args.result}: {exc}") from None
+    chosen = motion.method(args.method)
+    written = write_export(args.out_file, motion, fmt=fmt, method=chosen.name, rate=rate)
+    size = written.stat().st_size
+    payload = {
+        "out": str(written),
+        "format": fmt,
+        "method": chosen.name,
+        "rate": rate,
+        "robot": motion.robot,
+        "joint_names": list(motion.joint_names),
+        "duration": motion.duration,
+        "bytes": size,
+    }
+    text = (
+        f"wrote {written} ({fmt}, {size} bytes): robot {motion.robot}, method {chosen.name}, "
+        f"{rate:g} Hz over {motion.duration:g} s"
+    )
+    emit(args, payload, text)
+    return 0
+
+
+def register(sub: Any) -> None:
+    """Add ``export`` to the ``bioplan`` subcommands."""
+    from app.planning.export import FORMATS
+
+    p = sub.add_parser(
+        "export", help="write a saved plan or simulation result as a controller file"
+    )
+    p.add_argument("result", help="JSON result of `bioplan plan --json` or `bioplan simulate`")
+    p.add_argument(
+        "--format",
+        default=None,
+        choices=list(FORMATS),
+        help="file format (default: from the extension of --out)",
+    )
+    p.add_argument(
+        "--rate",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="sample rate (default: the format's: "
+        + ", ".join(f"{f.name} {f.default_rate:g} Hz" for f in FORMATS.values())
+        + ")",
+    )
+    p.add_argument(
+        "--method",
+        default=None,
+        help="planning method to export (default: the result's optimised one, paper)",
+    )
+    p.add_argument("--out", dest="out_file", required=True, help="file to write")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_export)

@@ -1,0 +1,185 @@
+"""Robot packages (a folder or a zip of URDF/MJCF, meshes and a sidecar), opened safely.
+
+A zip is checked whole before anything is extracted: no absolute path, no ``..`` component, no
+drive letter, no symbolic link, at most ``MAX_FILES`` members and ``MAX_BYTES`` unpacked. Files
+are only ever written inside the folder the caller names. ``resolve_mesh`` turns a URDF mesh
+reference (``package://NAME/...``, ``file://...`` or a relative path) into a file, optionally
+confined to a set of folders.
+"""
+
+from __future__ import annotations
+
+import shutil
+import stat
+import zipfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+from app.planning.robots._types import RobotError
+
+__all__ = ["MAX_BYTES", "MAX_FILES", "RobotPackage", "open_robot_package", "resolve_mesh"]
+
+MAX_FILES = 5_000
+MAX_BYTES = 1 << 30  # 1 GiB unpacked
+_MODEL_SUFFIXES = (".urdf", ".xml", ".mjcf")
+
+
+@dataclass(frozen=True)
+class RobotPackage:
+    """An opened robot package.
+
+    Attributes:
+        root: the folder holding the package's files.
+        urdfs: URDF files inside it, sorted.
+        mjcfs: MJCF (``.xml``/``.mjcf``) files inside it, sorted.
+        sidecars: ``.yaml``/``.yml`` files inside it, sorted.
+        package_dirs: folders for ``package://`` lookups: the root and every folder under it
+            holding a ``package.xml`` (a ROS package) or named like a ``package://`` target.
+    """
+
+    root: Path
+    urdfs: tuple[Path, ...]
+    mjcfs: tuple[Path, ...]
+    sidecars: tuple[Path, ...]
+    package_dirs: tuple[Path, ...]
+
+    def only_urdf(self) -> Path:
+        """The package's one URDF, or a RobotError listing what it holds."""
+        if len(self.urdfs) != 1:
+            names = [str(p.relative_to(self.root)) for p in self.urdfs]
+            raise RobotError(
+                f"{self.root.name}: {len(self.urdfs)} URDF files {names}: expected exactly one "
+                "(name the one to load)"
+            )
+        return self.urdfs[0]
+
+
+def _check_member(archive: str, info: zipfile.ZipInfo) -> PurePosixPath:
+    name = info.filename
+    path = PurePosixPath(name.replace("\\", "/"))
+    mode = info.external_attr >> 16
+    drive = bool(path.parts) and ":" in path.parts[0]
+    if path.is_absolute() or drive:
+        raise RobotError(
+            f"{archive}: member '{name}' has an absolute path: expected relative paths"
+        )
+    if any(part == ".." for part in path.parts):
+        raise RobotError(f"{archive}: member '{name}' points outside the archive ('..'): refused")
+    if stat.S_ISLNK(mode):
+        raise RobotError(f"{archive}: member '{name}' is a symbolic link: expected plain files")
+    return path
+
+
+def _extract_zip(source: Path, dest: Path) -> None:
+    try:
+        archive = zipfile.ZipFile(source)
+    except (zipfile.BadZipFile, OSError) as exc:
+        raise RobotError(
+            f"{source.name}: not a readable zip archive ({exc}): expected a .zip"
+        ) from None
+    with archive:
+        members = archive.infolist()
+        if len(members) > MAX_FILES:
+            raise RobotError(
+                f"{source.name}: {len(members)} members: expected at most {MAX_FILES} files"
+            )
+        paths = [_check_member(source.name, info) for info in members]
+        total = sum(info.file_size for info in members)
+        if total > MAX_BYTES:
+            raise RobotError(
+                f"{source.name}: unpacks to {total} bytes: expected at most {MAX_BYTES} bytes"
+            )
+        dest.mkdir(parents=True, exist_ok=True)
+        root = dest.resolve()
+        for info, path in zip(members, paths, strict=True):
+            target = (root / Path(*path.parts)).resolve() if path.parts else root
+            if not target.is_relative_to(root):  # belt and braces after the name checks
+                raise RobotError(f"{source.name}: member '{info.filename}' escapes the folder")
+            if info.is_dir():
+                target.mkdir(parents=True, exist_ok=True)
+                continue
+            target.parent.mkdir(parents=True, exist_ok=True)
+            with archive.open(info) as src, open(target, "wb") as out:
+                shutil.copyfileobj(src, out)
+
+
+def _package_dirs(root: Path) -> tuple[Path, ...]:
+    found = [root]
+    for marker in sorted(root.rglob("package.xml")):
+        found.append(marker.parent.parent)
+    return tuple(dict.fromkeys(found))
+
+
+def open_robot_package(source: str | Path, dest: str | Path | None = None) -> RobotPackage:
+    """Open a robot folder, or extract a robot zip into ``dest`` and open that.
+
+    Args:
+        source: a folder, or a ``.zip`` file.
+        dest: folder to extract a zip into (created; required for a zip). Nothing is written
+            anywhere else, and nothing at all when the zip is refused.
+
+    Raises:
+        RobotError: a missing source, a zip that is not one, or a member with an absolute
+            path, a ``..`` component or a link, too many files or too many bytes.
+    """
+    path = Path(source)
+    if path.is_dir():
+        root = path.resolve()
+    elif path.is_file() and zipfile.is_zipfile(path):
+        if dest is None:
+            raise RobotError(f"{path.name}: a zip needs a folder to extract into: expected dest")
+        _extract_zip(path, Path(dest))
+        root = Path(dest).resolve()
+    elif path.exists():
+        raise RobotError(f"{path.name}: neither a folder nor a zip archive: expected one of them")
+    else:
+        raise RobotError(f"{path.name}: no such file or folder ({path})")
+    files = sorted(p for p in root.rglob("*") if p.is_file())
+    return RobotPackage(
+        root=root,
+        urdfs=tuple(p for p in files if p.suffix.lower() == ".urdf"),
+        mjcfs=tuple(p for p in files if p.suffix.lower() in _MODEL_SUFFIXES[1:]),
+        sidecars=tuple(p for p in files if p.suffix.lower() in (".yaml", ".yml")),
+        package_dirs=_package_dirs(root),
+    )
+
+
+def resolve_mesh(
+    reference: str,
+    *,
+    base_dir: Path | None,
+    package_dirs: Sequence[Path] = (),
+    allowed_roots: Sequence[Path] | None = None,
+) -> Path | None:
+    """The file a URDF mesh reference names, or None when it cannot be found (or is refused).
+
+    Args:
+        reference: ``package://NAME/rest``, ``file:///abs/path`` or a path relative to the URDF.
+        base_dir: the URDF's folder (None for URDF text with no file).
+        package_dirs: folders holding packages: ``package://NAME/rest`` is ``DIR/NAME/rest``;
+            the URDF's own ancestors are tried too (``.../NAME/urdf/robot.urdf``).
+        allowed_roots: when given, a resolved file outside all of them is refused (None).
+    """
+    candidates: list[Path] = []
+    if reference.startswith("package://"):
+        name, _, rest = reference[len("package://") :].partition("/")
+        for folder in package_dirs:
+            candidates.append(Path(folder) / name / rest)
+        if base_dir is not None:
+            for ancestor in (base_dir, *base_dir.parents):
+                if ancestor.name == name:
+                    candidates.append(ancestor / rest)
+    elif reference.startswith("file://"):
+        candidates.append(Path(reference[len("file://") :]))
+    elif base_dir is not None:
+        candidates.append(base_dir / reference)
+    roots = None if allowed_roots is None else [Path(r).resolve() for r in allowed_roots]
+    for candidate in candidates:
+        resolved = candidate.resolve()
+        if not resolved.is_file():
+            continue
+        if roots is not None and not any(resolved.is_relative_to(r) for r in roots):
+            continue
+        return resolved
+    return None
