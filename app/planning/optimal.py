@@ -80,11 +80,13 @@ OPTIMAL_OBJECTIVES: tuple[str, ...] = (
 DEFAULT_INTERVALS = 40
 #: IPOPT's convergence tolerance (scaled objective, O(1)).
 IPOPT_TOL = 1e-8
-#: Where each interval is evaluated (fractions of its length: eighths) and the composite
-#: Simpson weights of those points (times h / 24).
-_FRACTIONS = tuple(k / 8 for k in range(9))
-_SIMPSON = (1.0, 4.0, 2.0, 4.0, 2.0, 4.0, 2.0, 4.0, 1.0)
-_SIMPSON_DIVISOR = 24.0
+#: Where each interval is evaluated (fractions of its length) and the composite Simpson weights
+#: (times h / divisor): quarters for the integral objectives; eighths for the peak objectives,
+#: whose epigraphs must also hold between the points (measured: the fine-grid peak power stays
+#: within 0.3 % of the solver's with eighths, 1.4 % with quarters).
+_QUARTERS = ((0.0, 0.25, 0.5, 0.75, 1.0), (1.0, 4.0, 2.0, 4.0, 1.0), 12.0)
+_EIGHTHS = (tuple(k / 8 for k in range(9)), (1.0, 4.0, 2.0, 4.0, 2.0, 4.0, 2.0, 4.0, 1.0), 24.0)
+_PEAK_OBJECTIVES = ("peak_power", "peak_torque")
 #: Torque limits hold at the evaluation points with this relative margin, so that they hold
 #: between them too (checked on the fine grid) [-].
 TORQUE_MARGIN = 2e-3
@@ -300,19 +302,19 @@ class _Problem:
 class _Grid:
     """Symbolic states of all joints at the nodes (n, N+1) and at the evaluation points.
 
-    Each interval k is evaluated at the fractions ``_FRACTIONS`` of its length; point blocks are
-    (n, N) per fraction, so a point's interval is its column. ``h`` is (1, N) [s].
+    Each interval k is evaluated at the fractions of its length of ``_QUARTERS`` or ``_EIGHTHS``;
+    point blocks are (n, N) per fraction, so a point's interval is its column. ``h`` is (1, N) [s].
     """
 
     q: Any
     qd: Any
     qdd: Any
     h: Any
-    point_q: Any = None  # (n, 9N)
+    point_q: Any = None  # (n, 5N) or (n, 9N)
     point_qd: Any = None
     point_qdd: Any = None
     point_jerk: Any = None
-    weights: Any = None  # (1, 9N) composite-Simpson weights [s]
+    weights: Any = None  # (1, P) composite-Simpson weights [s]
 
 
 def _scales(problem: _Problem) -> FloatArray:
@@ -414,7 +416,7 @@ def _build_grid(
             rows[2].append(ca.MX(1, n_nodes))
     grid = _Grid(q=ca.vertcat(*rows[0]), qd=ca.vertcat(*rows[1]), qdd=ca.vertcat(*rows[2]), h=h)
     _continuity(problem, grid, cons)
-    _evaluation_points(grid, n)
+    _evaluation_points(grid, n, _EIGHTHS if problem.objective in _PEAK_OBJECTIVES else _QUARTERS)
     return grid, dvar
 
 
@@ -431,15 +433,18 @@ def _continuity(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
     cons.add((vb - va - hh * (aa + ab) / 2) * T / sc, 0.0, 0.0)
 
 
-def _evaluation_points(grid: _Grid, n: int) -> None:
-    """States at the eighth points of every interval and the composite Simpson weights."""
+def _evaluation_points(
+    grid: _Grid, n: int, rule: tuple[tuple[float, ...], tuple[float, ...], float]
+) -> None:
+    """States at the rule's points of every interval and the composite Simpson weights."""
     import casadi as ca
 
     hh = ca.repmat(grid.h, n, 1)
     qa, va, aa = grid.q[:, :-1], grid.qd[:, :-1], grid.qdd[:, :-1]
     jerk = (grid.qdd[:, 1:] - aa) / hh
     blocks: list[list[Any]] = [[], [], [], [], []]
-    for frac, weight in zip(_FRACTIONS, _SIMPSON, strict=True):
+    fractions, simpson, divisor = rule
+    for frac, weight in zip(fractions, simpson, strict=True):
         if frac == 1.0:
             state = (grid.q[:, 1:], grid.qd[:, 1:], grid.qdd[:, 1:])
         elif frac == 0.0:
@@ -451,9 +456,7 @@ def _evaluation_points(grid: _Grid, n: int) -> None:
                 va + aa * s + jerk * s**2 / 2,
                 aa + jerk * s,
             )
-        for store, value in zip(
-            blocks, (*state, jerk, grid.h * (weight / _SIMPSON_DIVISOR)), strict=True
-        ):
+        for store, value in zip(blocks, (*state, jerk, grid.h * (weight / divisor)), strict=True):
             store.append(value)
     grid.point_q, grid.point_qd, grid.point_qdd, grid.point_jerk, grid.weights = (
         ca.horzcat(*b) for b in blocks

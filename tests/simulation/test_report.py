@@ -34,6 +34,7 @@ def report_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         sweep_durations=(1.0, 2.0),
         sweep_payloads=(0.0, 4.0),
         sweep_objectives=("abs_work",),
+        sweep_methods=("quintic", "paper"),
         sweep_workers=1,
         **SMALL,
     )

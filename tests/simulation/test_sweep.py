@@ -49,6 +49,8 @@ def test_to_dict_has_the_contract_keys_and_is_strict_json(comparison: Simulation
         "planned",
         "conditions",
         "warnings",
+        "methods",
+        "share_of_achievable_pct",
     }
     json.dumps(d, allow_nan=False)
     n = 6
@@ -105,7 +107,7 @@ def test_peaks_fall_in_the_phase_given_by_the_commanded_elbow_crossings(
 
 def test_summary_is_readable(comparison: SimulationResult) -> None:
     text = comparison.summary()
-    for needle in ("curtain_wall_6dof", "peak_power", "tracking standard", "phase", "floors"):
+    for needle in ("curtain_wall_6dof", "peak_power", "max tracking error", "phase", "floors"):
         assert needle in text
 
 
