@@ -95,6 +95,8 @@ TORQUE_MARGIN = 2e-3
 #: the objective by less than this fraction.
 REGULARIZATION = 1e-4
 _NOT_UNIQUE = ("abs_work", "pos_work", "peak_power", "peak_torque", "electrical_energy")
+#: Segment interval counts are multiples of this (when there are enough intervals).
+_COUNT_STEP = 4
 #: Fewest intervals any segment of a split motion gets.
 _MIN_SEGMENT_INTERVALS = 4
 
@@ -232,14 +234,15 @@ class _Variables:
         index = next(i for i, s in enumerate(self.syms) if s is sym)
         self.rules.append((index, expr))
 
-    def apply_rules(self) -> None:
+    def apply_rules(self, par: _Params) -> None:
         """Evaluate every start rule at the guess: slacks and epigraphs start on their bounds."""
         import casadi as ca
 
         if not self.rules:
             return
-        fn = ca.Function("start", [self.vector()], [ca.vec(expr) for _, expr in self.rules])
-        values = fn.call([np.concatenate(self.guess)])
+        outputs = [ca.vec(expr) for _, expr in self.rules]
+        fn = ca.Function("start", [self.vector(), par.sym], outputs)
+        values = fn.call([np.concatenate(self.guess), par.values])
         for (index, _), value in zip(self.rules, values, strict=True):
             self.guess[index] = np.asarray(value, dtype=np.float64).ravel() + 1e-6
 
@@ -276,6 +279,34 @@ class _Constraints:
         return np.concatenate(self.lower), np.concatenate(self.upper)
 
 
+@dataclass
+class _Params:
+    """The numbers that change from call to call (start, duration, scales) as NLP parameters,
+    so that a solver built once serves every task of the same structure."""
+
+    sym: Any
+    values: FloatArray
+    index: dict[str, slice]
+
+    @classmethod
+    def create(cls, n: int) -> _Params:
+        import casadi as ca
+
+        sizes = {"start": n, "T": 1, "p_scale": 1, "cost_scale": 1, "effort_scale": 1}
+        index, offset = {}, 0
+        for name, size in sizes.items():
+            index[name] = slice(offset, offset + size)
+            offset += size
+        return cls(ca.MX.sym("p", offset), np.ones(offset), index)
+
+    def __getitem__(self, name: str) -> Any:
+        sl = self.index[name]
+        return self.sym[sl.start] if sl.stop - sl.start == 1 else self.sym[sl]
+
+    def set(self, name: str, value: Any) -> None:
+        self.values[self.index[name]] = value
+
+
 # ----------------------------------------------------------------------------------------------
 # The transcription
 # ----------------------------------------------------------------------------------------------
@@ -310,6 +341,7 @@ class _Grid:
     qd: Any
     qdd: Any
     h: Any
+    T: Any  # the duration, symbolic [s]
     point_q: Any = None  # (n, 5N) or (n, 9N)
     point_qd: Any = None
     point_qdd: Any = None
@@ -383,7 +415,7 @@ def _state_variables(
 
 
 def _build_grid(
-    problem: _Problem, var: _Variables, cons: _Constraints, warm: Trajectory
+    problem: _Problem, var: _Variables, cons: _Constraints, warm: Trajectory, par: _Params
 ) -> tuple[_Grid, Any]:
     """Node states, segment durations and the constant-jerk continuity constraints."""
     import casadi as ca
@@ -394,13 +426,16 @@ def _build_grid(
     durations0 = np.maximum(np.diff(_segment_times(problem, warm)), 1e-3 * T)
     durations0 = durations0 * T / durations0.sum()
     qv, vv, av = _state_variables(problem, var, warm, durations0)
+    t_sym = par["T"]
     if segs > 1:
         dvar = var.add("share", (segs, 1), 0.02, 1.0, (durations0 / T)[:, None])
         cons.add(ca.sum1(dvar) - 1.0, 0.0, 0.0)
-        h = ca.horzcat(*[ca.repmat(T * dvar[s] / c, 1, c) for s, c in enumerate(problem.counts)])
+        h = ca.horzcat(
+            *[ca.repmat(t_sym * dvar[s] / c, 1, c) for s, c in enumerate(problem.counts)]
+        )
     else:
         dvar = None
-        h = ca.MX(ca.DM.ones(1, problem.n_intervals) * (T / problem.n_intervals))
+        h = ca.repmat(t_sym / problem.n_intervals, 1, problem.n_intervals)
     sc = ca.DM(_scales(problem))
     rows: list[list[Any]] = [[], [], []]
     free_rows = {j: r for r, j in enumerate(free)}
@@ -408,13 +443,15 @@ def _build_grid(
         if j in free_rows:
             r = free_rows[j]
             rows[0].append(qv[r, :] * sc[j])
-            rows[1].append(vv[r, :] * sc[j] / T)
-            rows[2].append(av[r, :] * sc[j] / T**2)
+            rows[1].append(vv[r, :] * sc[j] / t_sym)
+            rows[2].append(av[r, :] * sc[j] / t_sym**2)
         else:
-            rows[0].append(ca.MX(ca.DM.ones(1, n_nodes) * float(problem.start[j])))
+            rows[0].append(ca.repmat(par["start"][j], 1, n_nodes))
             rows[1].append(ca.MX(1, n_nodes))
             rows[2].append(ca.MX(1, n_nodes))
-    grid = _Grid(q=ca.vertcat(*rows[0]), qd=ca.vertcat(*rows[1]), qdd=ca.vertcat(*rows[2]), h=h)
+    grid = _Grid(
+        q=ca.vertcat(*rows[0]), qd=ca.vertcat(*rows[1]), qdd=ca.vertcat(*rows[2]), h=h, T=t_sym
+    )
     _continuity(problem, grid, cons)
     _evaluation_points(grid, n, _EIGHTHS if problem.objective in _PEAK_OBJECTIVES else _QUARTERS)
     return grid, dvar
@@ -424,7 +461,7 @@ def _continuity(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
     """Exact constant-jerk integration from each node to the next (free joints)."""
     import casadi as ca
 
-    free, T = list(problem.free), problem.duration
+    free, T = list(problem.free), grid.T
     sc = ca.repmat(ca.DM(_scales(problem)[free]), 1, problem.n_intervals)
     q, qd, qdd = grid.q[free, :], grid.qd[free, :], grid.qdd[free, :]
     hh = ca.repmat(grid.h, len(free), 1)
@@ -469,11 +506,11 @@ def _bernstein_limits(problem: _Problem, grid: _Grid, cons: _Constraints) -> Non
 
     free, robot, T = list(problem.free), problem.robot, problem.duration
     direction = np.sign(problem.goal - problem.start)
-    h = grid.h
+    h, t_sym = grid.h, grid.T
     for j in free:
         s = float(_scales(problem)[j])
         q, qd, qdd = grid.q[j, :], grid.qd[j, :], grid.qdd[j, :]
-        ctrl_v = (qd[:-1] + qdd[:-1] * h / 2) * T / s
+        ctrl_v = (qd[:-1] + qdd[:-1] * h / 2) * t_sym / s
         vmax = float(robot.qd_max[j]) * T / s
         lo = 0.0 if problem.no_reversal and direction[j] > 0 else -vmax
         hi = 0.0 if problem.no_reversal and direction[j] < 0 else vmax
@@ -495,12 +532,12 @@ def _human_constraints(problem: _Problem, grid: _Grid, cons: _Constraints, dvar:
     human = problem.human
     if human.kind == "none":
         return
-    e, T = human.elbow, problem.duration
+    e, T = human.elbow, grid.T
     scale = float(_scales(problem)[e])
     direction = 1.0 if problem.goal[e] >= problem.start[e] else -1.0
     joins = [int(k) for k in np.cumsum(problem.counts)[:-1]]
     for node, angle in zip(joins, human.angles, strict=True):
-        cons.add((grid.q[e, node] - angle) / scale, 0.0, 0.0)
+        cons.add(grid.q[e, node] / scale, angle / scale, angle / scale)
     if human.kind == "peak":
         v_peak = direction * grid.qd[e, joins[0]]
         speeds = direction * ca.horzcat(
@@ -525,7 +562,7 @@ def _torques(problem: _Problem, grid: _Grid) -> Any:
 
 
 def _objective(
-    problem: _Problem, grid: _Grid, var: _Variables, cons: _Constraints, tau: Any
+    problem: _Problem, grid: _Grid, var: _Variables, cons: _Constraints, tau: Any, par: _Params
 ) -> Any:
     """The objective in the metric's unit (slack, epigraph and regeneration forms)."""
     import casadi as ca
@@ -536,7 +573,7 @@ def _objective(
     if obj == "torque_change":
         return _torque_change(problem, grid)
     if obj == "electrical_energy":
-        return _electrical(problem, grid, var, cons, tau)
+        return _electrical(problem, grid, var, cons, tau, par)
     n_pts = grid.point_q.shape[1]
     if obj == "peak_torque":
         ratio = tau / ca.repmat(ca.DM(problem.robot.tau_max), 1, n_pts)
@@ -546,7 +583,7 @@ def _objective(
         var.start_from(z, ca.mmax(ca.fabs(ratio)))
         return z
     free = list(problem.free)
-    p_scale = _power_scale(problem)
+    p_scale = par["p_scale"]
     scaled = tau[free, :] * grid.point_qd[free, :] / p_scale
     slack = var.add("s", (len(free), n_pts), 0.0, np.inf, 1.0)
     cons.add(slack - scaled, 0.0, np.inf)
@@ -571,7 +608,7 @@ def _power_scale(problem: _Problem) -> float:
 
 
 def _electrical(
-    problem: _Problem, grid: _Grid, var: _Variables, cons: _Constraints, tau: Any
+    problem: _Problem, grid: _Grid, var: _Variables, cons: _Constraints, tau: Any, par: _Params
 ) -> Any:
     """Bus energy ∫ (p⁺ − η p⁻) dt with p⁺ − p⁻ = P_bus (friction, copper loss, regeneration)."""
     import casadi as ca
@@ -589,7 +626,7 @@ def _electrical(
     ) * ca.tanh(qd / FRICTION_VELOCITY_SCALE)
     total = tau + friction
     current = total / column([m.gear_ratio * m.torque_constant for m in motors])
-    p_scale = _power_scale(problem)
+    p_scale = par["p_scale"]
     bus = ca.sum1(total * qd + column([m.winding_resistance for m in motors]) * current**2)
     bus = bus / p_scale
     plus = var.add("p_plus", (1, n_pts), 0.0, np.inf, 1.0)
@@ -627,9 +664,13 @@ def _torque_limits(problem: _Problem, cons: _Constraints, tau: Any) -> None:
 
 
 def _segment_counts(human: HumanSpec, n_intervals: int, shares: FloatArray) -> tuple[int, ...]:
+    """Intervals per segment, in proportion to the warm start's segment durations, rounded to
+    multiples of :data:`_COUNT_STEP` (so that similar tasks share one solver structure)."""
     if human.kind == "none":
         return (n_intervals,)
-    raw = np.maximum(np.round(shares * n_intervals), _MIN_SEGMENT_INTERVALS).astype(int)
+    step = _COUNT_STEP if n_intervals >= 4 * _COUNT_STEP * shares.size else 1
+    raw = np.maximum(np.round(shares * n_intervals / step) * step, _MIN_SEGMENT_INTERVALS)
+    raw = raw.astype(int)
     raw[int(np.argmax(raw))] += n_intervals - int(raw.sum())
     if raw.min() < _MIN_SEGMENT_INTERVALS:
         raise BioPlanError(
@@ -672,31 +713,80 @@ def _problem(
     return _Problem(robot, start, goal, duration, objective, human, free, no_reversal, counts)
 
 
-def _nlp(problem: _Problem, warm: Trajectory) -> tuple[dict[str, Any], dict[str, Any], Any, Any]:
-    """The NLP ({x, f, g}), its bounds and guess, the exact-objective function and var layout."""
+def _nlp(problem: _Problem, warm: Trajectory) -> tuple[dict[str, Any], dict[str, Any], Any]:
+    """The NLP ({x, p, f, g}), its numeric arguments, and the exact objective f(x, p)."""
     import casadi as ca
 
     var, cons = _Variables(), _Constraints()
-    grid, dvar = _build_grid(problem, var, cons, warm)
+    par = _Params.create(problem.start.size)
+    par.set("start", problem.start)
+    par.set("T", problem.duration)
+    par.set("p_scale", _power_scale(problem))
+    grid, dvar = _build_grid(problem, var, cons, warm, par)
     _bernstein_limits(problem, grid, cons)
     _human_constraints(problem, grid, cons, dvar)
     tau = _torques(problem, grid)
     _torque_limits(problem, cons, tau)
-    cost = _objective(problem, grid, var, cons, tau)
-    var.apply_rules()
+    cost = _objective(problem, grid, var, cons, tau, par)
+    var.apply_rules(par)
     x = var.vector()
     lbx, ubx, x0 = var.arrays()
-    cost_fn = ca.Function("cost", [x], [cost])
-    ref = abs(float(cost_fn(x0)))
-    f = cost / (ref if ref > 1e-9 else 1.0)
+    cost_fn = ca.Function("cost", [x, par.sym], [cost])
+    ref = abs(float(cost_fn(x0, par.values)))
+    par.set("cost_scale", ref if ref > 1e-9 else 1.0)
+    f = cost / par["cost_scale"]
     if problem.objective in _NOT_UNIQUE:
         effort = ca.dot(grid.weights, ca.sum1(tau**2))
-        effort_ref = float(ca.Function("effort", [x], [effort])(x0))
-        f = f + REGULARIZATION * effort / max(effort_ref, 1e-9)
+        effort_ref = float(ca.Function("effort", [x, par.sym], [effort])(x0, par.values))
+        par.set("effort_scale", max(effort_ref, 1e-9))
+        f = f + REGULARIZATION * effort / par["effort_scale"]
     lbg, ubg = cons.arrays()
-    nlp = {"x": x, "f": f, "g": cons.vector()}
-    args = {"x0": x0, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
-    return nlp, args, cost_fn, var
+    nlp = {"x": x, "p": par.sym, "f": f, "g": cons.vector()}
+    args = {"x0": x0, "p": par.values, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
+    return nlp, args, cost_fn
+
+
+#: Built IPOPT solvers by problem structure (robot model, objective, constraint, segments,
+#: free joints, scales): building one costs more than solving it, and sweeps and repeated plans
+#: solve the same structure again with other numbers (start, duration), passed as parameters.
+_SOLVERS: dict[tuple[Any, ...], Any] = {}
+_SOLVER_CACHE_SIZE = 16
+
+
+def _structure_key(problem: _Problem) -> tuple[Any, ...]:
+    chain = symbolic_chain(problem.robot)
+    bodies = tuple(
+        (b.parent, b.rotation.tobytes(), b.translation.tobytes(), b.axis.tobytes(), b.mass,
+         b.com.tobytes(), b.inertia.tobytes(), b.armature)
+        for b in chain.bodies
+    )  # fmt: skip
+    robot = problem.robot
+    return (
+        bodies,
+        chain.gravity.tobytes(),
+        np.asarray(robot.tau_max).tobytes(),
+        tuple(robot.motors),
+        problem.objective,
+        problem.human.kind,
+        problem.counts,
+        problem.free,
+        problem.no_reversal,
+        tuple(np.round(_scales(problem), 9)),
+    )
+
+
+def _solver(problem: _Problem, nlp: dict[str, Any]) -> Any:
+    """The IPOPT solver of this problem's structure (built once, then reused)."""
+    import casadi as ca
+
+    key = _structure_key(problem)
+    solver = _SOLVERS.get(key)
+    if solver is None:
+        solver = ca.nlpsol("optimal", "ipopt", nlp, _IPOPT_OPTIONS)
+        if len(_SOLVERS) >= _SOLVER_CACHE_SIZE:
+            _SOLVERS.pop(next(iter(_SOLVERS)))
+        _SOLVERS[key] = solver
+    return solver
 
 
 def solve_optimal(
@@ -736,7 +826,6 @@ def solve_optimal(
         SolverError: IPOPT found the problem infeasible or did not converge.
         BioPlanError: bad options.
     """
-    import casadi as ca
 
     started = time.perf_counter()
     _check_options(objective, human, n_intervals)
@@ -747,8 +836,8 @@ def solve_optimal(
     problem = _problem(
         robot, start, goal, duration, objective, human, warm_start, n_intervals, no_reversal
     )
-    nlp, args, cost_fn, var = _nlp(problem, warm_start)
-    solver = ca.nlpsol("optimal", "ipopt", nlp, _IPOPT_OPTIONS)
+    nlp, args, cost_fn = _nlp(problem, warm_start)
+    solver = _solver(problem, nlp)
     sol = solver(**args)
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
@@ -760,13 +849,12 @@ def solve_optimal(
         status=status,
         iterations=int(stats.get("iter_count", 0)),
         seconds=time.perf_counter() - started,
-        objective=float(cost_fn(xs)),
+        objective=float(cost_fn(xs, args["p"])),
         warm_start=warm_start_name,
         n_intervals=problem.n_intervals,
         human_constraint=human.kind,
         segment_durations=tuple(float(d) for d in seg_durations),
     )
-    del var
     trajectory = knots.sample(time_grid(duration, report_samples), name=name)
     return OptimalResult(trajectory=trajectory, knots=knots, solver=info)
 

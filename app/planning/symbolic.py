@@ -27,8 +27,6 @@ __all__ = ["SymbolicChain", "symbolic_chain"]
 
 FloatArray = NDArray[np.float64]
 
-_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
-
 
 @dataclass(frozen=True)
 class _Body:
@@ -44,14 +42,19 @@ class _Body:
     armature: float  # reflected rotor inertia [kg m^2]
 
 
-def _joint_axis(joint: Any) -> FloatArray:
-    name = str(joint.shortname())
-    for suffix, axis in _AXES.items():
-        if name in (f"JointModelR{suffix}", f"JointModelRUB{suffix}"):
-            return np.array(axis)
-    if name in ("JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned"):
-        return np.asarray(joint.extract().axis, dtype=np.float64).copy()
-    raise ValueError(f"joint type {name} is not revolute")  # Robot loading refuses these first
+def _joint_axes(model: Any) -> list[FloatArray]:
+    """Each joint's unit axis in its own frame: the angular part of its motion subspace (read
+    from the local joint Jacobian, so every revolute kind, aligned or not, bounded or not,
+    is handled alike)."""
+    import pinocchio as pin
+
+    data = model.createData()
+    pin.computeJointJacobians(model, data, pin.neutral(model))
+    axes = []
+    for joint_id in range(1, model.njoints):
+        jac = pin.getJointJacobian(model, data, joint_id, pin.ReferenceFrame.LOCAL)
+        axes.append(np.array(jac[3:6, model.joints[joint_id].idx_v], dtype=np.float64))
+    return axes
 
 
 @dataclass(frozen=True)
@@ -173,6 +176,7 @@ def symbolic_chain(robot: Robot) -> SymbolicChain:
         return result
     model = robot.dynamics().model  # type: ignore[attr-defined]
     index = {joint_id: i for i, joint_id in enumerate(range(1, model.njoints))}
+    axes = _joint_axes(model)
     bodies = []
     for joint_id in range(1, model.njoints):
         placement = model.jointPlacements[joint_id]
@@ -183,7 +187,7 @@ def symbolic_chain(robot: Robot) -> SymbolicChain:
                 parent=index.get(parent, -1),
                 rotation=np.array(placement.rotation, dtype=np.float64),
                 translation=np.array(placement.translation, dtype=np.float64),
-                axis=_joint_axis(model.joints[joint_id]),
+                axis=axes[joint_id - 1],
                 mass=float(inertia.mass),
                 com=np.array(inertia.lever, dtype=np.float64),
                 inertia=np.array(inertia.inertia, dtype=np.float64),
