@@ -129,6 +129,7 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
     lines = [
         f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s, "
         f"objective {args.objective}",
+        "methods: " + "; ".join(f"{n} = {METHODS[n].label}" for n in methods),
         metrics_table(list(methods.items()), payload["floors"]),
         _floors_line(payload["floors"]),
     ]
