@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from app import names
 from app.planning.jsonsafe import json_safe
 from app.progress import ProgressFn, report
 from app.simulation.comparison import (
@@ -227,7 +228,7 @@ class SweepResult:
         for o in self.objectives:
             for m in metrics or METRICS:
                 lines.append("")
-                lines.append(f"objective {o}, metric {m}:")
+                lines.append(f"objective {o}, metric {m} [{names.METRICS[m].unit}]:")
                 corner = "T [s] / m [kg]"
                 header = f"{corner:>16}" + "".join(f"{p:>14g}" for p in self.payloads)
                 lines.append(header)

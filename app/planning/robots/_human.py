@@ -269,7 +269,10 @@ def human_arm_chain(seg: HumanArmSegments, *, comment: str = "") -> ChainSpec:
 def human_arm_parameters(
     seg: HumanArmSegments, *, body_mass: float, body_height: float, sex: str
 ) -> tuple[dict[str, object], ...]:
-    """The parameter table (name, value, unit, source) of a subject's arm."""
+    """The parameter table (name, value, unit, source) of a subject's arm.
+
+    Longer than 80 lines on purpose: it is the table itself, row by row with sources.
+    """
     rows: list[dict[str, object]] = [
         {"name": "subject.body_mass", "value": body_mass, "unit": "kg", "source": "input"},
         {"name": "subject.body_height", "value": body_height, "unit": "m", "source": "input"},
