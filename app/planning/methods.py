@@ -110,10 +110,17 @@ def objective_value(robot: Robot, ev: EvaluatedTrajectory, objective: str) -> fl
     return float(value)
 
 
+#: Below this saving of the bound (a fraction of the quintic's value) there is nothing to
+#: achieve, and a share would only divide noise by noise (e.g. a slow lift whose quintic is
+#: already on the abs_work floor) [-].
+MIN_ACHIEVABLE_FRACTION = 0.01
+
+
 def share_of_achievable_pct(quintic: float, method: float, bound: float) -> float:
-    """100 (quintic − method) / (quintic − bound) [%]; NaN when the bound saves nothing."""
+    """100 (quintic − method) / (quintic − bound) [%]; NaN when the bound saves less than
+    :data:`MIN_ACHIEVABLE_FRACTION` of the quintic's value."""
     gap = quintic - bound
-    if not (math.isfinite(gap) and gap > 1e-9 * max(abs(quintic), 1e-12)):
+    if not (math.isfinite(gap) and gap > MIN_ACHIEVABLE_FRACTION * abs(quintic)):
         return math.nan
     return 100.0 * (quintic - method) / gap
 

@@ -336,7 +336,7 @@ def _simulate_cell(job: _CellJob) -> tuple[SimulationResult, dict[str, str]]:
             culprit = _failed_method(exc, methods)
             if culprit is None:
                 raise
-            status[culprit] = f"infeasible: {exc}"
+            status[culprit] = str(exc)
             methods.remove(culprit)
 
 

@@ -97,6 +97,7 @@ def test_methods_are_checked_and_ordered() -> None:
     with pytest.raises(PlanningError, match="optimal_bound"):
         check_methods(["optimal_bound"])
     assert math.isnan(share_of_achievable_pct(10.0, 9.0, 10.0))
+    assert math.isnan(share_of_achievable_pct(100.0, 99.95, 99.9))  # 0.1 %: nothing to achieve
     assert share_of_achievable_pct(10.0, 8.0, 6.0) == 50.0
 
 
