@@ -4,19 +4,22 @@
 copied once from the installed ``plotly`` package, so the report opens offline) and
 ``results.json`` (every number shown). Figures follow the paper:
 
-* Fig. 5: velocity profiles of the classical point-to-point curves (normalised).
+* Fig. 5: velocity profiles of the classical point-to-point curves (normalised); minimum-jerk is
+  the same curve as the quintic, drawn as a band under it and said so.
 * Fig. 6: the quintic polynomial trajectory (position, velocity, acceleration).
-* Fig. 7: standard vs bio-optimised planned trajectories with power and cumulative-energy
-  curves, the A/B/C phases shaded, for both built-in robots.
+* Fig. 7: every method's planned elbow motion with power and cumulative-energy curves, the A/B/C
+  phases shaded, for both built-in robots.
 * Fig. 10 (the paper validated in ADAMS; here MuJoCo): joint power, total power, electrical
-  power and cumulative energy over time *from the tracking simulation*, standard vs optimised,
-  phases shaded.
-* Heat maps of a small sweep (durations x payloads on the 6-DOF robot): where the bio-inspired
-  plan saves, makes no difference or costs more.
+  power and cumulative energy over time *from the tracking simulation*, every method, each power
+  peak labelled, phases shaded.
+* Heat maps of a small sweep (durations x payloads on the 6-DOF robot): where the paper's plan
+  saves, makes no difference or costs more, and where its verdict depends on the PSO's seed.
 
-A table puts the savings measured in the simulation beside the paper's claims (12 % energy on
-the 2-link arm, 48.4 % lower peak of the energy-consumption curve on the 6-DOF robot), with the
-conditions.
+A table puts the paper's claims (12 % energy on the 2-link arm, 48.4 % lower peak of the
+energy-consumption curve on the 6-DOF robot) beside what each method achieves in the
+simulation — the paper's method, the human-like optimum, the physical bound and the industrial
+jerk-limited profile — with each one's share of the achievable saving and the conditions.
+Metric names, units, method and phase colours come from ``app.names``.
 """
 
 from __future__ import annotations
