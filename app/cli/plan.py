@@ -104,7 +104,7 @@ def _solver_line(name: str, solver: dict[str, Any] | None) -> str | None:
     if solver.get("kind") == "pso":
         return (
             f"{name}: PSO {solver['iterations']} iterations, {solver['evaluations']} "
-            f"evaluations, {solver['seconds']:.2f} s, seed {solver['seed']}"
+            f"evaluations, seed {solver['seed']}"
         )
     if solver.get("kind") == "ipopt":
         return (
@@ -161,6 +161,8 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
     lines += [
         line for n, m in methods.items() if (line := _solver_line(n, m.get("solver"))) is not None
     ]
+    if payload.get("optimizer"):
+        lines.append(f"PSO time {payload['optimizer']['seconds']:.2f} s")
     lines += [f"warning: {w}" for w in payload["warnings"]]
     return "\n".join(lines)
 
