@@ -71,7 +71,9 @@ def test_plan_writes_out_file(tmp_path: Path) -> None:
 
 
 def test_profiles_lists_classical_and_min_torque_change() -> None:
-    proc = run_cli("profiles", "--robot", "human_arm_2dof", "--duration", "1.0", "--json")
+    proc = run_cli(
+        "profiles", "--robot", "human_arm_2dof", "--duration", "1.0", "--method", "none", "--json"
+    )
     assert proc.returncode == 0, proc.stderr
     names = set(json.loads(proc.stdout)["profiles"])
     expected = {"trapezoidal", "triangular", "s_curve", "cubic", "quintic", "minimum_jerk"}
@@ -192,18 +194,36 @@ def test_allow_reversal_lets_the_still_shoulder_move(capsys: pytest.CaptureFixtu
 
 
 def test_profiles_options_change_the_result(capsys: pytest.CaptureFixture[str]) -> None:
-    args = ("profiles", "--robot", "human_arm_2dof")
+    args = ("profiles", "--robot", "human_arm_2dof", "--method", "none")
     coarse = run_json(capsys, *args, "--mtc-intervals", "20")
     finer = run_json(capsys, *args, "--mtc-intervals", "40")
     mtc = [d["profiles"]["min_torque_change"]["tau_sq"] for d in (coarse, finer)]  # type: ignore[index]
     assert mtc[0] != mtc[1]
-    shoulder_min = min(
-        q
-        for q in [coarse["min_torque_change_solver"]["objective"]]  # type: ignore[index]
-    )
-    assert shoulder_min > 0
+    solver = finer["min_torque_change_solver"]
+    assert solver["status"] == "Solve_Succeeded" and solver["n_intervals"] == 40  # type: ignore[index]
+    assert "methods" not in coarse
     skipped = run_json(capsys, *args, "--no-min-torque-change")
     assert "min_torque_change" not in skipped["profiles"]  # type: ignore[operator]
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "method"),
+    [("--objective", "tau_sq", "bound"), ("--seed", "4", "paper"), ("--method", "bound", "bound")],
+)
+def test_profiles_list_the_planning_methods(
+    capsys: pytest.CaptureFixture[str], option: str, value: str, method: str
+) -> None:
+    args = ("profiles", "--robot", "human_arm_2dof", "--no-min-torque-change")
+    base = run_json(capsys, *args, "--method", "paper,bound", "--objective", "peak_power")
+    assert list(base["methods"]) == ["quintic", "paper", "bound"]  # type: ignore[arg-type]
+    assert base["share_of_achievable_pct"]["bound"] == pytest.approx(100.0)  # type: ignore[index]
+    changed = run_json(
+        capsys, *args, "--method", "paper,bound", "--objective", "peak_power", option, value
+    )
+    if option == "--method":
+        assert list(changed["methods"]) == ["quintic", "bound"]  # type: ignore[arg-type]
+    else:
+        assert changed["methods"][method] != base["methods"][method]  # type: ignore[index]
 
 
 SIM = ("simulate", "--robot", "human_arm_2dof", "--particles", "12", "--iterations", "12",

@@ -169,18 +169,34 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
 
 def cmd_profiles(args: argparse.Namespace) -> int:
     from app.planning.comparison import compare_profiles
+    from app.planning.planner import plan
 
     positive("duration", args.duration)
     robot = load_robot(args)
+    task = task_from_args(args, robot)
     result = compare_profiles(
         robot,
-        task=task_from_args(args, robot),
+        task=task,
         duration=args.duration,
         include_min_torque_change=not args.no_min_torque_change,
         mtc_intervals=args.mtc_intervals,
     )
     payload = json_safe(result.to_dict())
     rows = [(name, m) for name, m in payload["profiles"].items()]
+    if args.method != "none":
+        planned = plan(
+            robot,
+            task=task,
+            duration=args.duration,
+            objective=args.objective,
+            seed=args.seed,
+            methods=args.method.split(","),
+            progress=progress_printer(not args.json),
+        ).to_dict()
+        payload["objective"] = args.objective
+        payload["methods"] = planned["methods"]
+        payload["share_of_achievable_pct"] = planned["share_of_achievable_pct"]
+        rows += [(f"method {name}", m) for name, m in planned["methods"].items()]
     text = (
         f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s\n"
         + metrics_table(rows, payload["floors"])
@@ -188,15 +204,12 @@ def cmd_profiles(args: argparse.Namespace) -> int:
         + _floors_line(payload["floors"])
     )
     mtc = payload.get("min_torque_change_solver")
-    if mtc:
-        value = mtc["objective"]
+    if mtc and mtc["objective"] is not None and math.isfinite(mtc["objective"]):
         text += (
             f"\nminimum torque change within the joint limits: J = ∫Σ τ̇² dt = "
-            f"{value:.5g} N²m²/s (IPOPT {mtc['status']}, {mtc['n_intervals']} intervals)"
-            if value is not None and math.isfinite(value)
-            else ""
+            f"{mtc['objective']:.5g} N²m²/s (IPOPT {mtc['status']}, {mtc['n_intervals']} intervals)"
         )
-    emit(args, payload, text)
+    emit(args, json_safe(payload), text)
     return 0
 
 
@@ -223,6 +236,17 @@ def register(sub: Any) -> None:
         action="store_true",
         help="skip the minimum-torque-change baseline",
     )
+    p.add_argument(
+        "--method",
+        default=",".join(METHODS),
+        help="planning methods to list beside the profiles, comma-separated, or none",
+    )
+    p.add_argument(
+        "--objective",
+        default="abs_work",
+        help="the planning methods' objective, one of " + ", ".join(OBJECTIVES),
+    )
+    p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed (paper)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     p.set_defaults(handler=cmd_profiles)
