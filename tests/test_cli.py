@@ -243,11 +243,18 @@ SIM = ("simulate", "--robot", "human_arm_2dof", "--particles", "12", "--iteratio
         ("--timestep-ms", "2"),
         ("--payload", "3"),
         ("--duration", "1.2"),
+        ("--template", "TEMPLATE"),
     ],
 )
 def test_each_simulate_option_changes_the_result(
-    capsys: pytest.CaptureFixture[str], option: str, value: str
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, option: str, value: str
 ) -> None:
+    if value == "TEMPLATE":
+        from app.planning.human_template import HumanTemplate
+
+        template = tmp_path / "template.json"
+        template.write_text(HumanTemplate(peak_velocity_angle_deg=80.0, n_lifts=2).to_json())
+        value = str(template)
     base = run_json(capsys, *SIM)
     changed = run_json(capsys, *SIM, option, value)
     assert base["optimized"] != changed["optimized"]
@@ -263,6 +270,16 @@ def test_simulate_tracks_every_requested_method(capsys: pytest.CaptureFixture[st
     for m in data["methods"].values():  # type: ignore[attr-defined]
         assert max(m["tracking"]["max"]) < 0.02  # rad: every method is followed closely
     assert data["share_of_achievable_pct"]["bound"] == pytest.approx(100.0, abs=3.0)  # type: ignore[index]
+
+
+def test_simulate_human_constraint_changes_the_human_like_optimum(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    args = (*SIM[:-1], "human_optimal", "--objective", "tau_sq")
+    peak = run_json(capsys, *args)
+    none = run_json(capsys, *args, "--human-constraint", "none")
+    assert peak["conditions"]["human_constraint"] == "peak"  # type: ignore[index]
+    assert none["methods"]["human_optimal"]["tau_sq"] < peak["methods"]["human_optimal"]["tau_sq"]  # type: ignore[index]
 
 
 SWEEP = (

@@ -26,8 +26,9 @@ HUMAN_CONSTRAINT_CHOICES = ("peak", "phases", "none")
 DEFAULT_INTERVALS = 40
 
 
-def add_method_args(p: argparse.ArgumentParser) -> None:
-    """--method, --human-constraint, --allow-reversal, --intervals (shared with simulate)."""
+def add_method_args(p: argparse.ArgumentParser, *, transcription: bool = True) -> None:
+    """--method, --human-constraint (shared with simulate) and, for ``plan``, the optimal-control
+    transcription's --allow-reversal and --intervals."""
     p.add_argument(
         "--method",
         default=",".join(METHODS),
@@ -41,6 +42,8 @@ def add_method_args(p: argparse.ArgumentParser) -> None:
         help="human_optimal's constraint: the elbow fastest at the template's angle (peak), the "
         "A/B/C phase shares within the template's spread (phases), or none",
     )
+    if not transcription:
+        return
     p.add_argument(
         "--allow-reversal",
         action="store_true",

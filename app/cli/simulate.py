@@ -26,10 +26,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     positive("duration", args.duration)
     robot = load_robot(args)
-    if args.allow_reversal or args.intervals != 40:
-        raise CliError(
-            "--allow-reversal and --intervals are plan options: simulate uses the defaults"
-        )
     result = simulate_comparison(
         robot,
         task=task_from_args(args, robot),
@@ -82,7 +78,7 @@ def register(sub: Any) -> None:
     p = sub.add_parser("simulate", help="plan, then simulate every method in MuJoCo")
     add_robot_args(p)
     add_pso_args(p)
-    add_method_args(p)
+    add_method_args(p, transcription=False)
     p.add_argument("--timestep-ms", type=float, default=1.0, help="MuJoCo time step [ms]")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
