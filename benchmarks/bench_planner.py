@@ -5,7 +5,9 @@ Run: ``.venv/bin/python benchmarks/bench_planner.py [--runs 5] [--json]``.
 1. ``plan()`` on ``curtain_wall_6dof``, 40 particles x 100 iterations, 100 time samples
    (40 x 100 x 100 = 400 k inverse-dynamics evaluations), in-process, median of ``runs``
    (target < 0.6 s).
-2. ``bioplan plan --json`` from process start to JSON, median of ``runs`` (target < 1.2 s).
+2. ``bioplan plan --method quintic,paper --json`` (the paper's method alone, as before the
+   optimal-control methods; ``bench_optimal.py`` times all of them) from process start to JSON,
+   median of ``runs`` (target < 1.2 s).
 3. The planner's own PSO problem (same bounds, same batched cost and constraints) through our
    PSO and pyswarms' GlobalBestPSO, same budget, side by side (``bench_pso.compare``).
 """
@@ -71,6 +73,8 @@ def bench_cli(runs: int) -> dict[str, Any]:
         "4",
         "--objective",
         "abs_work",
+        "--method",
+        "quintic,paper",
         "--json",
     ]
     times = []

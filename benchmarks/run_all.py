@@ -16,6 +16,7 @@ SCRIPTS = (
     ["bench_dynamics.py"],
     ["bench_pso.py"],
     ["bench_planner.py"],
+    ["bench_optimal.py"],
     ["bench_read.py"],
     ["bench_emg.py"],
     ["bench_analysis.py"],

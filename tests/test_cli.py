@@ -31,6 +31,8 @@ def test_plan_json_is_one_object_with_the_contract_keys() -> None:
         "8",
         "--iterations",
         "5",
+        "--method",
+        "paper",
         "--json",
     )
     assert proc.returncode == 0, proc.stderr
@@ -56,6 +58,10 @@ def test_plan_writes_out_file(tmp_path: Path) -> None:
         "6",
         "--iterations",
         "3",
+        "--objective",
+        "tau_sq",
+        "--intervals",
+        "16",
         "--out",
         str(out),
     )
@@ -65,7 +71,9 @@ def test_plan_writes_out_file(tmp_path: Path) -> None:
 
 
 def test_profiles_lists_classical_and_min_torque_change() -> None:
-    proc = run_cli("profiles", "--robot", "human_arm_2dof", "--duration", "1.0", "--json")
+    proc = run_cli(
+        "profiles", "--robot", "human_arm_2dof", "--duration", "1.0", "--method", "none", "--json"
+    )
     assert proc.returncode == 0, proc.stderr
     names = set(json.loads(proc.stdout)["profiles"])
     expected = {"trapezoidal", "triangular", "s_curve", "cubic", "quintic", "minimum_jerk"}
@@ -103,3 +111,212 @@ def test_malformed_urdf_is_one_line(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1
     assert "broken.urdf" in proc.stderr
+
+
+# -- every option changes the result (in-process: one parse + run per call) -------------------
+
+
+def run_json(capsys: pytest.CaptureFixture[str], *args: str) -> dict[str, object]:
+    from app.cli import main
+
+    code = main([*args, "--json"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    data = json.loads(out.out)
+    assert isinstance(data, dict)
+    return data
+
+
+FAST_PLAN = ("plan", "--robot", "human_arm_2dof", "--particles", "12", "--iterations", "12")
+
+
+def test_plan_reports_every_method_by_default(capsys: pytest.CaptureFixture[str]) -> None:
+    data = run_json(capsys, *FAST_PLAN, "--objective", "tau_sq", "--intervals", "16")
+    methods = data["methods"]
+    assert isinstance(methods, dict)
+    assert list(methods) == ["quintic", "paper", "human_optimal", "bound", "jerk_limited"]
+    shares = data["share_of_achievable_pct"]
+    assert isinstance(shares, dict) and shares["bound"] == pytest.approx(100.0)
+    assert "optimized" in data and "standard" in data
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "methods", "path"),
+    [
+        ("--method", "quintic,bound", "paper", ("conditions", "methods")),
+        ("--human-constraint", "phases", "human_optimal", ("methods", "human_optimal", "tau_sq")),
+        ("--intervals", "20", "bound", ("methods", "bound", "tau_sq")),
+        ("--peak-angle-deg", "80", "human_optimal", ("methods", "human_optimal", "tau_sq")),
+        ("--template", "TEMPLATE", "human_optimal", ("methods", "human_optimal", "tau_sq")),
+        ("--seed", "3", "paper", ("methods", "paper", "tau_sq")),
+        ("--particles", "16", "paper", ("methods", "paper", "tau_sq")),
+        ("--iterations", "20", "paper", ("methods", "paper", "tau_sq")),
+        ("--objective", "peak_power", "bound", ("methods", "bound", "tau_sq")),
+        ("--duration", "1.3", "jerk_limited", ("methods", "jerk_limited", "tau_sq")),
+        ("--payload", "5", "quintic", ("methods", "quintic", "tau_sq")),
+        ("--goal-deg", "30,140", "quintic", ("methods", "quintic", "tau_sq")),
+        ("--start-deg", "5,10", "quintic", ("methods", "quintic", "tau_sq")),
+    ],
+)
+def test_each_plan_option_changes_the_result(
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    option: str,
+    value: str,
+    methods: str,
+    path: tuple[str, ...],
+) -> None:
+    if value == "TEMPLATE":
+        from app.planning.human_template import HumanTemplate
+
+        template = tmp_path / "template.json"
+        template.write_text(HumanTemplate(peak_velocity_angle_deg=75.0, n_lifts=2).to_json())
+        value = str(template)
+    base_args = (*FAST_PLAN, "--objective", "tau_sq", "--intervals", "16", "--method", methods)
+    base = run_json(capsys, *base_args)
+    changed = run_json(capsys, *base_args, option, value)
+
+    def get(d: object) -> object:
+        for key in path:
+            d = d[key]  # type: ignore[index]
+        return d
+
+    assert get(base) != get(changed)
+
+
+def test_allow_reversal_lets_the_still_shoulder_move(capsys: pytest.CaptureFixture[str]) -> None:
+    args = (*FAST_PLAN, "--objective", "tau_sq", "--method", "bound", "--goal-deg", "0,150",
+            "--intervals", "16")  # fmt: skip
+    kept = run_json(capsys, *args)
+    free = run_json(capsys, *args, "--allow-reversal")
+    assert free["methods"]["bound"]["tau_sq"] < kept["methods"]["bound"]["tau_sq"]  # type: ignore[index]
+    assert free["conditions"]["no_reversal"] is False  # type: ignore[index]
+
+
+def test_profiles_options_change_the_result(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ("profiles", "--robot", "human_arm_2dof", "--method", "none")
+    coarse = run_json(capsys, *args, "--mtc-intervals", "20")
+    finer = run_json(capsys, *args, "--mtc-intervals", "40")
+    mtc = [d["profiles"]["min_torque_change"]["tau_sq"] for d in (coarse, finer)]  # type: ignore[index]
+    assert mtc[0] != mtc[1]
+    solver = finer["min_torque_change_solver"]
+    assert solver["status"] == "Solve_Succeeded" and solver["n_intervals"] == 40  # type: ignore[index]
+    assert "methods" not in coarse
+    skipped = run_json(capsys, *args, "--no-min-torque-change")
+    assert "min_torque_change" not in skipped["profiles"]  # type: ignore[operator]
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "method"),
+    [("--objective", "tau_sq", "bound"), ("--seed", "4", "paper"), ("--method", "bound", "bound")],
+)
+def test_profiles_list_the_planning_methods(
+    capsys: pytest.CaptureFixture[str], option: str, value: str, method: str
+) -> None:
+    args = ("profiles", "--robot", "human_arm_2dof", "--no-min-torque-change")
+    base = run_json(capsys, *args, "--method", "paper,bound", "--objective", "peak_power")
+    assert list(base["methods"]) == ["quintic", "paper", "bound"]  # type: ignore[arg-type]
+    assert base["share_of_achievable_pct"]["bound"] == pytest.approx(100.0)  # type: ignore[index]
+    changed = run_json(
+        capsys, *args, "--method", "paper,bound", "--objective", "peak_power", option, value
+    )
+    if option == "--method":
+        assert list(changed["methods"]) == ["quintic", "bound"]  # type: ignore[arg-type]
+    else:
+        assert changed["methods"][method] != base["methods"][method]  # type: ignore[index]
+
+
+SIM = ("simulate", "--robot", "human_arm_2dof", "--particles", "12", "--iterations", "12",
+       "--method", "quintic,paper")  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("--start-deg", "10,20"),
+        ("--goal-deg", "30,120"),
+        ("--objective", "peak_power"),
+        ("--seed", "5"),
+        ("--particles", "16"),
+        ("--iterations", "20"),
+        ("--peak-angle-deg", "85"),
+        ("--timestep-ms", "2"),
+        ("--payload", "3"),
+        ("--duration", "1.2"),
+        ("--template", "TEMPLATE"),
+    ],
+)
+def test_each_simulate_option_changes_the_result(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, option: str, value: str
+) -> None:
+    if value == "TEMPLATE":
+        from app.planning.human_template import HumanTemplate
+
+        template = tmp_path / "template.json"
+        template.write_text(HumanTemplate(peak_velocity_angle_deg=80.0, n_lifts=2).to_json())
+        value = str(template)
+    base = run_json(capsys, *SIM)
+    changed = run_json(capsys, *SIM, option, value)
+    assert base["optimized"] != changed["optimized"]
+
+
+def test_simulate_tracks_every_requested_method(capsys: pytest.CaptureFixture[str]) -> None:
+    data = run_json(
+        capsys, "simulate", "--robot", "human_arm_2dof", "--particles", "12", "--iterations", "12",
+        "--method", "paper,bound,jerk_limited", "--objective", "tau_sq",
+        "--human-constraint", "none",
+    )  # fmt: skip
+    assert list(data["methods"]) == ["quintic", "paper", "bound", "jerk_limited"]  # type: ignore[arg-type]
+    for m in data["methods"].values():  # type: ignore[attr-defined]
+        assert max(m["tracking"]["max"]) < 0.02  # rad: every method is followed closely
+    assert data["share_of_achievable_pct"]["bound"] == pytest.approx(100.0, abs=3.0)  # type: ignore[index]
+
+
+def test_simulate_human_constraint_changes_the_human_like_optimum(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    args = (*SIM[:-1], "human_optimal", "--objective", "tau_sq")
+    peak = run_json(capsys, *args)
+    none = run_json(capsys, *args, "--human-constraint", "none")
+    assert peak["conditions"]["human_constraint"] == "peak"  # type: ignore[index]
+    assert none["methods"]["human_optimal"]["tau_sq"] < peak["methods"]["human_optimal"]["tau_sq"]  # type: ignore[index]
+
+
+SWEEP = (
+    *("sweep", "--robot", "human_arm_2dof", "--durations", "1.0", "--payloads", "6"),
+    *("--particles", "12", "--iterations", "12", "--workers", "1", "--method", "quintic,paper"),
+)
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "key"),
+    [
+        ("--method", "quintic,paper,jerk_limited", "methods_change_pct"),
+        ("--check-seed", "11", "check_planned_change_pct"),
+        ("--no-check", None, "check_planned_change_pct"),
+        ("--seed", "2", "change_pct"),
+        ("--particles", "16", "change_pct"),
+        ("--iterations", "20", "change_pct"),
+        ("--objectives", "peak_power", "change_pct"),
+        ("--durations", "1.2", "change_pct"),
+        ("--payloads", "3", "change_pct"),
+    ],
+)
+def test_each_sweep_option_changes_the_result(
+    capsys: pytest.CaptureFixture[str], option: str, value: str | None, key: str
+) -> None:
+    base = run_json(capsys, *SWEEP)
+    extra = (option,) if value is None else (option, value)
+    changed = run_json(capsys, *SWEEP, *extra)
+    assert base["cells"][0][key] != changed["cells"][0][key]  # type: ignore[index]
+
+
+def test_bad_method_and_too_short_jerk_limited_are_one_line_errors() -> None:
+    proc = run_cli("plan", "--robot", "human_arm_2dof", "--method", "quintic,magic")
+    assert proc.returncode == 2 and "magic" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    proc = run_cli(
+        "plan", "--robot", "curtain_wall_6dof", "--duration", "0.6", "--method", "jerk_limited"
+    )
+    assert proc.returncode == 2 and "needs at least 0.7" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1

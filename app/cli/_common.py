@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from app.errors import BioPlanError
-from app.names import METRICS
+from app.names import METHODS, METRICS
 from app.progress import Progress, ProgressFn
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -224,9 +224,11 @@ def add_export_args(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--export-method",
-        default="paper",
+        default=None,
         metavar="NAME",
-        help="planning method to export (quintic, paper)",
+        help="planning method to export, one of " + ", ".join(METHODS) + " (default: the "
+        "paper's method when planned, else the first planned of human_optimal, bound, "
+        "jerk_limited)",
     )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 from app.cli._common import (
@@ -17,8 +18,63 @@ from app.cli._common import (
     progress_printer,
     task_from_args,
 )
-from app.names import OBJECTIVES, PSO_DEFAULTS
+from app.names import METHODS, OBJECTIVES, PSO_DEFAULTS
 from app.planning.jsonsafe import json_safe
+
+#: ``human_optimal``'s constraints (``app.planning.optimal.HUMAN_CONSTRAINTS``, without importing
+#: CasADi for ``--help``).
+HUMAN_CONSTRAINT_CHOICES = ("peak", "phases", "none")
+#: Default intervals of the optimal-control transcription (``app.planning.optimal``).
+DEFAULT_INTERVALS = 40
+
+
+def add_method_args(p: argparse.ArgumentParser, *, transcription: bool = True) -> None:
+    """--method, --human-constraint (shared with simulate) and, for ``plan``, the optimal-control
+    transcription's --allow-reversal and --intervals."""
+    p.add_argument(
+        "--method",
+        default=",".join(METHODS),
+        help="comma-separated methods to plan (the quintic always runs: it is every saving's "
+        "reference)",
+    )
+    p.add_argument(
+        "--human-constraint",
+        choices=HUMAN_CONSTRAINT_CHOICES,
+        default="peak",
+        help="human_optimal's constraint: the elbow fastest at the template's angle (peak), the "
+        "A/B/C phase shares within the template's spread (phases), or none",
+    )
+    if not transcription:
+        return
+    p.add_argument(
+        "--allow-reversal",
+        action="store_true",
+        help="let the optimal-control methods move joints against their stroke (default: no "
+        "joint reverses)",
+    )
+    p.add_argument(
+        "--intervals",
+        type=int,
+        default=DEFAULT_INTERVALS,
+        help="constant-jerk intervals of the optimal-control transcription",
+    )
+
+
+def add_pso_args(p: argparse.ArgumentParser) -> None:
+    """--objective, --peak-angle-deg, --template, --seed, --particles, --iterations."""
+    p.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
+    p.add_argument(
+        "--peak-angle-deg",
+        type=float,
+        default=None,
+        help="elbow velocity-peak angle [deg] (default: the template's)",
+    )
+    p.add_argument("--template", default=None, help="HumanTemplate JSON from `bioplan analyze`")
+    p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
+    p.add_argument("--particles", type=int, default=PSO_DEFAULTS.particles, help="PSO swarm size")
+    p.add_argument(
+        "--iterations", type=int, default=PSO_DEFAULTS.iterations, help="PSO iterations (at most)"
+    )
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
@@ -36,6 +92,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
         particles=args.particles,
         iterations=args.iterations,
         peak_angle_deg=args.peak_angle_deg,
+        methods=args.method.split(","),
+        human_constraint=args.human_constraint,
+        no_reversal=not args.allow_reversal,
+        n_intervals=args.intervals,
         progress=progress_printer(not args.json),
     )
     payload = json_safe(result.to_dict())
@@ -44,84 +104,161 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) -> str:
-    imp = payload["improvement_pct"]
-    opt = payload["optimizer"]
-    return "\n".join(
-        [
-            f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s, "
-            f"objective {args.objective}",
-            metrics_table(
-                [
-                    ("standard quintic", payload["standard"]),
-                    ("bio-optimized", payload["optimized"]),
-                ],
-                payload["floors"],
-            ),
-            "change (positive = optimized saves): "
-            + ", ".join(
-                f"{k} {v:+.1f}%" for k, v in imp.items() if isinstance(v, float | int) and v == v
-            ),
-            f"elbow velocity peak at {payload['peak_velocity_angle_deg']:.1f} deg "
-            f"(target {payload['target_peak_velocity_angle_deg']:.1f} deg); PSO "
-            f"{opt['iterations']} iterations, {opt['evaluations']} evaluations, "
-            f"{opt['seconds']:.2f} s, seed {opt['seed']}",
-            *(
-                ["electrical_energy: not modelled (no motor model: give --sidecar with motors)"]
-                if not robot.motors_modelled
-                else []
-            ),
-            *(
-                [f"trajectory ({args.export_method}) written to {args.export}"]
-                if args.export
-                else []
-            ),
-            *[f"warning: {w}" for w in payload["warnings"]],
-        ]
+def _solver_line(name: str, solver: dict[str, Any] | None) -> str | None:
+    if not solver:
+        return None
+    if solver.get("kind") == "pso":
+        return (
+            f"{name}: PSO {solver['iterations']} iterations, {solver['evaluations']} "
+            f"evaluations, seed {solver['seed']}"
+        )
+    if solver.get("kind") == "ipopt":
+        return (
+            f"{name}: IPOPT {solver['status']} in {solver['iterations']} iterations, "
+            f"{solver['seconds']:.2f} s, {solver['n_intervals']} intervals, warm start "
+            f"{solver['warm_start']}, human constraint {solver['human_constraint']}"
+        )
+    return f"{name}: ruckig time-synchronised jerk-limited profile"
+
+
+def _floors_line(floors: dict[str, Any]) -> str:
+    return (
+        f"floors (no method may be below): |ΔPE| {floors['abs_work']:.4g} J, positive work "
+        f"{floors['pos_work']:.4g} J, peak power {floors['peak_power']:.4g} W, electrical "
+        f"{floors['electrical_energy']:.4g} J (of which friction {floors['friction_energy']:.4g} J)"
     )
+
+
+def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) -> str:
+    methods = payload["methods"]
+    shares = payload["share_of_achievable_pct"]
+    lines = [
+        f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s, "
+        f"objective {args.objective}",
+        "methods: " + "; ".join(f"{n} = {METHODS[n].label}" for n in methods),
+        metrics_table(list(methods.items()), payload["floors"]),
+        _floors_line(payload["floors"]),
+    ]
+    for name, m in methods.items():
+        lo, hi = m["peak_velocity_span_deg"]
+        if lo is not None and hi is not None and abs(hi - lo) > 1.0:
+            lines.append(
+                f"{name}: the elbow holds its top speed from {lo:.1f} to {hi:.1f} deg "
+                "(v-peak angle: where it first reaches it)"
+            )
+    for name, m in methods.items():
+        if name == "quintic":
+            continue
+        change = m["improvement_pct"].get(args.objective)
+        share = shares.get(name)
+        text = f"{METHODS[name].label}: {args.objective} "
+        if isinstance(change, list):
+            change = max(change, key=abs) if change else None
+        text += f"{change:+.1f}% vs the quintic" if change is not None else "(no change)"
+        if share is not None and name != "bound":
+            text += f", {share:.0f}% of the achievable saving"
+        lines.append(text)
+    if not shares:
+        lines.append("share of the achievable saving: needs the bound (--method ...,bound)")
+    lines.append(
+        f"target elbow velocity peak {payload['target_peak_velocity_angle_deg']:.1f} deg; "
+        "positive change = the method saves"
+    )
+    lines += [
+        line for n, m in methods.items() if (line := _solver_line(n, m.get("solver"))) is not None
+    ]
+    if payload.get("optimizer"):
+        lines.append(f"PSO time {payload['optimizer']['seconds']:.2f} s")
+    if not robot.motors_modelled:
+        lines.append("electrical_energy: not modelled (no motor model: give --sidecar with motors)")
+    if args.export:
+        method = args.export_method or payload["motion"]["default_method"]
+        lines.append(f"trajectory ({method}) written to {args.export}")
+    lines += [f"warning: {w}" for w in payload["warnings"]]
+    return "\n".join(lines)
 
 
 def cmd_profiles(args: argparse.Namespace) -> int:
     from app.planning.comparison import compare_profiles
+    from app.planning.planner import plan
 
     positive("duration", args.duration)
     robot = load_robot(args)
-    payload = json_safe(
-        compare_profiles(robot, task=task_from_args(args, robot), duration=args.duration).to_dict()
+    task = task_from_args(args, robot)
+    result = compare_profiles(
+        robot,
+        task=task,
+        duration=args.duration,
+        include_min_torque_change=not args.no_min_torque_change,
+        mtc_intervals=args.mtc_intervals,
     )
+    payload = json_safe(result.to_dict())
     rows = [(name, m) for name, m in payload["profiles"].items()]
+    if args.method != "none":
+        planned = plan(
+            robot,
+            task=task,
+            duration=args.duration,
+            objective=args.objective,
+            seed=args.seed,
+            methods=args.method.split(","),
+            progress=progress_printer(not args.json),
+        ).to_dict()
+        payload["objective"] = args.objective
+        payload["methods"] = planned["methods"]
+        payload["share_of_achievable_pct"] = planned["share_of_achievable_pct"]
+        rows += [(f"method {name}", m) for name, m in planned["methods"].items()]
     text = (
         f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s\n"
         + metrics_table(rows, payload["floors"])
+        + "\n"
+        + _floors_line(payload["floors"])
     )
-    emit(args, payload, text)
+    mtc = payload.get("min_torque_change_solver")
+    if mtc and mtc["objective"] is not None and math.isfinite(mtc["objective"]):
+        text += (
+            f"\nminimum torque change within the joint limits: J = ∫Σ τ̇² dt = "
+            f"{mtc['objective']:.5g} N²m²/s (IPOPT {mtc['status']}, {mtc['n_intervals']} intervals)"
+        )
+    emit(args, json_safe(payload), text)
     return 0
 
 
 def register(sub: Any) -> None:
     """Add ``plan`` and ``profiles`` to the ``bioplan`` subcommands."""
-    p = sub.add_parser("plan", help="plan the standard and the bio-inspired trajectory")
+    p = sub.add_parser("plan", help="plan the task with every method and compare them")
     add_robot_args(p)
-    p.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
-    p.add_argument(
-        "--peak-angle-deg",
-        type=float,
-        default=None,
-        help="elbow velocity-peak angle [deg] (default: the template's)",
-    )
-    p.add_argument("--template", default=None, help="HumanTemplate JSON from `bioplan analyze`")
+    add_pso_args(p)
+    add_method_args(p)
     add_export_args(p)
-    p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
-    p.add_argument("--particles", type=int, default=PSO_DEFAULTS.particles, help="PSO swarm size")
-    p.add_argument(
-        "--iterations", type=int, default=PSO_DEFAULTS.iterations, help="PSO iterations (at most)"
-    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     p.set_defaults(handler=cmd_plan)
 
     p = sub.add_parser("profiles", help="metrics of the classical profiles on the same task")
     add_robot_args(p)
+    p.add_argument(
+        "--mtc-intervals",
+        type=int,
+        default=100,
+        help="constant-jerk intervals of the minimum-torque-change solve",
+    )
+    p.add_argument(
+        "--no-min-torque-change",
+        action="store_true",
+        help="skip the minimum-torque-change baseline",
+    )
+    p.add_argument(
+        "--method",
+        default=",".join(METHODS),
+        help="planning methods to list beside the profiles, comma-separated, or none",
+    )
+    p.add_argument(
+        "--objective",
+        default="abs_work",
+        help="the planning methods' objective, one of " + ", ".join(OBJECTIVES),
+    )
+    p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed (paper)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     p.set_defaults(handler=cmd_profiles)

@@ -13,11 +13,13 @@ from app.cli._common import (
     emit,
     floats,
     load_robot,
+    load_template,
     positive,
     progress_printer,
     task_from_args,
 )
-from app.names import OBJECTIVES, PSO_DEFAULTS
+from app.cli.plan import add_method_args, add_pso_args
+from app.names import METHODS, OBJECTIVES, PSO_DEFAULTS
 from app.planning.jsonsafe import json_safe
 
 
@@ -31,7 +33,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         task=task_from_args(args, robot),
         duration=args.duration,
         objective=args.objective,
+        template=load_template(args.template),
         seed=args.seed,
+        particles=args.particles,
+        iterations=args.iterations,
+        peak_angle_deg=args.peak_angle_deg,
+        methods=args.method.split(","),
+        human_constraint=args.human_constraint,
+        timestep=positive("timestep-ms", args.timestep_ms) / 1000.0,
         progress=progress_printer(not args.json),
     )
     payload = json_safe(result.to_dict())
@@ -48,13 +57,18 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     payloads = floats(args.payloads, "payloads")
     if any(p < 0 for p in payloads):
         raise CliError("--payloads must not be negative")
-    robot = load(args.robot)
+    robot = load(args.robot, mjcf=args.mjcf)
     result = run_sweep(
         robot=robot,
         durations=durations,
         payloads=payloads,
         objectives=args.objectives.split(","),
         seed=args.seed,
+        particles=args.particles,
+        iterations=args.iterations,
+        methods=args.method.split(","),
+        check_seed=None if args.no_check else args.check_seed,
+        workers=args.workers,
         progress=progress_printer(not args.json),
     )
     emit(args, json_safe(result.to_dict()), result.summary())
@@ -63,10 +77,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def register(sub: Any) -> None:
     """Add ``simulate`` and ``sweep`` to the ``bioplan`` subcommands."""
-    p = sub.add_parser("simulate", help="plan, then simulate both trajectories in MuJoCo")
+    from app.simulation.sweep import SWEEP_ITERATIONS, SWEEP_PARTICLES
+
+    p = sub.add_parser("simulate", help="plan, then simulate every method in MuJoCo")
     add_robot_args(p)
-    p.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
-    p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
+    add_pso_args(p)
+    add_method_args(p, transcription=False)
+    p.add_argument("--timestep-ms", type=float, default=1.0, help="MuJoCo time step [ms]")
     add_export_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
@@ -74,10 +91,24 @@ def register(sub: Any) -> None:
 
     p = sub.add_parser("sweep", help="savings over a grid of durations and payloads")
     p.add_argument("--robot", default="curtain_wall_6dof", help="built-in robot name or URDF")
+    p.add_argument("--mjcf", default=None, help="MJCF file matching a URDF given by path")
     p.add_argument("--durations", default="0.5,0.75,1.0,1.5,2.0", help="comma-separated [s]")
     p.add_argument("--payloads", default="0,4,8,12,20", help="comma-separated [kg]")
-    p.add_argument("--objectives", default="abs_work", help="comma-separated metric names")
+    p.add_argument(
+        "--objectives", default="abs_work", help="comma-separated, of " + ", ".join(OBJECTIVES)
+    )
+    p.add_argument("--method", default=",".join(METHODS), help="comma-separated methods per cell")
     p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
+    p.add_argument(
+        "--check-seed",
+        type=int,
+        default=-1,
+        help="seed of the second PSO run that checks each verdict (-1: seed + 1)",
+    )
+    p.add_argument("--no-check", action="store_true", help="skip the convergence check")
+    p.add_argument("--particles", type=int, default=SWEEP_PARTICLES, help="PSO swarm per cell")
+    p.add_argument("--iterations", type=int, default=SWEEP_ITERATIONS, help="PSO iterations")
+    p.add_argument("--workers", type=int, default=None, help="processes (default: up to 2)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     p.set_defaults(handler=cmd_sweep)

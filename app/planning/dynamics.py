@@ -422,29 +422,7 @@ class PinocchioDynamics:
         self._n: int = n
         self.joint_names: tuple[str, ...] = tuple(model.names[1:])
 
-        # End-effector / payload frame.
-        if payload_body is None:
-            frame_id = next(
-                i
-                for i, frame in enumerate(model.frames)
-                if frame.type == pin.FrameType.BODY and frame.parentJoint == model.njoints - 1
-            )
-        else:
-            if not model.existFrame(payload_body, pin.FrameType.BODY):
-                raise RobotError(
-                    f"{path.name}: no link '{payload_body}': expected the payload body's name"
-                )
-            frame_id = model.getFrameId(payload_body, pin.FrameType.BODY)
-        frame = model.frames[frame_id]
-        self.payload_body: str = frame.name
-        self._ee_joint = int(frame.parentJoint)
-        com = payload.com if payload is not None else np.zeros(3)
-        self._ee_point = np.asarray(frame.placement.act(np.asarray(com, dtype=np.float64)))
-        if payload is not None and payload.mass > 0.0:
-            inertia = pin.Inertia(payload.mass, np.asarray(com), np.asarray(payload.inertia))
-            model.inertias[self._ee_joint] = model.inertias[self._ee_joint] + frame.placement.act(
-                inertia
-            )
+        self._attach_payload(pin, model, path, payload, payload_body)
 
         if armature is not None:
             arm = np.asarray(armature, dtype=np.float64)
@@ -468,7 +446,37 @@ class PinocchioDynamics:
         self._nq = int(model.nq)
         self._idx_v = [0] + [int(model.joints[j].idx_v) for j in range(1, model.njoints)]
 
-        # Forward-kinematics tables (joint frames relative to the parent joint at q = 0).
+        self._kinematics_tables(pin, model)
+
+    def _attach_payload(
+        self, pin: Any, model: Any, path: Path, payload: Payload | None, payload_body: str | None
+    ) -> None:
+        """Find the end-effector / payload frame and merge the payload into its body."""
+        if payload_body is None:
+            frame_id = next(
+                i
+                for i, frame in enumerate(model.frames)
+                if frame.type == pin.FrameType.BODY and frame.parentJoint == model.njoints - 1
+            )
+        else:
+            if not model.existFrame(payload_body, pin.FrameType.BODY):
+                raise RobotError(
+                    f"{path.name}: no link '{payload_body}': expected the payload body's name"
+                )
+            frame_id = model.getFrameId(payload_body, pin.FrameType.BODY)
+        frame = model.frames[frame_id]
+        self.payload_body: str = frame.name
+        self._ee_joint = int(frame.parentJoint)
+        com = payload.com if payload is not None else np.zeros(3)
+        self._ee_point = np.asarray(frame.placement.act(np.asarray(com, dtype=np.float64)))
+        if payload is not None and payload.mass > 0.0:
+            inertia = pin.Inertia(payload.mass, np.asarray(com), np.asarray(payload.inertia))
+            model.inertias[self._ee_joint] = model.inertias[self._ee_joint] + frame.placement.act(
+                inertia
+            )
+
+    def _kinematics_tables(self, pin: Any, model: Any) -> None:
+        """Forward-kinematics tables (joint frames relative to the parent joint at q = 0)."""
         data = model.createData()
         pin.computeJointJacobians(model, data, pin.neutral(model))
         self._parents = [int(model.parents[j]) for j in range(model.njoints)]

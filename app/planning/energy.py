@@ -11,9 +11,10 @@ trapezoidal rule (DESIGN.md, "Energy metrics"):
 - ``peak_power`` = max_t Σ_j |τ_j q̇_j| [W]
 - ``peak_torque`` = max_t |τ_j| per joint [Nm]
 
-Floors: no rest-to-rest motion does less positive work than the rise in potential energy ΔPE,
-so ``abs_work`` and ``pos_work`` are at least ``delta_potential``, and ``peak_power`` at least
-``min_peak_power`` = max(ΔPE, 0) / T.
+Floors (:class:`Floors`): no rest-to-rest motion does less absolute work than |ΔPE| (lifting
+takes ΔPE, lowering must absorb −ΔPE), less positive work than max(ΔPE, 0), or has a lower peak
+of Σ|τq̇| than |ΔPE| / T; with motor friction, the friction work no motion avoids adds to the
+electrical floor.
 
 Electrical model (per joint j, joint side): friction τ_f = b q̇ + c tanh(q̇ / ε) with
 ε = :data:`FRICTION_VELOCITY_SCALE` (a smooth Coulomb term, so PSO sees a smooth cost), motor
@@ -132,30 +133,77 @@ class EnergyMetrics:
 
 @dataclass(frozen=True)
 class Floors:
-    """Physical lower bounds of the metrics of a rest-to-rest motion.
+    """Physical lower bounds of the metrics of a rest-to-rest motion (tight for every task).
 
     Attributes:
-        delta_potential: ΔPE = PE(goal) − PE(start) [J]; ``pos_work`` and ``abs_work`` cannot
-            be smaller.
-        min_peak_power: max(ΔPE, 0) / T [W]; ``peak_power`` cannot be smaller.
+        delta_potential: ΔPE = PE(goal) − PE(start) [J], signed (negative when lowering).
+        min_peak_power: |ΔPE| / T [W]: the mean of Σ|τq̇| is at least |∫Στq̇ dt| / T.
+        abs_work: |ΔPE| [J]: lifting takes at least ΔPE, lowering absorbs at least −ΔPE.
+        pos_work: max(ΔPE, 0) [J].
+        peak_power: |ΔPE| / T [W] (the same as ``min_peak_power``, under the metric's name).
+        friction_energy: friction work no motion of the task avoids [J] (0 without friction):
+            Σ_j b_j Δq_j² / T (viscous, least at constant speed) + c_j |Δq_j| (Coulomb), less
+            the smooth Coulomb law's largest shortfall 0.2785 c_j ε T.
+        electrical_energy: F = ΔPE + friction_energy when F >= 0, else η F [J]: the bus energy
+            is at least ∫P_bus dt >= F, and at least η ∫P_bus dt (η = regeneration efficiency).
     """
 
     delta_potential: float
     min_peak_power: float
+    abs_work: float = 0.0
+    pos_work: float = 0.0
+    peak_power: float = 0.0
+    friction_energy: float = 0.0
+    electrical_energy: float = 0.0
 
     def to_dict(self) -> dict[str, float]:
-        return {"delta_potential": self.delta_potential, "min_peak_power": self.min_peak_power}
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
 
 
-def floors(delta_potential: float, duration: float) -> Floors:
-    """The floors of a rest-to-rest motion that raises the potential energy by ΔPE in T.
+#: max over x of |x| (1 − tanh(|x| / ε)) / ε: how far the smooth Coulomb law's work can fall
+#: short of c |q̇| per unit time and per unit ε (at |x| ≈ 0.64 ε).
+_SMOOTH_COULOMB_SHORTFALL = 0.2785
+
+
+def friction_energy_floor(
+    motors: Sequence[MotorModel] | None, delta_q: ArrayLike, duration: float
+) -> float:
+    """Friction work [J] that no rest-to-rest motion of stroke ``delta_q`` in ``duration`` avoids.
+
+    Args:
+        motors: (n,) motor models (None: ideal actuators, no friction).
+        delta_q: (n,) joint strokes q_goal − q_start [rad].
+        duration: T [s].
+    """
+    if motors is None:
+        return 0.0
+    dq = np.abs(np.asarray(delta_q, dtype=np.float64))
+    total = 0.0
+    for m, d in zip(motors, dq, strict=True):
+        coulomb = m.coulomb_friction * (
+            d - _SMOOTH_COULOMB_SHORTFALL * FRICTION_VELOCITY_SCALE * duration
+        )
+        total += m.viscous_friction * d * d / duration + max(coulomb, 0.0)
+    return float(total)
+
+
+def floors(
+    delta_potential: float,
+    duration: float,
+    *,
+    friction_energy: float = 0.0,
+    regen_efficiency: float = 0.0,
+) -> Floors:
+    """The floors of a rest-to-rest motion that changes the potential energy by ΔPE in T.
 
     Args:
         delta_potential: ΔPE [J] (negative for a lowering motion).
         duration: T [s], > 0.
+        friction_energy: unavoidable friction work [J] (:func:`friction_energy_floor`).
+        regen_efficiency: the bus's regeneration efficiency η in [0, 1].
 
     Returns:
-        ``Floors(delta_potential, max(ΔPE, 0) / T)``.
+        The floors (see :class:`Floors`).
     """
     dpe = float(delta_potential)
     t = float(duration)
@@ -163,7 +211,37 @@ def floors(delta_potential: float, duration: float) -> Floors:
         raise BioPlanError(f"delta_potential must be a finite energy [J], got {delta_potential!r}")
     if not (math.isfinite(t) and t > 0.0):
         raise BioPlanError(f"duration must be a finite number of seconds > 0, got {duration!r}")
-    return Floors(delta_potential=dpe, min_peak_power=max(dpe, 0.0) / t)
+    if not (math.isfinite(friction_energy) and friction_energy >= 0.0):
+        raise BioPlanError(f"friction_energy must be >= 0 J, got {friction_energy!r}")
+    if not 0.0 <= regen_efficiency <= 1.0:
+        raise BioPlanError(f"regen_efficiency must lie in [0, 1], got {regen_efficiency!r}")
+    bus = dpe + float(friction_energy)
+    return Floors(
+        delta_potential=dpe,
+        min_peak_power=abs(dpe) / t,
+        abs_work=abs(dpe),
+        pos_work=max(dpe, 0.0),
+        peak_power=abs(dpe) / t,
+        friction_energy=float(friction_energy),
+        electrical_energy=bus if bus >= 0.0 else regen_efficiency * bus + 0.0,
+    )
+
+
+def task_floors(
+    dynamics_pe: tuple[float, float],
+    delta_q: ArrayLike,
+    duration: float,
+    motors: Sequence[MotorModel] | None,
+) -> Floors:
+    """The floors of a task from the potential energies at start and goal [J], the strokes
+    (n,) [rad], the duration [s] and the motors."""
+    eta = min((float(m.regen_efficiency) for m in motors), default=0.0) if motors else 0.0
+    return floors(
+        dynamics_pe[1] - dynamics_pe[0],
+        duration,
+        friction_energy=friction_energy_floor(motors, delta_q, duration),
+        regen_efficiency=eta,
+    )
 
 
 # ----------------------------------------------------------------------------------------------

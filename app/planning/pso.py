@@ -95,6 +95,66 @@ def _check_vector(label: str, value: ArrayLike) -> FloatArray:
     return arr
 
 
+def _move(
+    rng: np.random.Generator,
+    x: FloatArray,
+    v: FloatArray,
+    p_x: FloatArray,
+    g_x: FloatArray,
+    weights: tuple[float, float, float],
+    v_max: FloatArray,
+    box: tuple[FloatArray, FloatArray],
+) -> tuple[FloatArray, FloatArray]:
+    """One swarm move: new positions and velocities (absorbing walls at the box)."""
+    w, cognitive, social = weights
+    lo, hi = box
+    r1 = rng.random(x.shape)
+    r2 = rng.random(x.shape)
+    v = w * v + cognitive * r1 * (p_x - x) + social * r2 * (g_x - x)
+    np.clip(v, -v_max, v_max, out=v)
+    x = x + v
+    hit = (x < lo) | (x > hi)
+    np.clip(x, lo, hi, out=x)
+    v[hit] = 0.0
+    return x, v
+
+
+def _check_options(
+    lower: ArrayLike,
+    upper: ArrayLike,
+    particles: int,
+    iterations: int,
+    cognitive: float,
+    social: float,
+    velocity_clamp: float,
+    stagnation_iterations: int | None,
+    stagnation_tol: float,
+) -> tuple[FloatArray, FloatArray]:
+    """The checked bounds (D,) of :func:`pso_minimize`; a one-line error for bad options."""
+    lo = _check_vector("lower", lower)
+    hi = _check_vector("upper", upper)
+    if lo.shape != hi.shape or not np.all(hi > lo):
+        raise BioPlanError(
+            f"lower and upper must have the same shape (D,) with upper > lower, got "
+            f"{lo.tolist()} and {hi.tolist()}"
+        )
+    if particles < 1 or iterations < 1:
+        raise BioPlanError(f"particles and iterations must be >= 1, got {particles}, {iterations}")
+    if cognitive < 0 or social < 0 or not velocity_clamp > 0:
+        raise BioPlanError(
+            "cognitive and social must be >= 0 and velocity_clamp > 0, got "
+            f"{cognitive}, {social}, {velocity_clamp}"
+        )
+    if stagnation_iterations is not None and stagnation_iterations < 1:
+        raise BioPlanError(
+            f"stagnation_iterations must be >= 1 or None, got {stagnation_iterations}"
+        )
+    if not stagnation_tol >= 0:
+        raise BioPlanError(f"stagnation_tol must be >= 0, got {stagnation_tol}")
+
+    return lo, hi
+
+
 def pso_minimize(
     fn: CostFunction,
     lower: ArrayLike,
@@ -165,27 +225,11 @@ def pso_minimize(
         ValueError: bad bounds or options, or a cost function that returns the wrong shapes or
             negative violations.
     """
-    lo = _check_vector("lower", lower)
-    hi = _check_vector("upper", upper)
-    if lo.shape != hi.shape or not np.all(hi > lo):
-        raise BioPlanError(
-            f"lower and upper must have the same shape (D,) with upper > lower, got "
-            f"{lo.tolist()} and {hi.tolist()}"
-        )
-    if particles < 1 or iterations < 1:
-        raise BioPlanError(f"particles and iterations must be >= 1, got {particles}, {iterations}")
+    lo, hi = _check_options(
+        lower, upper, particles, iterations, cognitive, social, velocity_clamp,
+        stagnation_iterations, stagnation_tol,
+    )  # fmt: skip
     w_start, w_end = (float(w) for w in inertia)
-    if cognitive < 0 or social < 0 or not velocity_clamp > 0:
-        raise BioPlanError(
-            "cognitive and social must be >= 0 and velocity_clamp > 0, got "
-            f"{cognitive}, {social}, {velocity_clamp}"
-        )
-    if stagnation_iterations is not None and stagnation_iterations < 1:
-        raise BioPlanError(
-            f"stagnation_iterations must be >= 1 or None, got {stagnation_iterations}"
-        )
-    if not stagnation_tol >= 0:
-        raise BioPlanError(f"stagnation_tol must be >= 0, got {stagnation_tol}")
 
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -215,14 +259,7 @@ def pso_minimize(
     n_moves = iterations - 1
     for it in range(1, iterations):
         w = w_start if n_moves <= 1 else w_start + (w_end - w_start) * (it - 1) / (n_moves - 1)
-        r1 = rng.random((particles, n_dim))
-        r2 = rng.random((particles, n_dim))
-        v = w * v + cognitive * r1 * (p_x - x) + social * r2 * (g_x - x)
-        np.clip(v, -v_max, v_max, out=v)
-        x = x + v
-        hit = (x < lo) | (x > hi)
-        np.clip(x, lo, hi, out=x)
-        v[hit] = 0.0
+        x, v = _move(rng, x, v, p_x, g_x, (w, cognitive, social), v_max, (lo, hi))
 
         cost, viol = _evaluate(fn, x)
         improved = _better(cost, viol, p_cost, p_viol)

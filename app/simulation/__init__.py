@@ -3,16 +3,13 @@
 A plain library (numpy, mujoco, and the planning package); the service layer wraps it.
 """
 
-from app.simulation.sweep import (
+from app.simulation.comparison import (
     METRICS,
     SimulationResult,
-    SweepCell,
-    SweepResult,
-    classify,
     peaks_and_phases,
-    run_sweep,
     simulate_comparison,
 )
+from app.simulation.sweep import SweepCell, SweepResult, classify, run_sweep
 from app.simulation.tracking import (
     DEFAULT_TIMESTEP,
     SimulationError,

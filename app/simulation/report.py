@@ -4,19 +4,22 @@
 copied once from the installed ``plotly`` package, so the report opens offline) and
 ``results.json`` (every number shown). Figures follow the paper:
 
-* Fig. 5: velocity profiles of the classical point-to-point curves (normalised).
+* Fig. 5: velocity profiles of the classical point-to-point curves (normalised); minimum-jerk is
+  the same curve as the quintic, drawn as a band under it and said so.
 * Fig. 6: the quintic polynomial trajectory (position, velocity, acceleration).
-* Fig. 7: standard vs bio-optimised planned trajectories with power and cumulative-energy
-  curves, the A/B/C phases shaded, for both built-in robots.
+* Fig. 7: every method's planned elbow motion with power and cumulative-energy curves, the A/B/C
+  phases shaded, for both built-in robots.
 * Fig. 10 (the paper validated in ADAMS; here MuJoCo): joint power, total power, electrical
-  power and cumulative energy over time *from the tracking simulation*, standard vs optimised,
-  phases shaded.
-* Heat maps of a small sweep (durations x payloads on the 6-DOF robot): where the bio-inspired
-  plan saves, makes no difference or costs more.
+  power and cumulative energy over time *from the tracking simulation*, every method, each power
+  peak labelled, phases shaded.
+* Heat maps of a small sweep (durations x payloads on the 6-DOF robot): where the paper's plan
+  saves, makes no difference or costs more, and where its verdict depends on the PSO's seed.
 
-A table puts the savings measured in the simulation beside the paper's claims (12 % energy on
-the 2-link arm, 48.4 % lower peak of the energy-consumption curve on the 6-DOF robot), with the
-conditions.
+A table puts the paper's claims (12 % energy on the 2-link arm, 48.4 % lower peak of the
+energy-consumption curve on the 6-DOF robot) beside what each method achieves in the
+simulation — the paper's method, the human-like optimum, the physical bound and the industrial
+jerk-limited profile — with each one's share of the achievable saving and the conditions.
+Metric names, units, method and phase colours come from ``app.names``.
 """
 
 from __future__ import annotations
@@ -31,10 +34,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from app import names
 from app.progress import ProgressFn, report, within
 
 if TYPE_CHECKING:
-    from app.simulation.sweep import SimulationResult, SweepResult
+    from app.simulation.comparison import SimulationResult
+    from app.simulation.sweep import SweepResult
 
 
 #: Paper claims: (robot, metric, claimed saving [%], what the paper measured).
@@ -43,8 +48,25 @@ PAPER_CLAIMS: tuple[tuple[str, str, float, str], ...] = (
     ("curtain_wall_6dof", "peak_power", 48.4, "peak of the energy-consumption curve (ADAMS)"),
 )
 
-PHASE_COLOURS = {"A": "rgba(46, 139, 87, 0.10)", "B": "rgba(255, 165, 0, 0.14)"}
-PHASE_COLOURS["C"] = "rgba(70, 130, 180, 0.10)"
+
+def _rgba(hex_colour: str, alpha: float) -> str:
+    """CSS rgba() of a ``#rrggbb`` colour."""
+    r, g, b = (int(hex_colour[i : i + 2], 16) for i in (1, 3, 5))
+    return f"rgba({r}, {g}, {b}, {alpha})"
+
+
+#: Phase shading: the phases' colours from ``app.names`` (the same in every plot and the viewer).
+PHASE_COLOURS = {p.name: _rgba(p.colour, 0.12) for p in names.PHASES}
+#: Room for axis titles, subplot titles and peak labels.
+_MARGIN = {"l": 90, "r": 40, "t": 90, "b": 70}
+
+
+def _style(method: str) -> dict[str, Any]:
+    """Line style of a method: its colour from ``app.names``; the quintic dashed."""
+    style: dict[str, Any] = {"color": names.METHODS[method].colour}
+    if method == "quintic":
+        style["dash"] = "dash"
+    return style
 
 
 @dataclass(frozen=True)
@@ -103,7 +125,11 @@ def _shade_phases(fig: Any, t_ab: float, t_bc: float, t_end: float) -> None:
 
 
 def figure_classical_profiles(duration: float = 1.0) -> Any:
-    """Fig. 5: normalised velocity of the classical profiles for a unit stroke."""
+    """Fig. 5: normalised velocity of the classical profiles for a unit stroke.
+
+    The minimum-jerk and quintic rest-to-rest profiles are the same polynomial, so minimum-jerk
+    is drawn as a wide pale band under the quintic, and the figure says so.
+    """
     import plotly.graph_objects as go
 
     from app.planning.profiles import CLASSICAL_PROFILES
@@ -111,12 +137,25 @@ def figure_classical_profiles(duration: float = 1.0) -> Any:
     fig = go.Figure()
     for name, make in CLASSICAL_PROFILES.items():
         tr = make(np.zeros(1), np.ones(1), duration, n_samples=501)
-        fig.add_trace(go.Scatter(x=tr.t / duration, y=tr.qd[:, 0] * duration, name=name))
+        line: dict[str, Any] = {}
+        if name == "minimum_jerk":
+            line = {"width": 9, "color": "rgba(120, 120, 120, 0.35)"}
+        fig.add_trace(go.Scatter(x=tr.t / duration, y=tr.qd[:, 0] * duration, name=name, line=line))
+    fig.add_annotation(
+        text="minimum-jerk (wide grey band) is the same curve as the quintic",
+        xref="paper",
+        yref="paper",
+        x=0.5,
+        y=1.0,
+        yanchor="bottom",
+        showarrow=False,
+    )
     fig.update_layout(
         title="Fig. 5 - velocity profiles of the classical curves (unit stroke, unit time)",
-        xaxis_title="normalised time t/T",
-        yaxis_title="normalised velocity q̇·T/Δq",
-        height=420,
+        xaxis_title="normalised time t/T [-]",
+        yaxis_title="normalised velocity q̇·T/Δq [-]",
+        height=460,
+        margin=_MARGIN,
     )
     return fig
 
@@ -133,17 +172,21 @@ def figure_quintic(duration: float = 1.0, stroke_deg: float = 150.0) -> Any:
     panels = ((tr.q, "deg"), (tr.qd, "deg/s"), (tr.qdd, "deg/s²"))
     for col, (y, unit) in enumerate(panels, start=1):
         fig.add_trace(go.Scatter(x=tr.t, y=np.degrees(y[:, 0]), showlegend=False), row=1, col=col)
-        fig.update_yaxes(title_text=unit, row=1, col=col)
+        fig.update_yaxes(title_text=f"[{unit}]", row=1, col=col)
         fig.update_xaxes(title_text="t [s]", row=1, col=col)
     fig.update_layout(
         title=f"Fig. 6 - quintic trajectory, 0 -> {stroke_deg:g} deg in {duration:g} s",
-        height=360,
+        height=380,
+        margin=_MARGIN,
     )
     return fig
 
 
 def figure_comparison(result: Any, title: str) -> Any:
-    """Fig. 7: standard vs optimised elbow motion, power and cumulative energy, phases shaded."""
+    """Fig. 7: every planned method's elbow motion, power and cumulative energy, phases shaded.
+
+    Phases are shaded for the paper's trajectory (the quintic's when the paper did not run).
+    """
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
@@ -158,32 +201,44 @@ def figure_comparison(result: Any, title: str) -> Any:
         ("cumulative |work| [J]", "energy", False),
     )
     fig = make_subplots(rows=len(panels), cols=1, shared_xaxes=True, vertical_spacing=0.03)
-    styles = {"standard": {"color": "#555", "dash": "dash"}, "optimized": {"color": "#d62728"}}
     for row, (label, key, per_joint) in enumerate(panels, start=1):
-        for which in ("standard", "optimized"):
-            y = arrays[f"{which}_{key}"]
+        for method in result.methods:
+            y = arrays[f"{method}_{key}"]
             y = np.degrees(y[:, e]) if per_joint else y
             fig.add_trace(
                 go.Scatter(
                     x=t,
                     y=y,
-                    name=which,
-                    line=styles[which],
+                    name=names.METHODS[method].label,
+                    line=_style(method),
                     showlegend=row == 1,
-                    legendgroup=which,
+                    legendgroup=method,
                 ),
                 row=row,
                 col=1,
             )
         fig.update_yaxes(title_text=label, row=row, col=1)
-    t_ab, t_bc = result.phase_times("optimized")
+    shaded = "optimized" if "paper" in result.methods else "standard"
+    t_ab, t_bc = result.phase_times(shaded)
     _shade_phases(fig, t_ab, t_bc, float(t[-1]))
     fig.update_xaxes(title_text="t [s]", row=len(panels), col=1)
-    fig.update_layout(title=title, height=1100)
+    fig.update_layout(title=title, height=1150, margin=_MARGIN)
     return fig
 
 
-_STYLES = {"standard": {"color": "#555", "dash": "dash"}, "optimized": {"color": "#d62728"}}
+def _simulation_panels(sim: SimulationResult) -> list[tuple[str, Callable[[Any], Any]]]:
+    c = sim.conditions
+    e = sim.plan.elbow_joint
+    joint_names = list(c["joint_names"])
+    shoulder = joint_names.index(c["shoulder_joint"])
+    return [
+        (f"elbow ({joint_names[e]}) power [W]", lambda r: r.joint_power[:, e]),
+        (f"shoulder ({joint_names[shoulder]}) power [W]", lambda r: r.joint_power[:, shoulder]),
+        ("total |power| Σ|τ·ω| [W]", lambda r: r.power),
+        ("electrical bus power [W]", lambda r: r.electrical_power),
+        ("cumulative |work| [J]", lambda r: r.energy),
+        ("cumulative electrical energy [J]", lambda r: r.electrical_energy),
+    ]
 
 
 def figure_simulation(sim: SimulationResult, title: str) -> Any:
@@ -191,62 +246,54 @@ def figure_simulation(sim: SimulationResult, title: str) -> Any:
 
     Panels: power of the elbow and shoulder joints (tau * qd [W]), total |power| (the
     "energy-consumption curve" whose peak the paper reports), electrical bus power, and the
-    cumulative |work| and electrical energy [J]; standard (dashed) vs optimised (solid). The
-    optimised trajectory's phases are shaded; dotted lines mark the standard's phase bounds.
+    cumulative |work| and electrical energy [J]; one line per simulated method (the quintic
+    dashed), its power peak labelled. The paper's trajectory's phases are shaded (the
+    quintic's without it); dotted lines mark the quintic's phase bounds.
     """
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    c = sim.conditions
-    e = sim.plan.elbow_joint
-    names = list(c["joint_names"])
-    shoulder = names.index(c["shoulder_joint"])
-    panels: list[tuple[str, Callable[[Any], Any]]] = [
-        (f"elbow ({names[e]}) power [W]", lambda r: r.joint_power[:, e]),
-        (f"shoulder ({names[shoulder]}) power [W]", lambda r: r.joint_power[:, shoulder]),
-        ("total |power| Σ|τ·ω| [W]", lambda r: r.power),
-        ("electrical bus power [W]", lambda r: r.electrical_power),
-        ("cumulative |work| [J]", lambda r: r.energy),
-        ("cumulative electrical energy [J]", lambda r: r.electrical_energy),
-    ]
+    panels = _simulation_panels(sim)
     fig = make_subplots(rows=len(panels), cols=1, shared_xaxes=True, vertical_spacing=0.025)
     for row, (label, get) in enumerate(panels, start=1):
-        for which, run in (("standard", sim.standard), ("optimized", sim.optimized)):
+        for method, run in sim.runs.items():
             fig.add_trace(
                 go.Scatter(
                     x=run.t,
                     y=get(run),
-                    name=which,
-                    line=_STYLES[which],
+                    name=names.METHODS[method].label,
+                    line=_style(method),
                     showlegend=row == 1,
-                    legendgroup=which,
+                    legendgroup=method,
                 ),
                 row=row,
                 col=1,
             )
         fig.update_yaxes(title_text=label, row=row, col=1)
-    for which, run in (("standard", sim.standard), ("optimized", sim.optimized)):
+    for method, run in sim.runs.items():
         k = int(np.argmax(run.power))
         fig.add_trace(
             go.Scatter(
                 x=[run.t[k]],
                 y=[run.power[k]],
                 mode="markers+text",
-                marker={"color": _STYLES[which]["color"], "size": 9},
-                text=[f"peak {run.power[k]:.0f} W"],
+                marker={"color": names.METHODS[method].colour, "size": 9},
+                text=[f"{run.power[k]:.0f} W"],
                 textposition="top center",
+                cliponaxis=False,
                 showlegend=False,
             ),
             row=3,
             col=1,
         )
-    t_end = float(sim.optimized.t[-1])
-    _shade_phases(fig, *sim.phase_times("optimized"), t_end)
+    t_end = float(sim.standard.t[-1])
+    shaded = "optimized" if sim.optimized is not None else "standard"
+    _shade_phases(fig, *sim.phase_times(shaded), t_end)
     for t_b in sim.phase_times("standard"):
         if math.isfinite(t_b):
             fig.add_vline(x=t_b, line={"color": "#555", "dash": "dot", "width": 1})
     fig.update_xaxes(title_text="t [s]", row=len(panels), col=1)
-    fig.update_layout(title=title, height=1250)
+    fig.update_layout(title=title, height=1300, margin=_MARGIN)
     return fig
 
 
@@ -258,7 +305,9 @@ def figure_sweep(sweep: SweepResult, objective: str, metrics: Sequence[str]) -> 
     from app.simulation.sweep import classify
 
     fig = make_subplots(
-        rows=1, cols=len(metrics), subplot_titles=[f"{m} change [%]" for m in metrics]
+        rows=1,
+        cols=len(metrics),
+        subplot_titles=[f"{names.METRICS[m].label} ({m}) change [%]" for m in metrics],
     )
     x = [f"{p:g} kg" for p in sweep.payloads]
     y = [f"{d:g} s" for d in sweep.durations]
@@ -274,7 +323,8 @@ def figure_sweep(sweep: SweepResult, objective: str, metrics: Sequence[str]) -> 
                     continue
                 v = cell.change_pct[metric]
                 floor = "<br>(on floor)" if cell.at_floor else ""
-                row.append(f"{v:+.1f}%<br>{classify(v)}{floor}")
+                unsure = "<br>(? check seed differs)" if metric in cell.unconverged else ""
+                row.append(f"{v:+.1f}%<br>{classify(v)}{floor}{unsure}")
             text.append(row)
         finite = z[np.isfinite(z)]
         span = float(max(np.abs(finite).max(), 1.0)) if finite.size else 1.0
@@ -296,8 +346,8 @@ def figure_sweep(sweep: SweepResult, objective: str, metrics: Sequence[str]) -> 
             row=1,
             col=col,
         )
-        fig.update_xaxes(title_text="payload", row=1, col=col)
-        fig.update_yaxes(title_text="duration", row=1, col=col)
+        fig.update_xaxes(title_text="payload [kg]", row=1, col=col)
+        fig.update_yaxes(title_text="duration [s]", row=1, col=col)
     c = sweep.conditions
     fig.update_layout(
         title=(
@@ -305,22 +355,22 @@ def figure_sweep(sweep: SweepResult, objective: str, metrics: Sequence[str]) -> 
             f"{c['iterations']} iterations per cell, seed {c['seed']}); blue = the bio-inspired "
             "plan saves, red = it costs more"
         ),
-        height=460,
+        height=500,
+        margin=_MARGIN,
     )
     return fig
 
 
 def _claim_rows(results: dict[str, SimulationResult]) -> list[dict[str, Any]]:
-    """The paper's claims beside the savings measured in the simulation."""
+    """The paper's claims beside the savings measured in the simulation, per method."""
     rows = []
     for robot, metric, claim, what in PAPER_CLAIMS:
         sim = results.get(robot)
         if sim is None:
             continue
         c = sim.conditions
-        tracking = max(
-            float(sim.standard.tracking_max.max()), float(sim.optimized.tracking_max.max())
-        )
+        tracking = max(float(run.tracking_max.max()) for run in sim.runs.values())
+        by_method = sim.to_dict()["methods"]
         rows.append(
             {
                 "robot": robot,
@@ -329,9 +379,16 @@ def _claim_rows(results: dict[str, SimulationResult]) -> list[dict[str, Any]]:
                 "paper_measure": what,
                 "measured_pct": float(sim.improvement_pct[metric]),
                 "planned_pct": float(sim.plan.improvement_pct[metric]),
+                "methods_pct": {
+                    name: d["improvement_pct"][metric]
+                    for name, d in by_method.items()
+                    if name != "quintic"
+                },
+                "share_of_achievable_pct": sim.to_dict()["share_of_achievable_pct"],
                 "conditions": (
-                    f"{c['duration']:g} s, payload {c['payload']:g} kg, PSO objective "
-                    f"{c['objective']} ({c['particles']}x{c['iterations']}, seed {c['seed']}), "
+                    f"{c['duration']:g} s, payload {c['payload']:g} kg, objective "
+                    f"{c['objective']} (PSO {c['particles']}x{c['iterations']}, seed {c['seed']}; "
+                    f"human-like optimum with the {c['human_constraint']} constraint), paper's "
                     f"elbow velocity peak at {c['peak_velocity_angle_deg']:.1f} deg; MuJoCo "
                     f"{1000 * c['timestep']:g} ms {c['integrator']}, computed-torque tracking "
                     f"(max error {math.degrees(tracking):.3f} deg)"
@@ -339,6 +396,31 @@ def _claim_rows(results: dict[str, SimulationResult]) -> list[dict[str, Any]]:
             }
         )
     return rows
+
+
+def _claims_table(claims: list[dict[str, Any]]) -> str:
+    """'48.4 % claimed; paper method X %; human-like optimum Y %; bound Z %', with conditions."""
+    shown = [m for m in ("paper", "human_optimal", "bound", "jerk_limited")]
+    headers = ["robot", "metric", "paper's claim"]
+    headers += [f"{names.METHODS[m].label} (simulated)" for m in shown]
+    headers += ["conditions"]
+    rows = []
+    for c in claims:
+        cells = [
+            c["robot"],
+            f"{c['metric']} [{names.METRICS[c['metric']].unit}] ({c['paper_measure']})",
+            f"{c['paper_claim_pct']:.1f} % lower",
+        ]
+        for m in shown:
+            v = c["methods_pct"].get(m)
+            share = c["share_of_achievable_pct"].get(m)
+            text = "not run" if v is None else _pct(float(v))
+            if v is not None and share is not None and m not in ("bound",):
+                text += f" ({share:.0f} % of achievable)"
+            cells.append(text)
+        cells.append(c["conditions"])
+        rows.append(cells)
+    return _table(headers, rows)
 
 
 def _table(headers: list[str], rows: list[list[str]]) -> str:
@@ -354,45 +436,55 @@ def _pct(v: float) -> str:
 
 
 def _metrics_table(sim: SimulationResult) -> str:
-    """Simulated metrics of both trajectories, the change, and the planner's change."""
-    from app.simulation.sweep import METRICS, _scalar_metrics
+    """Simulated metrics of every method (with units), the saving against the quintic, floors."""
+    from app.simulation.comparison import METRICS, pct_change, scalar_metrics
 
-    std = _scalar_metrics(sim.standard.metrics.to_dict())
-    opt = _scalar_metrics(sim.optimized.metrics.to_dict())
-    pstd = _scalar_metrics(sim.plan.standard.metrics.to_dict())
-    popt = _scalar_metrics(sim.plan.optimized.metrics.to_dict())
+    values = {name: scalar_metrics(run.metrics) for name, run in sim.runs.items()}
+    planned = {name: scalar_metrics(sim.plan.methods[name].evaluated.metrics) for name in sim.runs}
     rows = []
     for n in METRICS:
-        label = n if n != "peak_torque" else "peak_torque (largest joint) [Nm]"
-        change = 100 * (std[n] - opt[n]) / std[n] if std[n] else math.nan
-        planned = 100 * (pstd[n] - popt[n]) / pstd[n] if pstd[n] else math.nan
-        rows.append([label, f"{std[n]:.4g}", f"{opt[n]:.4g}", _pct(change), _pct(planned)])
-    rows.append(["floor: delta_potential [J]", f"{sim.floors.delta_potential:.4g}", "", "", ""])
-    rows.append(["floor: min_peak_power [W]", f"{sim.floors.min_peak_power:.4g}", "", "", ""])
-    return _table(
-        ["metric (simulated)", "standard quintic", "bio-optimised", "saving", "planned saving"],
-        rows,
+        info = names.METRICS[n]
+        label = f"{n} [{info.unit}]" + (" (largest joint)" if info.per_joint else "")
+        row = [label]
+        for name in sim.runs:
+            v = values[name][n]
+            if name == "quintic":
+                row.append(f"{v:.4g}")
+                continue
+            saving = pct_change(values["quintic"][n], v)
+            plan_saving = pct_change(planned["quintic"][n], planned[name][n])
+            row.append(f"{v:.4g} ({_pct(saving)}; planned {_pct(plan_saving)})")
+        rows.append(row)
+    fl = sim.floors
+    floor_text = (
+        f"floors: |ΔPE| {fl.abs_work:.4g} J (ΔPE {fl.delta_potential:+.4g} J), positive work "
+        f"{fl.pos_work:.4g} J, peak power {fl.peak_power:.4g} W, electrical "
+        f"{fl.electrical_energy:.4g} J (friction {fl.friction_energy:.4g} J)"
     )
+    headers = ["metric (simulated)"] + [names.METHODS[n].label for n in sim.runs]
+    return _table(headers, rows) + f"<p class='note'>{html.escape(floor_text)}; in brackets: "
+    "the saving against the standard quintic, simulated and planned (positive = lower)</p>"
 
 
 def _peaks_table(sim: SimulationResult) -> str:
+    """Where each method's power and torque peaks fall (value with its unit, time, phase)."""
     rows = []
-    for label in ("standard", "optimized"):
-        p = sim.peaks(label)
-        for name, peak in [("total |power|", p["power"])] + [
-            (f"torque {q['joint']}", q) for q in p["torque"] if abs(q["value"]) > 1e-9
+    for method in sim.runs:
+        p = sim.peaks(method)
+        for name, unit, peak in [("total |power|", "W", p["power"])] + [
+            (f"torque {q['joint']}", "Nm", q) for q in p["torque"] if abs(q["value"]) > 1e-9
         ]:
             rows.append(
                 [
-                    label,
+                    names.METHODS[method].label,
                     name,
-                    f"{abs(peak['value']):.4g}",
+                    f"{abs(peak['value']):.4g} {unit}",
                     f"{peak['time']:.3f}",
                     f"{peak['elbow_deg']:.1f}",
                     peak["phase"],
                 ]
             )
-    return _table(["trajectory", "peak of", "value", "t [s]", "elbow [deg]", "phase"], rows)
+    return _table(["method", "peak of", "value", "t [s]", "elbow [deg]", "phase"], rows)
 
 
 _CSS = """
@@ -409,6 +501,77 @@ DEMO_SWEEP_OBJECTIVES = ("abs_work", "peak_power")
 DEMO_SWEEP_METRICS = ("abs_work", "electrical_energy", "peak_power")
 
 
+def _case_section(case: DemoCase, sim: SimulationResult) -> str:
+    what = (
+        f"{case.robot}: every method ({case.duration:g} s, {case.payload:g} kg, "
+        f"objective {case.objective})"
+    )
+    warnings = "".join(f"<li>{html.escape(w)}</li>" for w in sim.warnings)
+    return (
+        f"<h2>{html.escape(case.robot)}</h2>"
+        + _metrics_table(sim)
+        + _peaks_table(sim)
+        + (f"<ul class='note'>{warnings}</ul>" if warnings else "")
+        + _figure_html(figure_comparison(sim.plan, f"Fig. 7 - planned, {what}"))
+        + _figure_html(figure_simulation(sim, f"Fig. 10 - MuJoCo simulation, {what}"))
+    )
+
+
+def _sweep_section(sweep: SweepResult) -> str:
+    parts = [
+        f"<h2>Where the bio-inspired plan wins: sweep on {html.escape(sweep.robot)}</h2>",
+        "<p class='note'>Each cell plans the trajectories and simulates them; the number is "
+        "the change of the paper's method measured in the simulation, "
+        "100·(standard − optimised)/standard. 'no difference' means |change| &lt; 1 %; '(on "
+        "floor)' marks cells where the standard quintic's |work| is already within 1 % of "
+        "|ΔPE|, so no trajectory can save work there; '(?)' marks verdicts that change when "
+        "the PSO runs with a second seed. Infeasible cells: the planner found no trajectory "
+        "within the joint limits. Every method's change per cell is in results.json.</p>",
+    ]
+    for objective in sweep.objectives:
+        parts.append(_figure_html(figure_sweep(sweep, objective, DEMO_SWEEP_METRICS)))
+        counts = ", ".join(
+            f"{m}: " + ", ".join(f"{k} {v}" for k, v in sorted(sweep.counts(objective, m).items()))
+            for m in DEMO_SWEEP_METRICS
+        )
+        parts.append(f"<p class='note'>objective {html.escape(objective)}: {counts}</p>")
+    return "".join(parts)
+
+
+def _page(claims: list[dict[str, Any]], sections: list[str], sweep_html: str) -> str:
+    return f"""<!doctype html><html><head><meta charset="utf-8"><title>BioPlan demo report</title>
+<script src="plotly.min.js"></script><style>{_CSS}</style></head><body>
+<h1>BioPlan demo report</h1>
+<p class="note">Reproduces the figures of Liu et al., "Trajectory Planning of a Curtain Wall
+Installation Robot Based on Biomimetic Mechanisms", with BioPlan's own dynamics and optimisers, and
+validates them in MuJoCo (the paper used ADAMS). Beside the paper's method it shows the human-like
+optimum (optimal control with the template's constraint), the physical bound (optimal control,
+limits only) and an industrial jerk-limited profile. Savings are 100·(standard − method)/standard;
+negative means the method costs more. They depend on the metric, the duration and the payload:
+see the sweep below and <code>bioplan sweep</code>.</p>
+<h2>Paper claims vs measured</h2>{_claims_table(claims)}
+{_figure_html(figure_classical_profiles())}
+{_figure_html(figure_quintic())}
+{"".join(sections)}
+{sweep_html}
+</body></html>"""
+
+
+def _write_atomically(out_dir: Path, page: str, summary: dict[str, Any]) -> Path:
+    """Write to temporary names first, then rename: no half-written report is left behind."""
+    import plotly.offline
+
+    (out_dir / "plotly.min.js").write_text(plotly.offline.get_plotlyjs(), encoding="utf-8")
+    tmp_json = out_dir / ".results.json.tmp"
+    tmp_index = out_dir / ".index.html.tmp"
+    tmp_json.write_text(json.dumps(summary, indent=2, allow_nan=False), encoding="utf-8")
+    tmp_index.write_text(page, encoding="utf-8")
+    tmp_json.replace(out_dir / "results.json")
+    index = out_dir / "index.html"
+    tmp_index.replace(index)
+    return index
+
+
 def write_demo_report(
     out_dir: Path,
     *,
@@ -416,10 +579,12 @@ def write_demo_report(
     cases: tuple[DemoCase, ...] = DEFAULT_CASES,
     particles: int = 40,
     iterations: int = 100,
+    methods: Sequence[str] | None = None,
     sweep_robot: str | None = "curtain_wall_6dof",
     sweep_durations: Sequence[float] = DEMO_SWEEP_DURATIONS,
     sweep_payloads: Sequence[float] = DEMO_SWEEP_PAYLOADS,
     sweep_objectives: Sequence[str] = DEMO_SWEEP_OBJECTIVES,
+    sweep_methods: Sequence[str] | None = None,
     sweep_workers: int | None = None,
     progress: ProgressFn | None = None,
 ) -> Path:
@@ -431,18 +596,20 @@ def write_demo_report(
         cases: the planned + simulated comparisons.
         particles: PSO swarm size for the cases.
         iterations: PSO iterations for the cases.
+        methods: methods of the cases (None: all five).
         sweep_robot: robot of the sweep, or None for no sweep.
         sweep_durations: sweep durations [s].
         sweep_payloads: sweep payloads [kg].
         sweep_objectives: planner objectives of the sweep.
+        sweep_methods: methods per sweep cell (None: all five).
         sweep_workers: sweep processes (default: up to 2).
-        progress: called with a ``Progress`` (stages ``report``, ``pso``, ``simulate``, ``sweep``).
+        progress: called with a ``Progress`` (stages ``report``, ``pso``, ``optimal_control``,
+            ``simulate``, ``sweep``).
 
     Returns:
         The path of ``index.html``.
     """
-    import plotly.offline
-
+    from app.planning.methods import ALL_METHODS
     from app.planning.robots import load_robot
     from app.simulation.sweep import run_sweep, simulate_comparison
 
@@ -452,39 +619,21 @@ def write_demo_report(
     sections: list[str] = []
     for i, case in enumerate(cases):
         report(
-            progress,
-            "report",
-            i,
-            len(cases),
-            fraction=cases_share * i / len(cases),
+            progress, "report", i, len(cases), fraction=cases_share * i / len(cases),
             message=f"planning and simulating {case.robot}",
-        )
-        robot = load_robot(case.robot, payload=case.payload)
+        )  # fmt: skip
         sim = simulate_comparison(
-            robot,
+            load_robot(case.robot, payload=case.payload),
             duration=case.duration,
             objective=case.objective,
             seed=seed,
             particles=particles,
             iterations=iterations,
+            methods=ALL_METHODS if methods is None else methods,
         )
         results[case.robot] = sim
-        what = (
-            f"{case.robot}: standard vs bio-optimised ({case.duration:g} s, {case.payload:g} kg, "
-            f"objective {case.objective})"
-        )
-        warnings = "".join(f"<li>{html.escape(w)}</li>" for w in sim.warnings)
-        sections.append(
-            f"<h2>{html.escape(case.robot)}</h2>"
-            + _metrics_table(sim)
-            + _peaks_table(sim)
-            + (f"<ul class='note'>{warnings}</ul>" if warnings else "")
-            + _figure_html(figure_comparison(sim.plan, f"Fig. 7 - planned, {what}"))
-            + _figure_html(figure_simulation(sim, f"Fig. 10 - MuJoCo simulation, {what}"))
-        )
-
+        sections.append(_case_section(case, sim))
     sweep = None
-    sweep_html = ""
     if sweep_robot:
         sweep = run_sweep(
             robot=load_robot(sweep_robot),
@@ -493,70 +642,17 @@ def write_demo_report(
             objectives=sweep_objectives,
             seed=seed,
             workers=sweep_workers,
+            methods=ALL_METHODS if sweep_methods is None else sweep_methods,
             progress=within(progress, cases_share, 0.95),
         )
-        parts = [
-            f"<h2>Where the bio-inspired plan wins: sweep on {html.escape(sweep.robot)}</h2>",
-            "<p class='note'>Each cell plans both trajectories and simulates them; the number is "
-            "the change measured in the simulation, 100·(standard − optimised)/standard. "
-            "'no difference' means |change| &lt; 1 %; '(on floor)' marks cells where the "
-            "standard quintic's |work| is already within 1 % of the potential-energy rise, so "
-            "no trajectory can save work there. Infeasible cells: the planner found no "
-            "trajectory within the joint limits.</p>",
-        ]
-        for objective in sweep.objectives:
-            parts.append(_figure_html(figure_sweep(sweep, objective, DEMO_SWEEP_METRICS)))
-            counts = ", ".join(
-                f"{m}: "
-                + ", ".join(f"{k} {v}" for k, v in sorted(sweep.counts(objective, m).items()))
-                for m in DEMO_SWEEP_METRICS
-            )
-            parts.append(f"<p class='note'>objective {html.escape(objective)}: {counts}</p>")
-        sweep_html = "".join(parts)
-
     report(progress, "report", 0, 1, fraction=0.96, message="writing the report")
-    (out_dir / "plotly.min.js").write_text(plotly.offline.get_plotlyjs(), encoding="utf-8")
     claims = _claim_rows(results)
-    claim_table = _table(
-        ["robot", "metric", "paper", "measured (simulated)", "planned", "conditions"],
-        [
-            [
-                c["robot"],
-                f"{c['metric']} ({c['paper_measure']})",
-                f"{c['paper_claim_pct']:.1f} %",
-                _pct(c["measured_pct"]),
-                _pct(c["planned_pct"]),
-                c["conditions"],
-            ]
-            for c in claims
-        ],
-    )
-    page = f"""<!doctype html><html><head><meta charset="utf-8"><title>BioPlan demo report</title>
-<script src="plotly.min.js"></script><style>{_CSS}</style></head><body>
-<h1>BioPlan demo report</h1>
-<p class="note">Reproduces the figures of Liu et al., "Trajectory Planning of a Curtain Wall
-Installation Robot Based on Biomimetic Mechanisms", with BioPlan's own dynamics and optimiser, and
-validates them in MuJoCo (the paper used ADAMS). Savings are 100·(standard − optimised)/standard;
-negative means the bio-inspired plan costs more. They depend on the metric, the duration and the
-payload: see the sweep below and <code>bioplan sweep</code>.</p>
-<h2>Paper claims vs measured</h2>{claim_table}
-{_figure_html(figure_classical_profiles())}
-{_figure_html(figure_quintic())}
-{"".join(sections)}
-{sweep_html}
-</body></html>"""
-    index = out_dir / "index.html"
     summary = {
         "claims": claims,
         "results": {name: sim.to_dict() for name, sim in results.items()},
         "sweep": sweep.to_dict() if sweep is not None else None,
     }
-    # Write to temporary names first, then rename: no half-written report is left behind.
-    tmp_json = out_dir / ".results.json.tmp"
-    tmp_index = out_dir / ".index.html.tmp"
-    tmp_json.write_text(json.dumps(summary, indent=2, allow_nan=False), encoding="utf-8")
-    tmp_index.write_text(page, encoding="utf-8")
-    tmp_json.replace(out_dir / "results.json")
-    tmp_index.replace(index)
+    page = _page(claims, sections, _sweep_section(sweep) if sweep is not None else "")
+    index = _write_atomically(out_dir, page, summary)
     report(progress, "done", 1, 1, message="report written")
     return index

@@ -730,6 +730,60 @@ def simulate_tracking(
     )[0]
 
 
+def _check_runaway(
+    label: str, t: FloatArray, q: FloatArray, qd: FloatArray, mj_warnings: Sequence[str]
+) -> None:
+    """Raise :class:`SimulationError` when the state is non-finite or physically absurd."""
+    finite: NDArray[np.bool_] = np.asarray(np.isfinite(q).all(axis=1) & np.isfinite(qd).all(axis=1))
+    # Physically absurd positions or speeds: a saturated arm that merely falls never gets there.
+    huge = (np.abs(np.where(finite[:, None], q, 0.0)).max(axis=1) > RUNAWAY_POSITION_RAD) | (
+        np.abs(np.where(finite[:, None], qd, 0.0)).max(axis=1) > RUNAWAY_SPEED_RAD_S
+    )
+    runaway = ~finite | huge
+    if np.any(runaway):
+        k = min(int(np.argmax(runaway)), t.size - 1)
+        detail = "; ".join(dict.fromkeys(mj_warnings)) or "state left every bound"
+        raise SimulationError(
+            f"{label} diverged at t={t[k]:.3f} s ({detail}): expected a stable closed loop "
+            "(lower gains, a smaller time step, or a feasible payload)"
+        )
+
+
+def _run_warnings(
+    robot: Robot,
+    q: FloatArray,
+    saturation: FloatArray,
+    tracking_max: FloatArray,
+    tau_max: FloatArray,
+    mj_warnings: Sequence[str],
+) -> list[str]:
+    """Saturation, poor tracking and limit violations of one run, as one-line warnings."""
+    warnings: list[str] = [f"MuJoCo: {w}" for w in dict.fromkeys(mj_warnings)]
+    names = robot.joint_names
+    for js in np.flatnonzero(saturation > SATURATION_WARNING_FRACTION):
+        warnings.append(
+            f"joint {js + 1} ({names[js]}) was at its torque limit {tau_max[js]:.1f} Nm for "
+            f"{100 * saturation[js]:.0f}% of the run: the robot cannot follow this trajectory"
+        )
+    if tracking_max.max() > POOR_TRACKING_RAD:
+        jw = int(np.argmax(tracking_max))
+        warnings.append(
+            f"poor tracking: joint {jw + 1} ({names[jw]}) is off by up to "
+            f"{math.degrees(tracking_max[jw]):.2f} deg (> {math.degrees(POOR_TRACKING_RAD):.1f} "
+            "deg): simulated metrics do not describe the planned motion"
+        )
+    q_min, q_max = np.asarray(robot.q_min), np.asarray(robot.q_max)
+    for j in range(q.shape[1]):
+        lo, hi = float(q[:, j].min()), float(q[:, j].max())
+        if lo < q_min[j] - LIMIT_SLACK_RAD or hi > q_max[j] + LIMIT_SLACK_RAD:
+            warnings.append(
+                f"joint {j + 1} ({names[j]}) moved to [{math.degrees(lo):.2f}, "
+                f"{math.degrees(hi):.2f}] deg, outside its limits "
+                f"[{math.degrees(q_min[j]):.1f}, {math.degrees(q_max[j]):.1f}] deg"
+            )
+    return warnings
+
+
 def _assemble(
     robot: Robot,
     name: str,
@@ -748,21 +802,8 @@ def _assemble(
     mj_warnings: Sequence[str],
 ) -> TrackingResult:
     """Check a run for divergence and compute torques, power, energy and tracking error."""
-    label = f"simulation of {robot.name} ({name or 'trajectory'})"
     t = cmd.t
-    finite: NDArray[np.bool_] = np.asarray(np.isfinite(q).all(axis=1) & np.isfinite(qd).all(axis=1))
-    # Physically absurd positions or speeds: a saturated arm that merely falls never gets there.
-    huge = (np.abs(np.where(finite[:, None], q, 0.0)).max(axis=1) > RUNAWAY_POSITION_RAD) | (
-        np.abs(np.where(finite[:, None], qd, 0.0)).max(axis=1) > RUNAWAY_SPEED_RAD_S
-    )
-    runaway = ~finite | huge
-    if np.any(runaway):
-        k = min(int(np.argmax(runaway)), t.size - 1)
-        detail = "; ".join(dict.fromkeys(mj_warnings)) or "state left every bound"
-        raise SimulationError(
-            f"{label} diverged at t={t[k]:.3f} s ({detail}): expected a stable closed loop "
-            "(lower gains, a smaller time step, or a feasible payload)"
-        )
+    _check_runaway(f"simulation of {robot.name} ({name or 'trajectory'})", t, q, qd, mj_warnings)
     v = qd  # MuJoCo's velocity state, (T + 1, n): the controller feeds back this one
     q = q[:-1]
     command = ff + kp * (cmd.q - q) + kd * (cmd.qd - v[:-1])
@@ -786,30 +827,8 @@ def _assemble(
     )
     p_bus = electrical_power(qd, tau, motors)
     saturation = np.mean(np.abs(command) > tau_max * (1.0 + 1e-12), axis=0)
-    warnings: list[str] = [f"MuJoCo: {w}" for w in dict.fromkeys(mj_warnings)]
-    names = robot.joint_names
-    for js in np.flatnonzero(saturation > SATURATION_WARNING_FRACTION):
-        warnings.append(
-            f"joint {js + 1} ({names[js]}) was at its torque limit {tau_max[js]:.1f} Nm for "
-            f"{100 * saturation[js]:.0f}% of the run: the robot cannot follow this trajectory"
-        )
     tracking_max = np.abs(err).max(axis=0)
-    if tracking_max.max() > POOR_TRACKING_RAD:
-        jw = int(np.argmax(tracking_max))
-        warnings.append(
-            f"poor tracking: joint {jw + 1} ({names[jw]}) is off by up to "
-            f"{math.degrees(tracking_max[jw]):.2f} deg (> {math.degrees(POOR_TRACKING_RAD):.1f} "
-            "deg): simulated metrics do not describe the planned motion"
-        )
-    q_min, q_max = np.asarray(robot.q_min), np.asarray(robot.q_max)
-    for j in range(q.shape[1]):
-        lo, hi = float(q[:, j].min()), float(q[:, j].max())
-        if lo < q_min[j] - LIMIT_SLACK_RAD or hi > q_max[j] + LIMIT_SLACK_RAD:
-            warnings.append(
-                f"joint {j + 1} ({names[j]}) moved to [{math.degrees(lo):.2f}, "
-                f"{math.degrees(hi):.2f}] deg, outside its limits "
-                f"[{math.degrees(q_min[j]):.1f}, {math.degrees(q_max[j]):.1f}] deg"
-            )
+    warnings = _run_warnings(robot, q, saturation, tracking_max, tau_max, mj_warnings)
     return TrackingResult(
         robot=robot.name,
         name=name,

@@ -34,6 +34,7 @@ def report_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         sweep_durations=(1.0, 2.0),
         sweep_payloads=(0.0, 4.0),
         sweep_objectives=("abs_work",),
+        sweep_methods=("quintic", "paper"),
         sweep_workers=1,
         **SMALL,
     )
@@ -56,6 +57,13 @@ def test_report_files_and_claims_come_from_the_simulation(report_dir: Path) -> N
         assert claim["measured_pct"] == sim["improvement_pct"][claim["metric"]]
         assert claim["planned_pct"] == sim["planned"]["improvement_pct"][claim["metric"]]
         assert "MuJoCo 1 ms" in claim["conditions"] and "payload" in claim["conditions"]
+    for claim in claims.values():
+        assert set(claim["methods_pct"]) == {"paper", "human_optimal", "bound", "jerk_limited"}
+        assert claim["methods_pct"]["paper"] == claim["measured_pct"]
+        assert claim["share_of_achievable_pct"]["bound"] == pytest.approx(100.0)
+    for needle in ("human-like optimum", "physical bound", "industrial jerk-limited",
+                   "minimum-jerk (wide grey band) is the same curve as the quintic"):  # fmt: skip
+        assert needle in page
     sweep = data["sweep"]
     assert sweep["durations"] == [1.0, 2.0] and sweep["payloads"] == [0.0, 4.0]
     assert len(sweep["cells"]) == 4

@@ -49,6 +49,8 @@ def test_to_dict_has_the_contract_keys_and_is_strict_json(comparison: Simulation
         "planned",
         "conditions",
         "warnings",
+        "methods",
+        "share_of_achievable_pct",
     }
     json.dumps(d, allow_nan=False)
     n = 6
@@ -105,7 +107,7 @@ def test_peaks_fall_in_the_phase_given_by_the_commanded_elbow_crossings(
 
 def test_summary_is_readable(comparison: SimulationResult) -> None:
     text = comparison.summary()
-    for needle in ("curtain_wall_6dof", "peak_power", "tracking standard", "phase", "floors"):
+    for needle in ("curtain_wall_6dof", "peak_power", "max tracking error", "phase", "floors"):
         assert needle in text
 
 
@@ -227,3 +229,35 @@ def test_script_without_main_guard_still_gets_its_sweep(tmp_path: Path) -> None:
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "RESULT 1 ['ok', 'ok']" in proc.stdout
+
+
+def test_convergence_check_marks_metrics_whose_verdict_changes(cw: Robot) -> None:
+    """The check re-plans the paper's method with the check seed; a metric is unconverged when
+    its verdict (saves / no difference / costs more) differs from the cell's planned one."""
+    from app.simulation.sweep import _CellJob, _check_run, _init_worker, classify
+
+    _init_worker(cw)
+    job = _CellJob(1.0, 4.0, "abs_work", 0, 10, 8, 1e-3, ("quintic", "paper"), 5)
+    planned = {k: 50.0 for k in METRICS}  # "saves" everywhere
+    unconverged, check = _check_run(job, planned)
+    assert set(check) == set(METRICS)
+    assert unconverged == tuple(k for k in METRICS if classify(check[k]) != "saves")
+    same = _CellJob(1.0, 4.0, "abs_work", 0, 10, 8, 1e-3, ("quintic", "paper"), None)
+    assert _check_run(same, planned) == ((), {})
+
+
+def test_simulated_arrays_hold_every_method(cw: Robot) -> None:
+    sim = simulate_comparison(
+        cw, duration=1.0, objective="tau_sq", particles=10, iterations=8,
+        methods=("quintic", "paper", "bound"),
+    )  # fmt: skip
+    arrays = sim.arrays()
+    for name in ("quintic", "paper", "bound", "standard", "optimized"):
+        assert arrays[f"{name}_q"].shape == (arrays["t"].size, 6)
+        assert arrays[f"{name}_energy"].shape == arrays["t"].shape
+    d = sim.to_dict()
+    assert set(d["methods"]) == {"quintic", "paper", "bound"}
+    assert d["share_of_achievable_pct"]["bound"] == pytest.approx(100.0)
+    # The bound is tracked as closely as the others, so its simulated tau_sq stays the lowest.
+    tau_sq = {n: m["tau_sq"] for n, m in d["methods"].items()}
+    assert tau_sq["bound"] < min(tau_sq["paper"], tau_sq["quintic"])

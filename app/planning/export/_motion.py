@@ -59,13 +59,10 @@ class ExportError(BioPlanError):
 def plan_methods(result: PlanResult) -> dict[str, EvaluatedTrajectory]:
     """Every method of a plan, by its name in ``app.names.METHODS``.
 
-    The one place that knows how a ``PlanResult`` holds its methods: once the planner keeps
-    ``result.methods`` (name -> evaluated trajectory), this returns ``dict(result.methods)``.
+    The one place that knows how a ``PlanResult`` holds its methods (``result.methods``: name
+    -> ``MethodResult``, whose ``evaluated`` is the trajectory with its torques and metrics).
     """
-    methods = getattr(result, "methods", None)
-    if isinstance(methods, Mapping) and methods:
-        return dict(methods)
-    return {"quintic": result.standard, "paper": result.optimized}
+    return {name: m.evaluated for name, m in result.methods.items()}
 
 
 @dataclass(frozen=True)
@@ -365,6 +362,17 @@ def _method_motion(name: str, ev: EvaluatedTrajectory, robot: Robot) -> MethodMo
     return MethodMotion(name, kind, t, q, qd, qdd, motion.metrics, check_t, check_tau)
 
 
+#: Which planned method is "the optimised one" exported by default, in order of preference.
+DEFAULT_METHOD_ORDER = ("paper", "human_optimal", "bound", "jerk_limited", "quintic")
+
+
+def _default_method(preferred: str, methods: Mapping[str, Any]) -> str:
+    """``preferred`` when planned, else the first planned in :data:`DEFAULT_METHOD_ORDER`."""
+    if preferred in methods:
+        return preferred
+    return next((m for m in DEFAULT_METHOD_ORDER if m in methods), next(iter(methods)))
+
+
 def plan_motion(result: PlanResult, robot: Robot, *, default_method: str = "paper") -> PlanMotion:
     """The exportable motion of a plan made with ``robot``.
 
@@ -384,7 +392,7 @@ def plan_motion(result: PlanResult, robot: Robot, *, default_method: str = "pape
         goal=np.array(result.task.goal, dtype=np.float64),
         duration=float(result.duration),
         methods=methods,
-        default_method=default_method if default_method in methods else next(iter(methods)),
+        default_method=_default_method(default_method, methods),
         floors=result.floors.to_dict(),
         conditions={
             "objective": result.objective,

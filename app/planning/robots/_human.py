@@ -91,6 +91,14 @@ _LIMITS = {
     "shoulder_flexion": (math.radians(-60.0), math.radians(180.0), 10.0, 100.0),
     "elbow_flexion": (0.0, math.radians(160.0), 15.0, 80.0),
 }
+# Acceleration [rad/s^2] and jerk [rad/s^3] limits: assumed, of the order of the peak elbow
+# and shoulder accelerations of fast voluntary arm movements (the default 150 deg curl in 1 s
+# needs 15 rad/s^2 as a quintic).
+_CONTROLLER_LIMITS = {"shoulder_flexion": (30.0, 300.0), "elbow_flexion": (40.0, 400.0)}
+_CONTROLLER_SOURCE = (
+    "assumed: of the order of peak accelerations of fast voluntary arm movements; used by the "
+    "jerk-limited baseline only"
+)
 _LIMIT_SOURCE = (
     "assumed: typical adult range of motion; torque of the order of peak isometric flexion "
     "torque of adult men"
@@ -261,7 +269,10 @@ def human_arm_chain(seg: HumanArmSegments, *, comment: str = "") -> ChainSpec:
 def human_arm_parameters(
     seg: HumanArmSegments, *, body_mass: float, body_height: float, sex: str
 ) -> tuple[dict[str, object], ...]:
-    """The parameter table (name, value, unit, source) of a subject's arm."""
+    """The parameter table (name, value, unit, source) of a subject's arm.
+
+    Longer than 80 lines on purpose: it is the table itself, row by row with sources.
+    """
     rows: list[dict[str, object]] = [
         {"name": "subject.body_mass", "value": body_mass, "unit": "kg", "source": "input"},
         {"name": "subject.body_height", "value": body_height, "unit": "m", "source": "input"},
@@ -336,6 +347,18 @@ def human_arm_parameters(
                 "source": _LIMIT_SOURCE,
             },
             {"name": f"{joint}.effort", "value": effort, "unit": "Nm", "source": _LIMIT_SOURCE},
+            {
+                "name": f"{joint}.acceleration",
+                "value": _CONTROLLER_LIMITS[joint][0],
+                "unit": "rad/s^2",
+                "source": _CONTROLLER_SOURCE,
+            },
+            {
+                "name": f"{joint}.jerk",
+                "value": _CONTROLLER_LIMITS[joint][1],
+                "unit": "rad/s^3",
+                "source": _CONTROLLER_SOURCE,
+            },
         ]
     rows += [
         {

@@ -34,6 +34,12 @@ IDEAL_ACTUATOR = MotorModel(
 )
 
 
+#: Default acceleration limit of user robots: full speed reached in this time [s].
+DEFAULT_RAMP_TIME = 0.25
+#: Default jerk limit of user robots: full acceleration reached in this time [s].
+DEFAULT_JERK_TIME = 0.05
+
+
 class RobotError(BioPlanError):
     """A robot cannot be loaded or used; one-line message: what, which file, what was expected."""
 
@@ -135,6 +141,11 @@ class Robot:
             folder that holds a package ``NAME``); the URDF's own folder is always searched.
         spec: how to rebuild this robot, as JSON-ready ``load_robot`` arguments (stored with
             every plan, so that a saved result can be exported again).
+        qdd_max: (n,) acceleration limits [rad/s^2] of the joint controller (the jerk-limited
+            industrial baseline); None = the table's ``<joint>.acceleration`` rows, else
+            ``qd_max / DEFAULT_RAMP_TIME`` (full speed in 0.25 s).
+        jerk_max: (n,) jerk limits [rad/s^3]; None = the table's ``<joint>.jerk`` rows, else
+            ``qdd_max / DEFAULT_JERK_TIME`` (full acceleration in 0.05 s).
     """
 
     name: str
@@ -157,6 +168,8 @@ class Robot:
     all_joint_names: tuple[str, ...] = ()
     package_dirs: tuple[Path, ...] = ()
     spec: Mapping[str, Any] = field(default_factory=dict)
+    qdd_max: NDArray[np.float64] | None = None
+    jerk_max: NDArray[np.float64] | None = None
     _cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -179,6 +192,7 @@ class Robot:
             index = getattr(self, attr)
             if not 0 <= index < n:
                 raise RobotError(f"robot '{self.name}' {attr}={index}: expected 0 <= index < {n}")
+        self._controller_limits(n)
         object.__setattr__(self, "urdf_path", Path(self.urdf_path))
         object.__setattr__(self, "locks", {str(k): float(v) for k, v in self.locks.items()})
         overlap = sorted(set(self.locks) & set(self.joint_names))
@@ -195,6 +209,32 @@ class Robot:
         object.__setattr__(self, "package_dirs", tuple(Path(p) for p in self.package_dirs))
         if self.mjcf_path is not None:
             object.__setattr__(self, "mjcf_path", Path(self.mjcf_path))
+
+    def _table_limits(self, suffix: str) -> NDArray[np.float64] | None:
+        """Per-joint values of the parameter rows ``<joint>.<suffix>``, if all are present."""
+        rows = {row.get("name"): row.get("value") for row in self.parameters}
+        values = [rows.get(f"{joint}.{suffix}") for joint in self.joint_names]
+        if any(v is None for v in values):
+            return None
+        return np.array([float(v) for v in values], dtype=np.float64)  # type: ignore[arg-type]
+
+    def _controller_limits(self, n: int) -> None:
+        """Acceleration and jerk limits: given, from the parameter table, or the defaults."""
+        qdd = self.qdd_max if self.qdd_max is not None else self._table_limits("acceleration")
+        if qdd is None:
+            qdd = np.asarray(self.qd_max) / DEFAULT_RAMP_TIME
+        jerk = self.jerk_max if self.jerk_max is not None else self._table_limits("jerk")
+        if jerk is None:
+            jerk = np.asarray(qdd) / DEFAULT_JERK_TIME
+        for attr, value in (("qdd_max", qdd), ("jerk_max", jerk)):
+            array = np.array(value, dtype=np.float64)
+            if array.shape != (n,) or not np.all(np.isfinite(array)) or np.any(array <= 0.0):
+                raise RobotError(
+                    f"robot '{self.name}' {attr} is {array.tolist()}: expected {n} finite "
+                    "values > 0"
+                )
+            array.setflags(write=False)
+            object.__setattr__(self, attr, array)
 
     def __getstate__(self) -> dict[str, Any]:
         # Cached dynamics hold C++ scratch data: rebuild them after unpickling instead.

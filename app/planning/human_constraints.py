@@ -1,0 +1,155 @@
+"""The template's human-likeness in robot terms, for the optimal-control methods.
+
+* ``peak``: the elbow is fastest where it passes ``template.peak_joint_angle(q0, q1)``.
+* ``phases``: each A/B/C phase's share of the duration lies within the template's spread.
+  The shares come, in this order of preference, from
+
+  1. the template's ``phase_time_shares`` and ``phase_time_share_sd`` (per-phase mean and
+     standard deviation over recorded lifts), when the template has them: mean ± 2 SD, and at
+     least ± :data:`MIN_SHARE_SPREAD`;
+  2. the template's mean velocity profile (``normalized_time``, ``velocity_mean``,
+     ``velocity_sd``): the profile is integrated to the fraction of the stroke covered over
+     time, the phase bounds (human flexion on the curl span) are placed on it, and the profiles
+     mean ± SD give the spread;
+  3. otherwise (the paper's defaults, which hold no lift): the shares of a triangular velocity
+     profile peaking at the template's angle (constant acceleration up to the peak, constant
+     deceleration after it), ± :data:`DEFAULT_SHARE_SPREAD` (an assumption, said in the result).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.errors import BioPlanError
+from app.names import HUMAN_CURL_SPAN_DEG
+from app.planning.human_template import HumanTemplate, joint_on_stroke
+
+__all__ = ["DEFAULT_SHARE_SPREAD", "MIN_SHARE_SPREAD", "PhaseShares", "phase_shares"]
+
+FloatArray = NDArray[np.float64]
+
+#: Spread of the phase shares when the template holds no lift [-] (assumed).
+DEFAULT_SHARE_SPREAD = 0.05
+#: Smallest spread allowed around a recorded share [-].
+MIN_SHARE_SPREAD = 0.02
+
+
+@dataclass(frozen=True)
+class PhaseShares:
+    """Bounds on the A/B/C phases' shares of the motion's duration.
+
+    Attributes:
+        nominal: (3,) the template's shares [-] (summing to 1).
+        bounds: (3, 2) lower and upper share per phase [-].
+        source: where they come from (one line).
+    """
+
+    nominal: tuple[float, float, float]
+    bounds: tuple[tuple[float, float], ...]
+    source: str
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "nominal": list(self.nominal),
+            "bounds": [list(b) for b in self.bounds],
+            "source": self.source,
+        }
+
+
+def _bounded(nominal: FloatArray, spread: FloatArray, source: str) -> PhaseShares:
+    lo = np.clip(nominal - spread, 0.02, 0.96)
+    hi = np.clip(nominal + spread, 0.04, 0.98)
+    return PhaseShares(
+        nominal=(float(nominal[0]), float(nominal[1]), float(nominal[2])),
+        bounds=tuple((float(a), float(b)) for a, b in zip(lo, hi, strict=True)),
+        source=source,
+    )
+
+
+def _stroke_fractions(template: HumanTemplate) -> tuple[float, float, float]:
+    """Phase bounds and peak angle as fractions of the human curl span."""
+    lo, hi = HUMAN_CURL_SPAN_DEG
+    a, b = template.phase_bounds_deg
+    peak = template.peak_velocity_angle_deg
+    return (a - lo) / (hi - lo), (b - lo) / (hi - lo), (peak - lo) / (hi - lo)
+
+
+def _shares_from_profile(template: HumanTemplate, velocity: FloatArray) -> FloatArray:
+    """Phase shares of a normalised velocity profile (fraction of the stroke over time)."""
+    t = np.asarray(template.normalized_time, dtype=np.float64)
+    v = np.maximum(velocity, 0.0)
+    covered = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    if covered[-1] <= 0.0:
+        raise BioPlanError("the template's velocity profile never moves: expected a lift")
+    fraction = np.maximum.accumulate(covered / covered[-1])
+    f_ab, f_bc, _ = _stroke_fractions(template)
+    t_ab, t_bc = (float(np.interp(f, fraction, t)) for f in (f_ab, f_bc))
+    span = float(t[-1] - t[0])
+    return np.array([t_ab - t[0], t_bc - t_ab, t[-1] - t_bc]) / span
+
+
+def _triangular_shares(template: HumanTemplate) -> FloatArray:
+    """Shares of the triangular velocity profile peaking at the template's angle."""
+    f_ab, f_bc, f_peak = _stroke_fractions(template)
+
+    def time_at(f: float) -> float:
+        # Accelerating: f = f_p (t / t_p)^2 with t_p = f_p; decelerating mirrors it.
+        if f <= f_peak:
+            return f_peak * math.sqrt(f / f_peak)
+        return 1.0 - (1.0 - f_peak) * math.sqrt((1.0 - f) / (1.0 - f_peak))
+
+    t_ab, t_bc = time_at(f_ab), time_at(f_bc)
+    return np.array([t_ab, t_bc - t_ab, 1.0 - t_bc])
+
+
+def phase_shares(template: HumanTemplate) -> PhaseShares:
+    """The A/B/C share bounds of ``template`` (see the module docstring for the order).
+
+    Fields read from the template: ``phase_time_shares`` and ``phase_time_share_sd`` (if the
+    template type has them), ``normalized_time``, ``velocity_mean``, ``velocity_sd``,
+    ``phase_bounds_deg``, ``peak_velocity_angle_deg``.
+    """
+    shares = getattr(template, "phase_time_shares", None)
+    if shares:
+        mean = np.asarray(shares, dtype=np.float64)
+        sd = np.asarray(getattr(template, "phase_time_share_sd", None) or np.zeros(3), float)
+        spread = np.maximum(2.0 * sd, MIN_SHARE_SPREAD)
+        return _bounded(mean / mean.sum(), spread, f"template phase shares ({template.source})")
+    if template.normalized_time and template.velocity_mean:
+        mean_v = np.asarray(template.velocity_mean, dtype=np.float64)
+        sd_v = np.asarray(template.velocity_sd or np.zeros_like(mean_v), dtype=np.float64)
+        nominal = _shares_from_profile(template, mean_v)
+        lower = _shares_from_profile(template, mean_v - sd_v)
+        upper = _shares_from_profile(template, mean_v + sd_v)
+        spread = np.maximum(
+            np.abs(np.stack([lower, upper]) - nominal).max(axis=0), MIN_SHARE_SPREAD
+        )
+        return _bounded(
+            nominal, spread, f"template velocity profile, mean ± SD ({template.source})"
+        )
+    nominal = _triangular_shares(template)
+    return _bounded(
+        nominal,
+        np.full(3, DEFAULT_SHARE_SPREAD),
+        f"triangular velocity profile peaking at {template.peak_velocity_angle_deg:g} deg "
+        f"(no recorded lift), ± {DEFAULT_SHARE_SPREAD:g} assumed",
+    )
+
+
+def phase_bound_angles(template: HumanTemplate, q0: float, q1: float) -> tuple[float, float]:
+    """The A/B and B/C phase bounds on the robot elbow stroke q0 -> q1 [rad]."""
+    a, b = template.phase_bounds_deg
+    angles = (joint_on_stroke(a, q0, q1), joint_on_stroke(b, q0, q1))
+    lo, hi = sorted((q0, q1))
+    for deg, angle in zip((a, b), angles, strict=True):
+        if not lo < angle < hi:
+            raise BioPlanError(
+                f"phase bound {deg:g} deg lies outside the elbow's stroke "
+                f"[{math.degrees(lo):.1f}, {math.degrees(hi):.1f}] deg: expected the stroke to "
+                "pass every phase bound for --human-constraint phases"
+            )
+    return angles

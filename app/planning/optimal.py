@@ -1,0 +1,955 @@
+"""Optimal control beside the paper's method: the best human-like motion and the physical bound.
+
+Direct transcription solved by IPOPT (CasADi, exact Hessians on SX graphs):
+
+* **Trajectory family.** Every free joint is a C² piecewise cubic: constant jerk on each of N
+  intervals (a triple integrator). Its states q, q̇, q̈ at the nodes are the unknowns; the exact
+  integration of constant jerk links consecutive nodes. So the trajectory is known *between*
+  the nodes too, and any grid samples it exactly (:meth:`PiecewiseCubic.sample`).
+* **Boundary conditions** are the quintic's: rest to rest, q̇ = q̈ = 0 at both ends.
+* **Limits between nodes, exactly.** On an interval, q is a cubic and q̇ a quadratic; a
+  polynomial lies inside the hull of its Bernstein coefficients, which are linear in the node
+  states (q̇: q̇_k, q̇_k + q̈_k h/2, q̇_k+1; q: q_k, q_k + q̇_k h/3, q_k+1 − q̇_k+1 h/3, q_k+1).
+  Bounding those bounds position and velocity, and no joint reversal, everywhere. Torques are
+  bounded at the nodes and at every interval's midpoint (the quadrature points); the result is
+  re-checked with Pinocchio on the fine report grid.
+* **Dynamics** are exact symbolic inverse dynamics of the robot (:mod:`app.planning.symbolic`).
+* **Objectives**, integrated by Simpson's rule on each interval (node, midpoint, node), every
+  metric of :mod:`app.planning.energy` exactly: ``tau_sq`` directly; ``abs_work`` and
+  ``pos_work`` with slacks s ≥ ±τq̇ (s ≥ 0); ``peak_power`` and ``peak_torque`` in epigraph form
+  (z ≥ Σ|τq̇|, z ≥ |τ_j|/τ_max,j at every point); ``electrical_energy`` with P_bus = p⁺ − p⁻,
+  p± ≥ 0 and cost ∫ (p⁺ − η p⁻) dt, which equals ∫ max(P_bus, 0) − η max(−P_bus, 0) dt at the
+  optimum because η < 1 makes any overlap of p⁺ and p⁻ cost more (friction by the smooth Coulomb
+  law of the energy module, copper losses R i², regeneration η); and ``torque_change``
+  ∫ Σ τ̇² dt (the minimum-torque-change model) with τ̇ the exact chain-rule derivative.
+* **Human-likeness** (``human_constraint``): ``"peak"`` splits the motion where the elbow passes
+  the template's angle (a free time) and bounds the elbow's speed everywhere by its speed there,
+  so the elbow is fastest where the template says (its acceleration is then zero there, as in
+  the paper's via point); ``"phases"`` splits it where the elbow passes the A/B and B/C bounds and
+  keeps each phase's share of the duration inside the template's spread; ``"none"`` is the
+  physical bound under the same limits.
+
+A solve whose IPOPT status is not ``Solve_Succeeded`` raises :class:`SolverError`; it is never
+returned as a result.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.errors import BioPlanError
+from app.planning.energy import FRICTION_VELOCITY_SCALE
+from app.planning.profiles import Trajectory, quintic, time_grid
+from app.planning.symbolic import symbolic_chain
+
+if TYPE_CHECKING:
+    from app.planning.robots import Robot
+
+__all__ = [
+    "HUMAN_CONSTRAINTS",
+    "OPTIMAL_OBJECTIVES",
+    "OptimalResult",
+    "PiecewiseCubic",
+    "SolverError",
+    "SolverInfo",
+    "solve_optimal",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Human-likeness options of the optimal-control problem.
+HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "none")
+#: Objectives the transcription minimises: every metric, and the torque change.
+OPTIMAL_OBJECTIVES: tuple[str, ...] = (
+    "tau_sq",
+    "abs_work",
+    "pos_work",
+    "electrical_energy",
+    "peak_power",
+    "peak_torque",
+    "torque_change",
+)
+#: Default number of constant-jerk intervals.
+DEFAULT_INTERVALS = 40
+#: IPOPT's convergence tolerance (scaled objective, O(1)).
+IPOPT_TOL = 1e-8
+#: Where each interval is evaluated (fractions of its length) and the composite Simpson weights
+#: (times h / divisor): quarters for the integral objectives; eighths for the peak objectives,
+#: whose epigraphs must also hold between the points (measured: the fine-grid peak power stays
+#: within 0.3 % of the solver's with eighths, 1.4 % with quarters).
+_QUARTERS = ((0.0, 0.25, 0.5, 0.75, 1.0), (1.0, 4.0, 2.0, 4.0, 1.0), 12.0)
+_EIGHTHS = (tuple(k / 8 for k in range(9)), (1.0, 4.0, 2.0, 4.0, 2.0, 4.0, 2.0, 4.0, 1.0), 24.0)
+_PEAK_OBJECTIVES = ("peak_power", "peak_torque")
+#: Torque limits hold at the evaluation points with this relative margin, so that they hold
+#: between them too (checked on the fine grid) [-].
+TORQUE_MARGIN = 2e-3
+#: Weight of ∫Στ² (relative to the initial guess's) added to objectives whose optimum is not
+#: unique (slack and epigraph forms): it picks the smoothest of the equally good motions and
+#: conditions IPOPT (half the iterations of 1e-4 on abs_work); the objective moves by the
+#: weight times the relative effort change at most (measured: under 0.01 %).
+REGULARIZATION = 1e-3
+_NOT_UNIQUE = ("abs_work", "pos_work", "peak_power", "peak_torque", "electrical_energy")
+#: Segment interval counts are multiples of this (when there are enough intervals).
+_COUNT_STEP = 4
+#: Fewest intervals any segment of a split motion gets.
+_MIN_SEGMENT_INTERVALS = 4
+
+
+class SolverError(BioPlanError):
+    """IPOPT did not solve the problem (infeasible, or no convergence); one line with its status."""
+
+
+@dataclass(frozen=True)
+class SolverInfo:
+    """How the solve went.
+
+    Attributes:
+        status: IPOPT's return status (always ``Solve_Succeeded`` in a returned result).
+        iterations: IPOPT iterations.
+        seconds: wall time of the solve [s] (building the problem included).
+        objective: the solver's objective in the metric's unit (Simpson on the nodes).
+        warm_start: what the initial guess came from.
+        n_intervals: constant-jerk intervals.
+        human_constraint: ``peak``, ``phases`` or ``none``.
+        segment_durations: (S,) durations of the split motion's segments [s].
+    """
+
+    status: str
+    iterations: int
+    seconds: float
+    objective: float
+    warm_start: str
+    n_intervals: int
+    human_constraint: str
+    segment_durations: tuple[float, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status,
+            "iterations": self.iterations,
+            "seconds": self.seconds,
+            "objective": self.objective,
+            "warm_start": self.warm_start,
+            "n_intervals": self.n_intervals,
+            "human_constraint": self.human_constraint,
+            "segment_durations": list(self.segment_durations),
+        }
+
+
+@dataclass(frozen=True)
+class PiecewiseCubic:
+    """A C² constant-jerk trajectory through node states.
+
+    Attributes:
+        t: (N+1,) node times [s], from 0 to the duration.
+        q, qd, qdd: (N+1, n) node positions [rad], velocities [rad/s], accelerations [rad/s²].
+    """
+
+    t: FloatArray
+    q: FloatArray
+    qd: FloatArray
+    qdd: FloatArray
+
+    def sample(self, t: FloatArray, name: str = "") -> Trajectory:
+        """The trajectory on any grid (T,) within [0, duration], evaluated exactly."""
+        tt = np.asarray(t, dtype=np.float64)
+        k = np.clip(np.searchsorted(self.t, tt, side="right") - 1, 0, self.t.size - 2)
+        h = (self.t[k + 1] - self.t[k])[:, None]
+        s = (tt - self.t[k])[:, None]
+        jerk = (self.qdd[k + 1] - self.qdd[k]) / h
+        q = self.q[k] + self.qd[k] * s + self.qdd[k] * s**2 / 2 + jerk * s**3 / 6
+        qd = self.qd[k] + self.qdd[k] * s + jerk * s**2 / 2
+        qdd = self.qdd[k] + jerk * s
+        return Trajectory(t=tt, q=q, qd=qd, qdd=qdd, jerk=jerk, name=name)
+
+
+@dataclass(frozen=True)
+class OptimalResult:
+    """An optimal-control solution.
+
+    Attributes:
+        trajectory: the solution on the requested report grid.
+        knots: the exact piecewise-cubic solution (sample it on any grid).
+        solver: IPOPT's status, iterations, time and objective.
+    """
+
+    trajectory: Trajectory
+    knots: PiecewiseCubic
+    solver: SolverInfo
+
+
+@dataclass(frozen=True)
+class HumanSpec:
+    """The human-likeness constraint in robot joint terms.
+
+    Attributes:
+        kind: ``peak``, ``phases`` or ``none``.
+        elbow: index of the elbow joint.
+        angles: (S-1,) elbow angles [rad] where the segments meet (the peak angle, or the A/B
+            and B/C phase bounds on the stroke).
+        share_bounds: (S, 2) lower and upper share of the duration per segment (phases only).
+    """
+
+    kind: str
+    elbow: int
+    angles: tuple[float, ...] = ()
+    share_bounds: tuple[tuple[float, float], ...] = ()
+
+
+# ----------------------------------------------------------------------------------------------
+# Decision variables
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Variables:
+    """Decision variables with bounds and initial values, in the solver's (scaled) units."""
+
+    syms: list[Any] = field(default_factory=list)
+    lower: list[FloatArray] = field(default_factory=list)
+    upper: list[FloatArray] = field(default_factory=list)
+    guess: list[FloatArray] = field(default_factory=list)
+    rules: list[tuple[int, Any]] = field(default_factory=list)
+
+    def add(self, name: str, shape: tuple[int, int], lo: Any, hi: Any, x0: Any) -> Any:
+        import casadi as ca
+
+        sym = ca.MX.sym(name, *shape)
+        size = shape[0] * shape[1]
+        # Column-major, as CasADi vectorises matrices; copies, so the blocks can be edited.
+        for store, value in ((self.lower, lo), (self.upper, hi), (self.guess, x0)):
+            arr = np.array(np.broadcast_to(np.asarray(value, dtype=np.float64), shape))
+            store.append(arr.reshape(size, order="F").copy())
+        self.syms.append(sym)
+        return sym
+
+    def start_from(self, sym: Any, expr: Any) -> None:
+        """Start ``sym`` at the value of ``expr`` (a function of the states) at the guess."""
+        index = next(i for i, s in enumerate(self.syms) if s is sym)
+        self.rules.append((index, expr))
+
+    def apply_rules(self, par: _Params) -> None:
+        """Evaluate every start rule at the guess: slacks and epigraphs start on their bounds."""
+        import casadi as ca
+
+        if not self.rules:
+            return
+        outputs = [ca.vec(expr) for _, expr in self.rules]
+        fn = ca.Function("start", [self.vector(), par.sym], outputs)
+        values = fn.call([np.concatenate(self.guess), par.values])
+        for (index, _), value in zip(self.rules, values, strict=True):
+            self.guess[index] = np.asarray(value, dtype=np.float64).ravel() + 1e-6
+
+    def vector(self) -> Any:
+        import casadi as ca
+
+        return ca.vertcat(*[ca.vec(s) for s in self.syms])
+
+    def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        return np.concatenate(self.lower), np.concatenate(self.upper), np.concatenate(self.guess)
+
+
+@dataclass
+class _Constraints:
+    exprs: list[Any] = field(default_factory=list)
+    lower: list[FloatArray] = field(default_factory=list)
+    upper: list[FloatArray] = field(default_factory=list)
+
+    def add(self, expr: Any, lo: Any, hi: Any) -> None:
+        import casadi as ca
+
+        e = ca.vec(expr)
+        size = e.shape[0]
+        self.exprs.append(e)
+        self.lower.append(np.array(np.broadcast_to(np.asarray(lo, float), (size,))))
+        self.upper.append(np.array(np.broadcast_to(np.asarray(hi, float), (size,))))
+
+    def vector(self) -> Any:
+        import casadi as ca
+
+        return ca.vertcat(*self.exprs)
+
+    def arrays(self) -> tuple[FloatArray, FloatArray]:
+        return np.concatenate(self.lower), np.concatenate(self.upper)
+
+
+@dataclass
+class _Params:
+    """The numbers that change from call to call (start, duration, scales) as NLP parameters,
+    so that a solver built once serves every task of the same structure."""
+
+    sym: Any
+    values: FloatArray
+    index: dict[str, slice]
+
+    @classmethod
+    def create(cls, n: int) -> _Params:
+        import casadi as ca
+
+        sizes = {"start": n, "T": 1, "p_scale": 1, "cost_scale": 1, "effort_scale": 1}
+        index, offset = {}, 0
+        for name, size in sizes.items():
+            index[name] = slice(offset, offset + size)
+            offset += size
+        return cls(ca.MX.sym("p", offset), np.ones(offset), index)
+
+    def __getitem__(self, name: str) -> Any:
+        sl = self.index[name]
+        return self.sym[sl.start] if sl.stop - sl.start == 1 else self.sym[sl]
+
+    def set(self, name: str, value: Any) -> None:
+        self.values[self.index[name]] = value
+
+
+# ----------------------------------------------------------------------------------------------
+# The transcription
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Problem:
+    robot: Robot
+    start: FloatArray
+    goal: FloatArray
+    duration: float
+    objective: str
+    human: HumanSpec
+    free: tuple[int, ...]
+    no_reversal: bool
+    counts: tuple[int, ...]  # intervals per segment
+
+    @property
+    def n_intervals(self) -> int:
+        return sum(self.counts)
+
+
+@dataclass
+class _Grid:
+    """Symbolic states of all joints at the nodes (n, N+1) and at the evaluation points.
+
+    Each interval k is evaluated at the fractions of its length of ``_QUARTERS`` or ``_EIGHTHS``;
+    point blocks are (n, N) per fraction, so a point's interval is its column. ``h`` is (1, N) [s].
+    """
+
+    q: Any
+    qd: Any
+    qdd: Any
+    h: Any
+    T: Any  # the duration, symbolic [s]
+    point_q: Any = None  # (n, 5N) or (n, 9N)
+    point_qd: Any = None
+    point_qdd: Any = None
+    point_jerk: Any = None
+    weights: Any = None  # (1, P) composite-Simpson weights [s]
+
+
+def _scales(problem: _Problem) -> FloatArray:
+    """Per-joint position scale [rad]: the stroke, at least 0.1 rad."""
+    return np.maximum(np.abs(problem.goal - problem.start), 0.1)
+
+
+def _node_guess(warm: Trajectory, node_t: FloatArray) -> tuple[FloatArray, ...]:
+    def at(values: FloatArray) -> FloatArray:
+        return np.stack([np.interp(node_t, warm.t, values[:, j]) for j in range(warm.n_joints)], 1)
+
+    return at(warm.q), at(warm.qd), at(warm.qdd)
+
+
+def _segment_times(problem: _Problem, warm: Trajectory) -> FloatArray:
+    """Times [s] at which the warm start's elbow passes the segment angles (monotone elbow)."""
+    if not problem.human.angles:
+        return np.array([0.0, problem.duration])
+    e = problem.human.elbow
+    direction = 1.0 if problem.goal[e] >= problem.start[e] else -1.0
+    elbow = np.maximum.accumulate(direction * warm.q[:, e])
+    times = [float(np.interp(direction * a, elbow, warm.t)) for a in problem.human.angles]
+    return np.array([0.0, *times, problem.duration])
+
+
+def _node_times(problem: _Problem, durations: FloatArray) -> FloatArray:
+    parts = [np.zeros(1)]
+    t0 = 0.0
+    for count, d in zip(problem.counts, durations, strict=True):
+        parts.append(t0 + d * np.arange(1, count + 1) / count)
+        t0 += d
+    return np.concatenate(parts)
+
+
+def _state_variables(
+    problem: _Problem, var: _Variables, warm: Trajectory, durations0: FloatArray
+) -> tuple[Any, Any, Any]:
+    """Scaled node states of the free joints, bounded by the limits, fixed at both ends."""
+    T, free = problem.duration, list(problem.free)
+    m, n_nodes = len(free), problem.n_intervals + 1
+    sc = _scales(problem)[free][:, None]
+    q0, qd0, qdd0 = _node_guess(warm, _node_times(problem, durations0))
+    robot = problem.robot
+    lo_q = np.where(np.isfinite(robot.q_min[free]), robot.q_min[free], -1e3)[:, None] / sc
+    hi_q = np.where(np.isfinite(robot.q_max[free]), robot.q_max[free], 1e3)[:, None] / sc
+    vmax = robot.qd_max[free][:, None] * T / sc
+    vlo, vhi = -vmax, vmax
+    if problem.no_reversal:
+        d = np.sign(problem.goal - problem.start)[free][:, None]
+        vlo, vhi = np.where(d > 0, 0.0, vlo), np.where(d < 0, 0.0, vhi)
+    qv = var.add("q", (m, n_nodes), lo_q, hi_q, q0[:, free].T / sc)
+    vv = var.add("qd", (m, n_nodes), vlo, vhi, qd0[:, free].T * T / sc)
+    av = var.add("qdd", (m, n_nodes), -np.inf, np.inf, qdd0[:, free].T * T**2 / sc)
+    zero = np.zeros(m)
+    ends: tuple[tuple[FloatArray, FloatArray], ...] = (
+        (problem.start[free] / sc[:, 0], problem.goal[free] / sc[:, 0]),
+        (zero, zero),
+        (zero, zero),
+    )
+    for store in (var.lower, var.upper, var.guess):
+        for index, (first, last) in enumerate(ends):
+            block = store[index].reshape((m, n_nodes), order="F")
+            block[:, 0] = first
+            block[:, -1] = last
+    return qv, vv, av
+
+
+def _build_grid(
+    problem: _Problem, var: _Variables, cons: _Constraints, warm: Trajectory, par: _Params
+) -> tuple[_Grid, Any]:
+    """Node states, segment durations and the constant-jerk continuity constraints."""
+    import casadi as ca
+
+    n, n_nodes, T = problem.start.size, problem.n_intervals + 1, problem.duration
+    free = list(problem.free)
+    segs = len(problem.counts)
+    durations0 = np.maximum(np.diff(_segment_times(problem, warm)), 1e-3 * T)
+    durations0 = durations0 * T / durations0.sum()
+    qv, vv, av = _state_variables(problem, var, warm, durations0)
+    t_sym = par["T"]
+    if segs > 1:
+        dvar = var.add("share", (segs, 1), 0.02, 1.0, (durations0 / T)[:, None])
+        cons.add(ca.sum1(dvar) - 1.0, 0.0, 0.0)
+        h = ca.horzcat(
+            *[ca.repmat(t_sym * dvar[s] / c, 1, c) for s, c in enumerate(problem.counts)]
+        )
+    else:
+        dvar = None
+        h = ca.repmat(t_sym / problem.n_intervals, 1, problem.n_intervals)
+    sc = ca.DM(_scales(problem))
+    rows: list[list[Any]] = [[], [], []]
+    free_rows = {j: r for r, j in enumerate(free)}
+    for j in range(n):
+        if j in free_rows:
+            r = free_rows[j]
+            rows[0].append(qv[r, :] * sc[j])
+            rows[1].append(vv[r, :] * sc[j] / t_sym)
+            rows[2].append(av[r, :] * sc[j] / t_sym**2)
+        else:
+            rows[0].append(ca.repmat(par["start"][j], 1, n_nodes))
+            rows[1].append(ca.MX(1, n_nodes))
+            rows[2].append(ca.MX(1, n_nodes))
+    grid = _Grid(
+        q=ca.vertcat(*rows[0]), qd=ca.vertcat(*rows[1]), qdd=ca.vertcat(*rows[2]), h=h, T=t_sym
+    )
+    _continuity(problem, grid, cons)
+    _evaluation_points(grid, n, _EIGHTHS if problem.objective in _PEAK_OBJECTIVES else _QUARTERS)
+    return grid, dvar
+
+
+def _continuity(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
+    """Exact constant-jerk integration from each node to the next (free joints)."""
+    import casadi as ca
+
+    free, T = list(problem.free), grid.T
+    sc = ca.repmat(ca.DM(_scales(problem)[free]), 1, problem.n_intervals)
+    q, qd, qdd = grid.q[free, :], grid.qd[free, :], grid.qdd[free, :]
+    hh = ca.repmat(grid.h, len(free), 1)
+    qa, qb, va, vb, aa, ab = q[:, :-1], q[:, 1:], qd[:, :-1], qd[:, 1:], qdd[:, :-1], qdd[:, 1:]
+    cons.add((qb - qa - hh * va - hh**2 * (2 * aa + ab) / 6) / sc, 0.0, 0.0)
+    cons.add((vb - va - hh * (aa + ab) / 2) * T / sc, 0.0, 0.0)
+
+
+def _evaluation_points(
+    grid: _Grid, n: int, rule: tuple[tuple[float, ...], tuple[float, ...], float]
+) -> None:
+    """States at the rule's points of every interval and the composite Simpson weights."""
+    import casadi as ca
+
+    hh = ca.repmat(grid.h, n, 1)
+    qa, va, aa = grid.q[:, :-1], grid.qd[:, :-1], grid.qdd[:, :-1]
+    jerk = (grid.qdd[:, 1:] - aa) / hh
+    blocks: list[list[Any]] = [[], [], [], [], []]
+    fractions, simpson, divisor = rule
+    for frac, weight in zip(fractions, simpson, strict=True):
+        if frac == 1.0:
+            state = (grid.q[:, 1:], grid.qd[:, 1:], grid.qdd[:, 1:])
+        elif frac == 0.0:
+            state = (qa, va, aa)
+        else:
+            s = frac * hh
+            state = (
+                qa + va * s + aa * s**2 / 2 + jerk * s**3 / 6,
+                va + aa * s + jerk * s**2 / 2,
+                aa + jerk * s,
+            )
+        for store, value in zip(blocks, (*state, jerk, grid.h * (weight / divisor)), strict=True):
+            store.append(value)
+    grid.point_q, grid.point_qd, grid.point_qdd, grid.point_jerk, grid.weights = (
+        ca.horzcat(*b) for b in blocks
+    )
+
+
+def _bernstein_limits(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
+    """Position, velocity and no-reversal bounds between nodes via Bernstein coefficients."""
+    import casadi as ca
+
+    free, robot, T = list(problem.free), problem.robot, problem.duration
+    direction = np.sign(problem.goal - problem.start)
+    h, t_sym = grid.h, grid.T
+    for j in free:
+        s = float(_scales(problem)[j])
+        q, qd, qdd = grid.q[j, :], grid.qd[j, :], grid.qdd[j, :]
+        ctrl_v = (qd[:-1] + qdd[:-1] * h / 2) * t_sym / s
+        vmax = float(robot.qd_max[j]) * T / s
+        lo = 0.0 if problem.no_reversal and direction[j] > 0 else -vmax
+        hi = 0.0 if problem.no_reversal and direction[j] < 0 else vmax
+        cons.add(ctrl_v, lo, hi)
+        qlo, qhi = float(robot.q_min[j]), float(robot.q_max[j])
+        if math.isfinite(qlo) or math.isfinite(qhi):
+            ctrl_q = ca.horzcat(q[:-1] + qd[:-1] * h / 3, q[1:] - qd[1:] * h / 3) / s
+            cons.add(
+                ctrl_q,
+                qlo / s if math.isfinite(qlo) else -np.inf,
+                qhi / s if math.isfinite(qhi) else np.inf,
+            )
+
+
+def _human_constraints(problem: _Problem, grid: _Grid, cons: _Constraints, dvar: Any) -> None:
+    """Events at the segment joins; the elbow's speed peak or the phase shares."""
+    import casadi as ca
+
+    human = problem.human
+    if human.kind == "none":
+        return
+    e, T = human.elbow, grid.T
+    scale = float(_scales(problem)[e])
+    direction = 1.0 if problem.goal[e] >= problem.start[e] else -1.0
+    joins = [int(k) for k in np.cumsum(problem.counts)[:-1]]
+    for node, angle in zip(joins, human.angles, strict=True):
+        cons.add(grid.q[e, node] / scale, angle / scale, angle / scale)
+    if human.kind == "peak":
+        v_peak = direction * grid.qd[e, joins[0]]
+        speeds = direction * ca.horzcat(
+            grid.qd[e, :], grid.qd[e, :-1] + grid.qdd[e, :-1] * grid.h / 2
+        )
+        cons.add((speeds - v_peak) * T / scale, -np.inf, 0.0)
+    else:
+        for s, (lo, hi) in enumerate(human.share_bounds):
+            cons.add(dvar[s], lo, hi)
+
+
+# ----------------------------------------------------------------------------------------------
+# Objectives
+# ----------------------------------------------------------------------------------------------
+
+
+def _reduced_dynamics(problem: _Problem) -> Any:
+    """The SX inverse dynamics with the joints that stay put folded in as constants.
+
+    ``(q_free, qd_free, qdd_free) -> tau`` (all n joints): a still joint's angle, speed and
+    acceleration are numbers, so CasADi simplifies their terms away once, not at every point.
+    """
+    import casadi as ca
+
+    n, free = problem.start.size, list(problem.free)
+    chain = symbolic_chain(problem.robot)
+    syms = [ca.SX.sym(name, len(free)) for name in ("q", "qd", "qdd")]
+    full: list[list[Any]] = [[], [], []]
+    rows = {j: r for r, j in enumerate(free)}
+    for j in range(n):
+        for k in range(3):
+            if j in rows:
+                full[k].append(syms[k][rows[j]])
+            else:
+                full[k].append(ca.SX(float(problem.start[j]) if k == 0 else 0.0))
+    tau = chain.inverse_dynamics(*(ca.vertcat(*f) for f in full))
+    return ca.Function("reduced_dynamics", syms, [tau])
+
+
+def _torques(problem: _Problem, grid: _Grid) -> Any:
+    """(n, P) joint torques at every evaluation point: one mapped call of the SX dynamics."""
+    fn = _reduced_dynamics(problem)
+    free = list(problem.free)
+    points = grid.point_q.shape[1]
+    return fn.map(points)(grid.point_q[free, :], grid.point_qd[free, :], grid.point_qdd[free, :])
+
+
+def _objective(
+    problem: _Problem, grid: _Grid, var: _Variables, cons: _Constraints, tau: Any, par: _Params
+) -> Any:
+    """The objective in the metric's unit (slack, epigraph and regeneration forms)."""
+    import casadi as ca
+
+    obj, w = problem.objective, grid.weights
+    if obj == "tau_sq":
+        return ca.dot(w, ca.sum1(tau**2))
+    if obj == "torque_change":
+        return _torque_change(problem, grid)
+    if obj == "electrical_energy":
+        return _electrical(problem, grid, var, cons, tau, par)
+    n_pts = grid.point_q.shape[1]
+    if obj == "peak_torque":
+        ratio = tau / ca.repmat(ca.DM(problem.robot.tau_max), 1, n_pts)
+        z = var.add("z", (1, 1), 0.0, np.inf, 1.0)
+        cons.add(z - ratio, 0.0, np.inf)
+        cons.add(z + ratio, 0.0, np.inf)
+        var.start_from(z, ca.mmax(ca.fabs(ratio)))
+        return z
+    free = list(problem.free)
+    p_scale = par["p_scale"]
+    scaled = tau[free, :] * grid.point_qd[free, :] / p_scale
+    slack = var.add("s", (len(free), n_pts), 0.0, np.inf, 1.0)
+    cons.add(slack - scaled, 0.0, np.inf)
+    if obj == "pos_work":
+        var.start_from(slack, ca.fmax(scaled, 0))
+        return p_scale * ca.dot(w, ca.sum1(slack))
+    cons.add(slack + scaled, 0.0, np.inf)
+    var.start_from(slack, ca.fabs(scaled))
+    if obj == "abs_work":
+        return p_scale * ca.dot(w, ca.sum1(slack))
+    z = var.add("z", (1, 1), 0.0, np.inf, 1.0)
+    cons.add(z - ca.sum1(slack), 0.0, np.inf)
+    var.start_from(z, ca.mmax(ca.sum1(ca.fabs(scaled))))
+    return p_scale * z
+
+
+def _power_scale(problem: _Problem) -> float:
+    """A power [W] of the task's order (the quintic's peak |power|), to scale slacks to O(1)."""
+    tr = quintic(problem.start, problem.goal, problem.duration, n_samples=101)
+    tau = problem.robot.dynamics().inverse_dynamics(tr.q, tr.qd, tr.qdd)
+    return float(max(np.abs(tau * tr.qd).sum(axis=1).max(), 1e-3))
+
+
+def _electrical(
+    problem: _Problem, grid: _Grid, var: _Variables, cons: _Constraints, tau: Any, par: _Params
+) -> Any:
+    """Bus energy ∫ (p⁺ − η p⁻) dt with p⁺ − p⁻ = P_bus (friction, copper loss, regeneration)."""
+    import casadi as ca
+
+    motors = problem.robot.motors
+    eta = min(float(m.regen_efficiency) for m in motors)
+    n_pts = grid.point_q.shape[1]
+
+    def column(values: list[float]) -> Any:
+        return ca.repmat(ca.DM(values), 1, n_pts)
+
+    qd = grid.point_qd
+    friction = column([m.viscous_friction for m in motors]) * qd + column(
+        [m.coulomb_friction for m in motors]
+    ) * ca.tanh(qd / FRICTION_VELOCITY_SCALE)
+    total = tau + friction
+    current = total / column([m.gear_ratio * m.torque_constant for m in motors])
+    p_scale = par["p_scale"]
+    bus = ca.sum1(total * qd + column([m.winding_resistance for m in motors]) * current**2)
+    bus = bus / p_scale
+    plus = var.add("p_plus", (1, n_pts), 0.0, np.inf, 1.0)
+    var.start_from(plus, ca.fmax(bus, 0))
+    minus = var.add("p_minus", (1, n_pts), 0.0, np.inf, 0.0)
+    var.start_from(minus, ca.fmax(-bus, 0))
+    cons.add(plus - minus - bus, 0.0, 0.0)
+    return p_scale * ca.dot(grid.weights, plus - eta * minus)
+
+
+def _torque_change(problem: _Problem, grid: _Grid) -> Any:
+    """∫ Σ τ̇² dt with τ̇ = ∂τ/∂q q̇ + ∂τ/∂q̇ q̈ + ∂τ/∂q̈ q⃛ (constant jerk per interval)."""
+    import casadi as ca
+
+    n = problem.start.size
+    chain = symbolic_chain(problem.robot)
+    q, qd, qdd, jerk = (ca.SX.sym(s, n) for s in ("q", "qd", "qdd", "jerk"))
+    tau = chain.inverse_dynamics(q, qd, qdd)
+    dtau = ca.jtimes(tau, ca.vertcat(q, qd, qdd), ca.vertcat(qd, qdd, jerk))
+    fn = ca.Function("torque_rate", [q, qd, qdd, jerk], [dtau]).map(grid.point_q.shape[1])
+    rate = fn(grid.point_q, grid.point_qd, grid.point_qdd, grid.point_jerk)
+    return ca.dot(grid.weights, ca.sum1(rate**2))
+
+
+def _torque_limits(problem: _Problem, cons: _Constraints, tau: Any) -> None:
+    import casadi as ca
+
+    ratio = tau / ca.repmat(ca.DM(problem.robot.tau_max), 1, tau.shape[1])
+    cons.add(ratio, -1.0 + TORQUE_MARGIN, 1.0 - TORQUE_MARGIN)
+
+
+# ----------------------------------------------------------------------------------------------
+# Solve
+# ----------------------------------------------------------------------------------------------
+
+
+def _segment_counts(human: HumanSpec, n_intervals: int, shares: FloatArray) -> tuple[int, ...]:
+    """Intervals per segment, in proportion to the warm start's segment durations, rounded to
+    multiples of :data:`_COUNT_STEP` (so that similar tasks share one solver structure)."""
+    if human.kind == "none":
+        return (n_intervals,)
+    step = _COUNT_STEP if n_intervals >= 4 * _COUNT_STEP * shares.size else 1
+    raw = np.maximum(np.round(shares * n_intervals / step) * step, _MIN_SEGMENT_INTERVALS)
+    raw = raw.astype(int)
+    raw[int(np.argmax(raw))] += n_intervals - int(raw.sum())
+    if raw.min() < _MIN_SEGMENT_INTERVALS:
+        raise BioPlanError(
+            f"{n_intervals} intervals cannot be split into {raw.size} segments of at least "
+            f"{_MIN_SEGMENT_INTERVALS}: expected more intervals"
+        )
+    return tuple(int(c) for c in raw)
+
+
+def _check_options(objective: str, human: HumanSpec, n_intervals: int) -> None:
+    if objective not in OPTIMAL_OBJECTIVES:
+        raise BioPlanError(
+            f"unknown objective {objective!r}: expected one of {', '.join(OPTIMAL_OBJECTIVES)}"
+        )
+    if human.kind not in HUMAN_CONSTRAINTS:
+        raise BioPlanError(
+            f"unknown human constraint {human.kind!r}: expected one of "
+            f"{', '.join(HUMAN_CONSTRAINTS)}"
+        )
+    if n_intervals < 8:
+        raise BioPlanError(f"n_intervals must be >= 8, got {n_intervals}")
+
+
+def _problem(
+    robot: Robot,
+    start: FloatArray,
+    goal: FloatArray,
+    duration: float,
+    objective: str,
+    human: HumanSpec,
+    warm: Trajectory,
+    n_intervals: int,
+    no_reversal: bool,
+) -> _Problem:
+    moving = np.abs(goal - start) > 0
+    free = tuple(int(j) for j in range(start.size) if moving[j] or not no_reversal)
+    probe = _Problem(robot, start, goal, duration, objective, human, free, no_reversal, (1,))
+    shares = np.diff(_segment_times(probe, warm)) / duration
+    counts = _segment_counts(human, n_intervals, shares)
+    return _Problem(robot, start, goal, duration, objective, human, free, no_reversal, counts)
+
+
+def _nlp(problem: _Problem, warm: Trajectory) -> tuple[dict[str, Any], dict[str, Any], Any]:
+    """The NLP ({x, p, f, g}), its numeric arguments, and the exact objective f(x, p)."""
+    import casadi as ca
+
+    var, cons = _Variables(), _Constraints()
+    par = _Params.create(problem.start.size)
+    par.set("start", problem.start)
+    par.set("T", problem.duration)
+    par.set("p_scale", _power_scale(problem))
+    grid, dvar = _build_grid(problem, var, cons, warm, par)
+    _bernstein_limits(problem, grid, cons)
+    _human_constraints(problem, grid, cons, dvar)
+    tau = _torques(problem, grid)
+    _torque_limits(problem, cons, tau)
+    cost = _objective(problem, grid, var, cons, tau, par)
+    var.apply_rules(par)
+    x = var.vector()
+    lbx, ubx, x0 = var.arrays()
+    cost_fn = ca.Function("cost", [x, par.sym], [cost])
+    ref = abs(float(cost_fn(x0, par.values)))
+    par.set("cost_scale", ref if ref > 1e-9 else 1.0)
+    f = cost / par["cost_scale"]
+    if problem.objective in _NOT_UNIQUE:
+        effort = ca.dot(grid.weights, ca.sum1(tau**2))
+        effort_ref = float(ca.Function("effort", [x, par.sym], [effort])(x0, par.values))
+        par.set("effort_scale", max(effort_ref, 1e-9))
+        f = f + REGULARIZATION * effort / par["effort_scale"]
+    lbg, ubg = cons.arrays()
+    nlp = {"x": x, "p": par.sym, "f": f, "g": cons.vector()}
+    args = {"x0": x0, "p": par.values, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
+    return nlp, args, cost_fn
+
+
+#: Built IPOPT solvers by problem structure (robot model, objective, constraint, segments,
+#: free joints, scales): building one costs more than solving it, and sweeps and repeated plans
+#: solve the same structure again with other numbers (start, duration), passed as parameters.
+_SOLVERS: dict[tuple[Any, ...], Any] = {}
+_SOLVER_CACHE_SIZE = 16
+
+
+def _structure_key(problem: _Problem) -> tuple[Any, ...]:
+    chain = symbolic_chain(problem.robot)
+    bodies = tuple(
+        (b.parent, b.rotation.tobytes(), b.translation.tobytes(), b.axis.tobytes(), b.mass,
+         b.com.tobytes(), b.inertia.tobytes(), b.armature)
+        for b in chain.bodies
+    )  # fmt: skip
+    robot = problem.robot
+    return (
+        bodies,
+        chain.gravity.tobytes(),
+        np.asarray(robot.tau_max).tobytes(),
+        tuple(robot.motors),
+        problem.objective,
+        problem.human.kind,
+        problem.counts,
+        problem.free,
+        tuple(float(problem.start[j]) for j in range(problem.start.size) if j not in problem.free),
+        problem.no_reversal,
+        tuple(np.round(_scales(problem), 9)),
+    )
+
+
+def _solver(problem: _Problem, nlp: dict[str, Any]) -> Any:
+    """The IPOPT solver of this problem's structure (built once, then reused)."""
+    import casadi as ca
+
+    key = _structure_key(problem)
+    solver = _SOLVERS.get(key)
+    if solver is None:
+        solver = ca.nlpsol("optimal", "ipopt", nlp, _IPOPT_OPTIONS)
+        if len(_SOLVERS) >= _SOLVER_CACHE_SIZE:
+            _SOLVERS.pop(next(iter(_SOLVERS)))
+        _SOLVERS[key] = solver
+    return solver
+
+
+def solve_optimal(
+    robot: Robot,
+    start: FloatArray,
+    goal: FloatArray,
+    duration: float,
+    *,
+    objective: str,
+    human: HumanSpec,
+    warm_start: Trajectory | None = None,
+    warm_start_name: str = "quintic",
+    n_intervals: int = DEFAULT_INTERVALS,
+    no_reversal: bool = True,
+    report_samples: int = 1000,
+    name: str = "optimal",
+) -> OptimalResult:
+    """Solve one optimal-control problem by direct transcription and IPOPT.
+
+    Args:
+        robot: the robot with its payload.
+        start, goal: (n,) rest configurations [rad] (already validated against the limits).
+        duration: motion time [s].
+        objective: one of :data:`OPTIMAL_OBJECTIVES`.
+        human: the human-likeness constraint (``kind="none"`` for the bound).
+        warm_start: the initial guess (e.g. the PSO plan); None = the quintic.
+        warm_start_name: what the guess is, for the report.
+        n_intervals: constant-jerk intervals N.
+        no_reversal: no joint ever moves against its stroke (joints with start = goal stay put).
+        report_samples: samples of the returned trajectory.
+        name: the returned trajectory's name.
+
+    Returns:
+        The solution; ``solver.status`` is ``Solve_Succeeded``.
+
+    Raises:
+        SolverError: IPOPT found the problem infeasible or did not converge.
+        BioPlanError: bad options.
+    """
+
+    started = time.perf_counter()
+    _check_options(objective, human, n_intervals)
+    start, goal = np.asarray(start, float), np.asarray(goal, float)
+    if warm_start is None:
+        warm_start = quintic(start, goal, duration, n_samples=201)
+        warm_start_name = "quintic"
+    problem = _problem(
+        robot, start, goal, duration, objective, human, warm_start, n_intervals, no_reversal
+    )
+    nlp, args, cost_fn = _nlp(problem, warm_start)
+    solver = _solver(problem, nlp)
+    sol = solver(**args)
+    stats = solver.stats()
+    status = str(stats.get("return_status", "unknown"))
+    if status != "Solve_Succeeded":
+        raise SolverError(_failure_message(status, problem))
+    xs = np.asarray(sol["x"], dtype=np.float64).ravel()
+    knots, seg_durations = _knots(problem, xs)
+    info = SolverInfo(
+        status=status,
+        iterations=int(stats.get("iter_count", 0)),
+        seconds=time.perf_counter() - started,
+        objective=float(cost_fn(xs, args["p"])),
+        warm_start=warm_start_name,
+        n_intervals=problem.n_intervals,
+        human_constraint=human.kind,
+        segment_durations=tuple(float(d) for d in seg_durations),
+    )
+    trajectory = knots.sample(time_grid(duration, report_samples), name=name)
+    return OptimalResult(trajectory=trajectory, knots=knots, solver=info)
+
+
+_IPOPT_OPTIONS: dict[str, Any] = {
+    "ipopt.print_level": 0,
+    "ipopt.sb": "yes",
+    "print_time": False,
+    "ipopt.tol": IPOPT_TOL,
+    "ipopt.max_iter": 3000,
+    "ipopt.mu_strategy": "adaptive",
+    # The MX graph calls the (reduced) SX dynamics once, mapped over the points; expanding it
+    # to SX evaluates faster but costs more to build than it saves on these problems
+    # (measured, curtain_wall_6dof: 3.2 s built + solved unexpanded, 5.3 s expanded).
+    # Hessians are exact either way.
+    "expand": False,
+}
+
+
+def _knots(problem: _Problem, xs: FloatArray) -> tuple[PiecewiseCubic, FloatArray]:
+    """The node states [SI] and the segment durations [s] of a solution vector."""
+    free = list(problem.free)
+    m, n_nodes, T = len(free), problem.n_intervals + 1, problem.duration
+    sc = _scales(problem)[free][:, None]
+    blocks = [
+        xs[i * m * n_nodes : (i + 1) * m * n_nodes].reshape((m, n_nodes), order="F")
+        for i in range(3)
+    ]
+    segs = len(problem.counts)
+    shares = xs[3 * m * n_nodes : 3 * m * n_nodes + segs] if segs > 1 else np.ones(1)
+    durations = T * shares / shares.sum()
+    node_t = _node_times(problem, durations)
+    node_t[-1] = T
+    n = problem.start.size
+    q = np.tile(problem.start, (n_nodes, 1))
+    qd, qdd = np.zeros((n_nodes, n)), np.zeros((n_nodes, n))
+    q[:, free] = (blocks[0] * sc).T
+    qd[:, free] = (blocks[1] * sc / T).T
+    qdd[:, free] = (blocks[2] * sc / T**2).T
+    return PiecewiseCubic(t=node_t, q=q, qd=qd, qdd=qdd), durations
+
+
+def _failure_message(status: str, problem: _Problem) -> str:
+    robot = problem.robot
+    what = (
+        f"{problem.objective} on {robot.name} in {problem.duration:g} s with "
+        f"{robot.payload.mass:g} kg (human constraint {problem.human.kind})"
+    )
+    if "Infeasible" in status or "Restoration" in status:
+        return (
+            f"infeasible: IPOPT found no trajectory for {what} within the joint position, "
+            f"velocity and torque limits ({status}): expected a longer duration, a lighter "
+            "payload or wider limits"
+        )
+    return f"IPOPT did not converge for {what} ({status}): no result is reported"
+
+
+def human_spec_peak(elbow: int, peak_angle: float) -> HumanSpec:
+    """The ``peak`` constraint: fastest where the elbow passes ``peak_angle`` [rad]."""
+    return HumanSpec(kind="peak", elbow=elbow, angles=(float(peak_angle),))
+
+
+def human_spec_phases(
+    elbow: int, bound_angles: Sequence[float], share_bounds: Sequence[tuple[float, float]]
+) -> HumanSpec:
+    """The ``phases`` constraint: phase shares of the duration within ``share_bounds``."""
+    return HumanSpec(
+        kind="phases",
+        elbow=elbow,
+        angles=tuple(float(a) for a in bound_angles),
+        share_bounds=tuple((float(lo), float(hi)) for lo, hi in share_bounds),
+    )

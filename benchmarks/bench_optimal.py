@@ -1,0 +1,224 @@
+"""Optimal control beside the paper's method: speed, convergence evidence and the shares.
+
+Run: ``.venv/bin/python benchmarks/bench_optimal.py [--runs 5] [--json] [--only speed]``.
+
+1. ``speed``: ``human_optimal`` and ``bound`` on ``curtain_wall_6dof`` (default task, 1 s, 4 kg,
+   default resolution) and ``human_arm_2dof`` (1 s, 12 kg), per objective, warm-started from the
+   PSO plan; median of ``runs`` solves, each *cold* (the solver cache cleared: building the
+   problem is included, as ``bioplan plan`` pays it) and *warm* (the same structure solved again,
+   as in sweeps). Targets: 6-DOF < 3 s each, 2-DOF < 1 s.
+2. ``convergence``: for each problem, the optimum reached from two initial guesses (the quintic
+   and the PSO plan) agrees within 0.1 %; re-evaluated with Pinocchio on a grid 10x finer than
+   the solver's points, it stays within the limits and within 0.5 % of the solver's objective.
+3. ``shares``: the issue's table, share of the achievable saving the paper's method captures,
+   (quintic − paper) / (quintic − bound), and the cost of the human constraint
+   (human_optimal vs bound), per robot and objective; the minimum-torque-change baseline with
+   the joint limits.
+4. ``cli``: ``bioplan plan`` with every method, process start to JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+if __package__ in (None, ""):
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = {
+    "curtain_wall_6dof": ("tau_sq", "abs_work", "peak_power", "electrical_energy"),
+    "human_arm_2dof": ("tau_sq", "abs_work", "peak_power"),
+}
+TARGET_SECONDS = {"curtain_wall_6dof": 3.0, "human_arm_2dof": 1.0}
+
+
+def _setup(robot_name: str, objective: str) -> tuple[Any, ...]:
+    from app.planning.methods import human_spec
+    from app.planning.planner import PlanTask, plan
+    from app.planning.robots import load_robot
+
+    robot = load_robot(robot_name)
+    task = PlanTask.default(robot)
+    base = plan(robot, objective=objective, methods=("quintic", "paper"))
+    spec, _ = human_spec("peak", robot, task, base.template, np.radians(62.0))
+    return robot, task, base, spec
+
+
+def _solve(robot: Any, task: Any, objective: str, spec: Any, warm: Any) -> Any:
+    from app.planning.optimal import solve_optimal
+
+    return solve_optimal(
+        robot, task.start, task.goal, 1.0, objective=objective, human=spec,
+        warm_start=None if warm is None else warm.trajectory,
+        warm_start_name="quintic" if warm is None else "paper",
+    )  # fmt: skip
+
+
+def bench_speed(runs: int) -> dict[str, Any]:
+    from app.planning import optimal
+    from app.planning.optimal import HumanSpec
+
+    out: dict[str, Any] = {}
+    for robot_name, objectives in CASES.items():
+        for objective in objectives:
+            robot, task, base, spec = _setup(robot_name, objective)
+            warm = base.methods["paper"]
+            bound = HumanSpec("none", robot.elbow_joint)
+            for name, human in (("human_optimal", spec), ("bound", bound)):
+                cold, hot, iters = [], [], []
+                for _ in range(runs):
+                    optimal._SOLVERS.clear()
+                    t0 = time.perf_counter()
+                    sol = _solve(robot, task, objective, human, warm)
+                    cold.append(time.perf_counter() - t0)
+                    iters.append(sol.solver.iterations)
+                    t0 = time.perf_counter()
+                    _solve(robot, task, objective, human, warm)
+                    hot.append(time.perf_counter() - t0)
+                key = f"{robot_name}/{objective}/{name}"
+                out[key] = {
+                    "median_cold_seconds": statistics.median(cold),
+                    "median_warm_seconds": statistics.median(hot),
+                    "iterations": iters,
+                    "target_seconds": TARGET_SECONDS[robot_name],
+                }
+                print(f"{key}: cold {out[key]['median_cold_seconds']:.2f} s, warm "
+                      f"{out[key]['median_warm_seconds']:.2f} s, {iters[0]} iterations",
+                      flush=True)  # fmt: skip
+    return out
+
+
+def _fine_check(robot: Any, task: Any, objective: str, sol: Any) -> dict[str, Any]:
+    """Re-evaluate on a grid 10x finer than the solver's evaluation points."""
+    from app.planning.evaluation import evaluate_trajectory
+    from app.planning.methods import objective_value
+    from app.planning.profiles import time_grid
+
+    points = 8 * sol.solver.n_intervals  # the densest rule: eighths of every interval
+    traj = sol.knots.sample(time_grid(1.0, 10 * points + 1), name="fine")
+    ev = evaluate_trajectory(robot, traj, task)
+    fine = objective_value(robot, ev, objective)
+    return {
+        "solver_objective": sol.solver.objective,
+        "fine_objective": fine,
+        "fine_vs_solver_pct": 100.0 * (fine - sol.solver.objective) / abs(sol.solver.objective),
+        "fine_samples": traj.t.size,
+        "violations": list(ev.violations),
+    }
+
+
+def bench_convergence() -> dict[str, Any]:
+    from app.planning.optimal import HumanSpec
+
+    out: dict[str, Any] = {}
+    for robot_name, objectives in CASES.items():
+        for objective in objectives:
+            robot, task, base, spec = _setup(robot_name, objective)
+            for name, human in (("human_optimal", spec),
+                                ("bound", HumanSpec("none", robot.elbow_joint))):  # fmt: skip
+                from_paper = _solve(robot, task, objective, human, base.methods["paper"])
+                from_quintic = _solve(robot, task, objective, human, None)
+                a, b = from_paper.solver.objective, from_quintic.solver.objective
+                key = f"{robot_name}/{objective}/{name}"
+                out[key] = {
+                    "from_paper": a,
+                    "from_quintic": b,
+                    "difference_pct": 100.0 * abs(a - b) / abs(a),
+                    **_fine_check(robot, task, objective, from_paper),
+                }
+                print(f"{key}: guesses differ {out[key]['difference_pct']:.4f} %, fine grid "
+                      f"{out[key]['fine_vs_solver_pct']:+.3f} %, "
+                      f"{len(out[key]['violations'])} violations", flush=True)  # fmt: skip
+    return out
+
+
+def bench_shares() -> dict[str, Any]:
+    from app.planning.comparison import compare_profiles
+    from app.planning.methods import ALL_METHODS
+    from app.planning.min_torque_change import minimum_torque_change
+    from app.planning.planner import PlanTask, plan
+    from app.planning.robots import load_robot
+
+    out: dict[str, Any] = {}
+    for robot_name, objectives in CASES.items():
+        robot = load_robot(robot_name)
+        for objective in (*objectives, "peak_torque"):
+            res = plan(robot, objective=objective, methods=ALL_METHODS)
+            values = res.objective_values
+            q = values["quintic"]
+            out[f"{robot_name}/{objective}"] = {
+                "values": values,
+                "saving_pct": {n: 100.0 * (q - v) / abs(q) for n, v in values.items()},
+                "share_of_achievable_pct": res.share_of_achievable_pct,
+                "human_constraint_cost_pct": 100.0
+                * (values["human_optimal"] - values["bound"])
+                / abs(values["bound"]),
+            }
+            s = res.share_of_achievable_pct
+            print(f"{robot_name}/{objective}: paper {s['paper']:.1f} %, human-like "
+                  f"{s['human_optimal']:.1f} %, jerk-limited {s['jerk_limited']:.1f} % of the "
+                  "achievable saving", flush=True)  # fmt: skip
+    human = load_robot("human_arm_2dof")
+    task = PlanTask.default(human)
+    basis = minimum_torque_change(human.dynamics(), task.start, task.goal, 1.0, n_samples=1001)
+    limited = compare_profiles(human, duration=1.0)
+    mtc = limited.profiles["min_torque_change"]
+    out["min_torque_change/human_arm_2dof"] = {
+        "basis_unlimited_J": basis.torque_change,
+        "basis_shoulder_min_deg": float(np.degrees(basis.trajectory.q[:, 0].min())),
+        "limited_J": limited.min_torque_change.objective if limited.min_torque_change else None,
+        "limited_shoulder_min_deg": float(np.degrees(mtc.trajectory.q[:, 0].min())),
+        "limited_violations": list(mtc.violations),
+    }
+    print(f"minimum torque change: {out['min_torque_change/human_arm_2dof']}", flush=True)
+    return out
+
+
+def bench_cli(runs: int) -> dict[str, Any]:
+    exe = ROOT / ".venv" / "bin" / "bioplan"
+    cmd = [str(exe) if exe.exists() else "bioplan", "plan", "--robot", "curtain_wall_6dof",
+           "--duration", "1", "--payload", "4", "--objective", "peak_power", "--json"]  # fmt: skip
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
+        times.append(time.perf_counter() - t0)
+        json.loads(proc.stdout)
+    print(f"bioplan plan (all methods): median {statistics.median(times):.2f} s", flush=True)
+    return {"command": " ".join(cmd[1:]), "seconds": times,
+            "median_seconds": statistics.median(times)}  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=5, help="repetitions per timing")
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.add_argument(
+        "--only", choices=("speed", "convergence", "shares", "cli"), default=None,
+        help="run one part only",
+    )  # fmt: skip
+    args = parser.parse_args()
+    print(f"load average {os.getloadavg()[0]:.2f}", flush=True)
+    parts = {
+        "speed": lambda: bench_speed(args.runs),
+        "convergence": bench_convergence,
+        "shares": bench_shares,
+        "cli": lambda: bench_cli(args.runs),
+    }
+    results = {name: fn() for name, fn in parts.items() if args.only is None or args.only == name}
+    if args.json:
+        print(json.dumps(results, indent=2, default=float))
+
+
+if __name__ == "__main__":
+    main()
