@@ -32,6 +32,16 @@ def _calculate(robot: Robot, start: FloatArray, goal: FloatArray, duration: floa
     import ruckig
 
     n = start.size
+    for what, limits in (("speed", robot.qd_max), ("acceleration", robot.qdd_max),
+                         ("jerk", robot.jerk_max)):  # fmt: skip
+        unbounded = np.flatnonzero(~np.isfinite(np.asarray(limits, float)))
+        if unbounded.size:
+            joint = robot.joint_names[int(unbounded[0])]
+            raise JerkLimitedError(
+                f"jerk_limited needs a finite {what} limit for every joint; {joint} has none "
+                "(expected limits in the URDF or a sidecar, docs/robots.md, or --method without "
+                "jerk_limited)"
+            )
     inp = ruckig.InputParameter(n)
     inp.current_position = start.tolist()
     inp.current_velocity = [0.0] * n

@@ -167,7 +167,10 @@ class PiecewiseCubic:
         q = self.q[k] + self.qd[k] * s + self.qdd[k] * s**2 / 2 + jerk * s**3 / 6
         qd = self.qd[k] + self.qdd[k] * s + jerk * s**2 / 2
         qdd = self.qdd[k] + jerk * s
-        return Trajectory(t=tt, q=q, qd=qd, qdd=qdd, jerk=jerk, name=name)
+        # The node states define it exactly: a cubic is its own quintic Hermite interpolant, so
+        # the exporter resamples it at any rate from these knots without error.
+        knots = (self.t, self.q, self.qd, self.qdd)
+        return Trajectory(t=tt, q=q, qd=qd, qdd=qdd, jerk=jerk, name=name, knots=knots)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ import pytest
 from app.cli import main
 from tests.utils.example_robots import UR5, robot_file
 
-FAST = ["--particles", "8", "--iterations", "5"]
+FAST = ["--particles", "8", "--iterations", "5", "--method", "paper"]
 SIDECAR = Path(__file__).resolve().parents[2] / "docs" / "examples" / "ur5.sidecar.yaml"
 
 
@@ -36,7 +36,8 @@ def rows(path: Path) -> np.ndarray:
 def saved(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A human-arm plan saved with --out, and its --export CSV beside it."""
     folder = tmp_path_factory.mktemp("saved")
-    assert main(["plan", "--robot", "human_arm_2dof", *FAST, "--out", str(folder / "plan.json"),
+    assert main(["plan", "--robot", "human_arm_2dof", *FAST[:4], "--method", "paper,bound",
+                 "--objective", "tau_sq", "--out", str(folder / "plan.json"),
                  "--export", str(folder / "plan.csv")]) == 0  # fmt: skip
     return folder
 
@@ -46,7 +47,29 @@ def test_plan_json_carries_joint_names_task_duration_and_motion(saved: Path) -> 
     assert data["joint_names"] == ["shoulder_flexion", "elbow_flexion"]
     assert data["task"] == {"start_deg": [0.0, 0.0], "goal_deg": pytest.approx([20.0, 150.0])}
     assert data["duration"] == 1.0
-    assert set(data["motion"]["methods"]) == {"quintic", "paper"}
+    assert set(data["motion"]["methods"]) == {"quintic", "paper", "bound"}
+
+
+def test_optimal_control_method_exports_exactly_between_its_nodes(
+    capsys: pytest.CaptureFixture[str], saved: Path
+) -> None:
+    """The bound is a constant-jerk cubic between IPOPT's nodes; its export at any rate must
+    equal that cubic evaluated in closed form from the saved node states (q, qd, qdd)."""
+    bound = json.loads((saved / "plan.json").read_text())["motion"]["methods"]["bound"]
+    t_k, q_k = np.array(bound["t"]), np.array(bound["q"])
+    qd_k, qdd_k = np.array(bound["qd"]), np.array(bound["qdd"])
+    out = saved / "bound.csv"
+    code, _, _ = run(capsys, "export", str(saved / "plan.json"), "--method", "bound",
+                     "--rate", "733", "--out", str(out))  # fmt: skip
+    assert code == 0
+    data = rows(out)
+    t = data[:, 0]
+    inside = t <= t_k[-1]
+    k = np.clip(np.searchsorted(t_k, t[inside], side="right") - 1, 0, t_k.size - 2)
+    s = (t[inside] - t_k[k])[:, None]
+    jerk = (qdd_k[k + 1] - qdd_k[k]) / (t_k[k + 1] - t_k[k])[:, None]
+    q = q_k[k] + qd_k[k] * s + qdd_k[k] * s**2 / 2 + jerk * s**3 / 6
+    assert np.max(np.abs(data[inside, 1:3] - q)) < 1e-9
 
 
 def test_export_options_each_change_the_file(
@@ -86,7 +109,7 @@ def test_bioplan_export_rebuilds_the_saved_plan(
     [
         (["--rate", "0"], "export rate is 0 Hz"),
         (["--rate", "1e9"], "export rate is 1e+09 Hz"),
-        (["--method", "bound"], "method 'bound' is not in this result"),
+        (["--method", "jerk_limited"], "method 'jerk_limited' is not in this result"),
         (["--format", "json"], "has extension .csv but --format is json"),
     ],
 )
@@ -184,7 +207,7 @@ def test_help_shows_the_export_defaults(capsys: pytest.CaptureFixture[str]) -> N
     with pytest.raises(SystemExit):
         main(["plan", "--help"])
     text = " ".join(capsys.readouterr().out.split())
-    assert "--export-method NAME" in text and "(default: paper)" in text
+    assert "--export-method NAME" in text and "(default: the paper's method when planned" in text
     assert ".script 500 Hz" in text
     with pytest.raises(SystemExit):
         main(["export", "--help"])

@@ -228,10 +228,11 @@ class Robot:
             jerk = np.asarray(qdd) / DEFAULT_JERK_TIME
         for attr, value in (("qdd_max", qdd), ("jerk_max", jerk)):
             array = np.array(value, dtype=np.float64)
-            if array.shape != (n,) or not np.all(np.isfinite(array)) or np.any(array <= 0.0):
+            # inf is allowed (a model without speed limits); the jerk-limited baseline, the only
+            # user of these limits, refuses it with a clear message.
+            if array.shape != (n,) or np.any(np.isnan(array)) or np.any(array <= 0.0):
                 raise RobotError(
-                    f"robot '{self.name}' {attr} is {array.tolist()}: expected {n} finite "
-                    "values > 0"
+                    f"robot '{self.name}' {attr} is {array.tolist()}: expected {n} values > 0"
                 )
             array.setflags(write=False)
             object.__setattr__(self, attr, array)
