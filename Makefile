@@ -5,7 +5,13 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
 
-.PHONY: run test install install-test browser lint typecheck pytest bench clean
+.PHONY: run test install install-test browser lint typecheck pytest bench clean pose-env
+
+# Video to pose runs MediaPipe 0.10.21 in its own environment (it needs numpy<2; BioPlan needs
+# numpy 2). `bioplan pose-env` creates it; BioPlan finds it through BIOPLAN_POSE_PYTHON.
+POSE_ENV   := .venv-pose
+POSE_STAMP := $(POSE_ENV)/.installed
+export BIOPLAN_POSE_PYTHON ?= $(abspath $(POSE_ENV))/bin/python
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -18,7 +24,13 @@ $(TSTAMP): $(STAMP) pyproject.toml
 	touch $@
 
 install: $(STAMP)
-install-test: $(TSTAMP)
+install-test: $(TSTAMP) $(POSE_STAMP)
+
+$(POSE_STAMP): $(STAMP)
+	$(VENV)/bin/bioplan pose-env $(POSE_ENV)
+	touch $@
+
+pose-env: $(POSE_STAMP)
 
 # Browser tests drive Debian's Chromium (never a downloaded browser build).
 browser:
@@ -28,7 +40,7 @@ browser:
 
 # The dashboard on the embedded defaults (SQLite in ./data, local job runner), with a demo
 # recording session and a finished comparison already stored; prints the URL.
-run: $(STAMP)
+run: $(STAMP) $(POSE_STAMP)
 	$(VENV)/bin/bioplan serve --demo
 
 lint: $(TSTAMP)
@@ -41,10 +53,10 @@ typecheck: $(TSTAMP)
 pytest: $(TSTAMP) browser
 	$(VENV)/bin/pytest
 
-test: lint typecheck pytest
+test: $(POSE_STAMP) lint typecheck pytest
 
 bench: $(TSTAMP)
 	$(PY) benchmarks/run_all.py
 
 clean:
-	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(POSE_ENV) .mypy_cache .pytest_cache .ruff_cache

@@ -255,14 +255,17 @@ def _points(
     return pos, unit
 
 
-def _confidence(channels: list[Channel], min_visibility: float) -> float:
-    scores = []
+def _confidence(channels: list[Channel], min_visibility: float) -> tuple[float, float]:
+    """(share of usable samples, mean visibility) of an arm's landmarks: the side with more
+    usable samples wins, and on a tie the one MediaPipe sees better."""
+    scores, visibility = [], []
     for ch in channels:
         finite = np.isfinite(ch.data).all(axis=1)
-        if ch.confidence is not None:
-            finite &= np.asarray(ch.confidence) >= min_visibility
+        conf = np.ones(ch.n_samples) if ch.confidence is None else np.asarray(ch.confidence)
+        finite &= conf >= min_visibility
         scores.append(float(finite.mean()))
-    return float(np.mean(scores))
+        visibility.append(float(np.nanmean(conf)) if conf.size else 0.0)
+    return float(np.mean(scores)), float(np.mean(visibility))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -445,7 +448,7 @@ def arm_angles(
     if side not in (None, "left", "right"):
         raise RecordingError(f"unknown side {side!r}", expected="'left', 'right' or None")
     options: list[Side] = [side] if side is not None else ["left", "right"]
-    resolved: list[tuple[float, Side, dict[str, list[Channel]], bool]] = []
+    resolved: list[tuple[tuple[float, float], Side, dict[str, list[Channel]], bool]] = []
     for s in options:
         found, sided = _resolve(recording, s, landmarks)
         if all(role in found for role in ("shoulder", "elbow", "wrist")):
@@ -460,7 +463,7 @@ def arm_angles(
             "left_elbow, left_wrist; LSHO, LELB, LWRA; or ACRO_tip, EPICl/EPICm, STYLr/STYLu)"
             + (f"; position channels present: {names[:12]}" if names else "; none present"),
         )
-    resolved.sort(key=lambda item: -item[0])
+    resolved.sort(key=lambda item: (-item[0][0], -item[0][1]))
     _, chosen_side, found, sided = resolved[0]
     lengths = {ch.n_samples for chans in found.values() for ch in chans}
     if len(lengths) != 1:
