@@ -515,15 +515,16 @@ def _arm(
     recording: Recording, has_emg: bool, pose_options: Mapping[str, Any], warnings: list[str]
 ) -> ArmAngles | None:
     """Arm angles from landmarks or markers, else from joint-angle channels (None without)."""
+    side = pose_options.get("side")
     if not _has_positions(recording):
-        angles = angles_from_channels(recording)
+        angles = angles_from_channels(recording, side=side)
         if angles is not None:
             warnings.append("arm angles from joint-angle channels (taken as flexion)")
         return angles
     try:
         angles = arm_angles(recording, **pose_options)
     except RecordingError as exc:
-        fallback = angles_from_channels(recording)
+        fallback = angles_from_channels(recording, side=side)
         if fallback is None and not has_emg:
             raise
         warnings.append(f"landmarks not used: {exc}")

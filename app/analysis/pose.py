@@ -523,17 +523,49 @@ def arm_angles(
     )
 
 
-def _angle_channel(recording: Recording, joint: str, prefer: Sequence[str]) -> Channel | None:
+#: Name fragments of joint-angle channels: goniometers and OpenSim coordinates (arm26
+#: ``r_shoulder_elev``/``r_elbow_flex``, Rajagopal and MoBL ``arm_flex_r``/``elbow_flex_r``,
+#: ``shoulder_elv``/``shoulder_ele``), with the preferred words first.
+_JOINT_WORDS = {
+    "elbow": (("elbow",), ("flex",)),
+    "shoulder": (("shoulder", "arm_flex"), ("flex", "ele")),
+}
+
+
+def _side_of(name: str) -> str | None:
+    low = name.lower()
+    if low.endswith(("_r", "_right")) or low.startswith(("r_", "right_")):
+        return "right"
+    if low.endswith(("_l", "_left")) or low.startswith(("l_", "left_")):
+        return "left"
+    return None
+
+
+def _angle_channel(recording: Recording, joint: str, side: str | None) -> Channel | None:
+    """The joint's angle channel, of ``side`` when the names tell sides apart."""
+    words, prefer = _JOINT_WORDS[joint]
     found = [
         ch
         for name, ch in recording.channels.items()
-        if ch.kind == "angle" and ch.data.ndim == 1 and joint in name.lower()
+        if ch.kind == "angle" and ch.data.ndim == 1 and any(w in name.lower() for w in words)
     ]
+    if side is not None and any(_side_of(ch.name) == side for ch in found):
+        found = [ch for ch in found if _side_of(ch.name) in (side, None)]
     for word in prefer:
         for ch in found:
             if word in ch.name.lower():
                 return ch
     return found[0] if found else None
+
+
+def _elbow_channel(recording: Recording, side: str | None) -> Channel | None:
+    """The elbow channel of ``side``, else of the side whose elbow moves most."""
+    if side is not None:
+        return _angle_channel(recording, "elbow", side)
+    options = [c for c in (_angle_channel(recording, "elbow", s) for s in ("right", "left")) if c]
+    if not options:
+        return None
+    return max(options, key=lambda c: float(np.nanmax(c.data) - np.nanmin(c.data)))
 
 
 def angles_from_channels(
@@ -544,21 +576,24 @@ def angles_from_channels(
     lowpass: float | None = 6.0,
     derivative: DerivativeMethod = "savgol",
     window: float = 0.15,
+    side: str | None = None,
 ) -> ArmAngles | None:
     """Arm angles from joint-angle channels (goniometers, OpenSim coordinates) instead of points.
 
     The elbow channel is the ``angle`` channel whose name contains "elbow" (one with "flex"
-    preferred); the shoulder one contains "shoulder" ("flex" preferred, then "ele" for
-    elevation). Both are taken as flexion in radians, as the readers deliver them. Without a
-    shoulder channel the upper arm is taken as hanging (0 rad).
+    preferred); the shoulder one contains "shoulder" or "arm_flex" ("flex" preferred, then
+    "ele" for elevation), so OpenSim's ``elbow_flex_r``, ``arm_flex_r``, ``shoulder_elv`` are
+    recognised. With sided names (``_r``/``_l``, ``r_``/``l_``) both come from ``side``, or
+    from the side whose elbow moves most. Both are taken as flexion in radians, as the
+    readers deliver them. Without a shoulder channel the upper arm is taken as hanging (0 rad).
 
     Returns:
         ArmAngles (no wrist acceleration: shape (T, 0)), or None without an elbow channel.
     """
-    elbow = _angle_channel(recording, "elbow", ("flex",))
+    elbow = _elbow_channel(recording, side)
     if elbow is None:
         return None
-    shoulder = _angle_channel(recording, "shoulder", ("flex", "ele"))
+    shoulder = _angle_channel(recording, "shoulder", side or _side_of(elbow.name))
     rate = float(elbow.rate)
     t = np.asarray(elbow.times, dtype=np.float64)
     e = np.asarray(elbow.data, dtype=np.float64)
@@ -583,11 +618,6 @@ def angles_from_channels(
         derivative=derivative,
         window=window,
     )
-    side = (
-        "right"
-        if elbow.name.lower().endswith(("_r", "_right"))
-        else ("left" if elbow.name.lower().endswith(("_l", "_left")) else "unspecified")
-    )
     return ArmAngles(
         t=t,
         shoulder=smooth[:, 0],
@@ -601,6 +631,6 @@ def angles_from_channels(
         segments=segments,
         gaps=gaps,
         rate=rate,
-        side=side,
+        side=_side_of(elbow.name) or "unspecified",
         position_unit="",
     )

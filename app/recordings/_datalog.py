@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 from typing import Any, get_args
 
 import numpy as np
@@ -76,16 +77,17 @@ def sensors_from_json(obj: Any) -> list[DatalogSensor]:
 
 
 def _sidecar_sensors(src: Source) -> list[DatalogSensor] | None:
-    if src.path is None:
-        return None
-    side = src.sidecar(src.path.name + ".json", src.path.stem + ".json")
+    name = Path(src.name)
+    side = src.sidecar(name.name + ".json", name.stem + ".json")
+    if side is None and src.path is not None:
+        side = src.sidecar(src.path.name + ".json", src.path.stem + ".json")
     if side is None:
         return None
     try:
-        return sensors_from_json(json.loads(side.read_text(encoding="utf-8")))
-    except (OSError, ValueError) as exc:
+        return sensors_from_json(json.loads(side[1].decode("utf-8")))
+    except (UnicodeDecodeError, ValueError) as exc:
         raise src.error(
-            f"sidecar {side.name} cannot be used: {exc}",
+            f"sidecar {side[0]} cannot be used: {exc}",
             expected='{"sensors": [{"column", "name", "kind", "rate", "physical_range", "unit"}]}',
         ) from None
 

@@ -69,30 +69,33 @@ def _expected_size(data: bytes) -> int | None:
 
 
 def _bids_sidecars(src: Source) -> tuple[list[dict[str, str]] | None, dict[str, Any] | None]:
-    if src.path is None:
-        return None, None
-    stem = src.path.name
-    for suffix in ("_emg.edf", "_emg.bdf", ".edf", ".bdf"):
-        if stem.lower().endswith(suffix):
-            stem = stem[: -len(suffix)]
-            break
+    """BIDS ``_channels.tsv`` rows and ``_emg.json`` of the EDF: given with the upload, or
+    beside the file (named after the user's file name, else the stored file's)."""
+    stems = [_bids_stem(src.name)] + ([_bids_stem(src.path.name)] if src.path else [])
     rows = None
-    side = src.sidecar(stem + "_channels.tsv")
+    side = src.sidecar(*(st + "_channels.tsv" for st in stems))
     if side is not None:
         try:
-            text = side.read_text(encoding="utf-8-sig")
+            text = side[1].decode("utf-8-sig")
             rows = list(csv.DictReader(io.StringIO(text), delimiter="\t"))
-        except (OSError, UnicodeDecodeError, csv.Error):
-            src.warn(f"BIDS sidecar {side.name} cannot be read; ignored")
+        except (UnicodeDecodeError, csv.Error):
+            src.warn(f"BIDS sidecar {side[0]} cannot be read; ignored")
     info = None
-    side_json = src.sidecar(stem + "_emg.json")
+    side_json = src.sidecar(*(st + "_emg.json" for st in stems))
     if side_json is not None:
         try:
-            loaded = json.loads(side_json.read_text(encoding="utf-8"))
+            loaded = json.loads(side_json[1].decode("utf-8"))
             info = loaded if isinstance(loaded, dict) else None
-        except (OSError, ValueError):
-            src.warn(f"BIDS sidecar {side_json.name} cannot be read; ignored")
+        except (UnicodeDecodeError, ValueError):
+            src.warn(f"BIDS sidecar {side_json[0]} cannot be read; ignored")
     return rows, info
+
+
+def _bids_stem(name: str) -> str:
+    for suffix in ("_emg.edf", "_emg.bdf", ".edf", ".bdf"):
+        if name.lower().endswith(suffix):
+            return name[: -len(suffix)]
+    return name
 
 
 def read_edf(src: Source, opts: Options) -> Recording:

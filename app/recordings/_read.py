@@ -27,7 +27,8 @@ from app.recordings._edf import read_edf
 from app.recordings._mat import read_mat
 from app.recordings._mediapipe import read_mediapipe_csv, read_mediapipe_json
 from app.recordings._opensim import read_mot, read_sto, read_trc
-from app.recordings._sniff import FORMATS, SNIFF_BYTES, sniff_bytes
+from app.recordings._sniff import FORMATS, SNIFF_BYTES, SUPPORTED, sniff_bytes
+from app.recordings._vendors import read_delsys, read_qualisys
 from app.recordings.muscles import parse_site
 from app.recordings.types import Channel, DatalogSensor, RateCheck, Recording, RecordingError
 
@@ -46,6 +47,8 @@ READERS: dict[str, Reader] = {
     "trc": read_trc,
     "mot": read_mot,
     "sto": read_sto,
+    "delsys_csv": read_delsys,
+    "qualisys_tsv": read_qualisys,
 }
 
 _LONGEST_PLAUSIBLE_S = 24 * 3600.0
@@ -62,6 +65,7 @@ def read_recording(
     frame_rate: float | None = None,
     datalog_sensors: Sequence[DatalogSensor] | None = None,
     name: str | None = None,
+    sidecars: Mapping[str, bytes] | None = None,
 ) -> Recording:
     """Read any supported recording file into a :class:`Recording` with SI units.
 
@@ -91,6 +95,9 @@ def read_recording(
         datalog_sensors: column definitions for a Biometrics DataLOG export.
         name: the user's file name for messages and ``Recording.source`` (default: the
             path's name).
+        sidecars: file name -> bytes of files that belong to this one (BIDS
+            ``<stem>_channels.tsv`` and ``<stem>_emg.json`` of an EDF, a DataLOG ``.json``);
+            without them, sidecars are looked for beside ``path``.
 
     Returns:
         The recording; ``metadata["warnings"]`` is always a list of strings.
@@ -100,7 +107,7 @@ def read_recording(
             the line or channel, and what was expected.
     """
     p = Path(path)
-    src = Source(name=name or p.name, path=p)
+    src = Source(name=name or p.name, path=p, sidecars=dict(sidecars or {}))
     if not p.is_file():
         raise src.error("file not found", expected="an existing file")
     return _read(
@@ -122,14 +129,16 @@ def read_bytes(
     frame_rate: float | None = None,
     datalog_sensors: Sequence[DatalogSensor] | None = None,
     name: str | None = None,
+    sidecars: Mapping[str, bytes] | None = None,
 ) -> Recording:
     """:func:`read_recording` for bytes already in memory (uploads).
 
     ``filename`` is the user's file name (used in messages and as an extension hint). Only
     pyedflib needs a real file: EDF bytes go to a temporary file that is removed afterwards.
-    Sidecar files (BIDS, DataLOG JSON) are not available for bytes.
+    Sidecar files (BIDS ``_channels.tsv``/``_emg.json``, DataLOG JSON) uploaded with the file
+    come in ``sidecars`` (file name -> bytes).
     """
-    src = Source(name=name or filename, content=bytes(data))
+    src = Source(name=name or filename, content=bytes(data), sidecars=dict(sidecars or {}))
     return _read(
         src,
         format,
@@ -191,6 +200,8 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
         fmt = format
     else:
         raise src.error(f"unknown format {format!r}", expected=f"one of {', '.join(FORMATS)}")
+    if fmt not in READERS:
+        raise src.error(f"format {fmt!r} has no reader", expected=SUPPORTED)
     if is_blank(src.data()):
         raise src.error("file is empty", expected="a recording")
     try:

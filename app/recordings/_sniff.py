@@ -9,6 +9,7 @@ from app.recordings._common import to_utf8
 from app.recordings._csv import sniff_vicon
 from app.recordings._mediapipe import landmark_column
 from app.recordings._table import detect_delimiter, head_lines, is_comment, split_fields
+from app.recordings._vendors import sniff_delsys, sniff_qualisys
 from app.recordings.types import RecordingError
 
 FORMATS: tuple[str, ...] = (
@@ -24,6 +25,8 @@ FORMATS: tuple[str, ...] = (
     "trc",
     "mot",
     "sto",
+    "delsys_csv",
+    "qualisys_tsv",
 )
 
 SNIFF_BYTES = 1 << 16
@@ -86,6 +89,10 @@ def sniff_bytes(head: bytes, filename: str) -> str:
     first = next((t.strip() for t in texts if t.strip()), "")
     if first[:1] in "{[":
         return "mediapipe_json"
+    if sniff_qualisys(first):
+        return "qualisys_tsv"
+    if sniff_delsys(texts):
+        return "delsys_csv"
     if first.startswith("PathFileType"):
         return "trc"
     if any(t.strip(" ,\t").lower() == "endheader" for t in texts[:80]):
