@@ -617,6 +617,11 @@ class _Context:
     dyn: ArmDynamics | None
     bounds: tuple[float, float]
     warnings: list[str]
+    # (T, 2) joint angles, velocities, accelerations: ArmAngles stacks them on every access,
+    # so once per recording here, not once per lift (that was O(lifts x samples)).
+    q: NDArray[np.float64] | None = None
+    qd: NDArray[np.float64] | None = None
+    qdd: NDArray[np.float64] | None = None
 
 
 def _lift_report(
@@ -650,15 +655,15 @@ def _lift_report(
     if profile.rejected:
         ctx.warnings.append(f"lift {i}: no kinematics for the template ({profile.rejected})")
     energetics: Energetics | None = None
-    if ctx.dyn is not None:
+    if ctx.dyn is not None and ctx.q is not None and ctx.qd is not None and ctx.qdd is not None:
         # Only the lift's samples go in: the whole recording per lift is O(lifts x N).
         span = _span(tc, lift.start, lift.end, tol=1e-9)
         try:
             energetics = lift_energetics(
                 tc[span],
-                angles.q[span],
-                angles.qd[span],
-                angles.qdd[span],
+                ctx.q[span],
+                ctx.qd[span],
+                ctx.qdd[span],
                 ctx.dyn,
                 interval=(lift.start, lift.end),
                 phases=[p.phase for p in phases],
@@ -731,6 +736,9 @@ def _analyze_one(
         dyn=dynamics() if angles is not None else None,
         bounds=options.bounds,
         warnings=warnings,
+        q=None if angles is None else angles.q,
+        qd=None if angles is None else angles.qd,
+        qdd=None if angles is None else angles.qdd,
     )
     return RecordingAnalysis(
         source=recording.source,

@@ -161,13 +161,17 @@ def detect_lifts(
             right = int(peaks[k + 1]) if k + 1 < len(peaks) else len(seg) - 1
             lo = left + int(np.argmin(seg[left : p + 1]))
             hi = p + int(np.argmin(seg[p : right + 1]))
-            s, top = _rise_bounds(seg, speed, lo, int(p), rest_speed_fraction, top_fraction)
-            # The fall is the rise seen backwards in time: mirror the arrays.
-            n = len(seg) - 1
+            s, top = _rise_bounds(
+                seg[lo : p + 1], speed[lo : p + 1], 0, int(p) - lo, rest_speed_fraction,
+                top_fraction,
+            )  # fmt: skip
+            s, top = s + lo, top + lo
+            # The fall is the rise seen backwards in time: mirror the lift's samples.
+            fall, fall_speed = seg[p : hi + 1][::-1], -speed[p : hi + 1][::-1]
             e_m, low_m = _rise_bounds(
-                seg[::-1], -speed[::-1], n - hi, n - int(p), rest_speed_fraction, top_fraction
+                fall, fall_speed, 0, hi - int(p), rest_speed_fraction, top_fraction
             )
-            e, lower = n - e_m, n - low_m
+            e, lower = hi - e_m, hi - low_m
             lifts.append(
                 Lift(
                     start=float(ts[s]),
