@@ -212,6 +212,7 @@ def test_video_without_pose_environment_is_one_line(
     video.write_bytes(b"\x00\x00\x00\x18ftypmp42" + bytes(64))
     monkeypatch.delenv("BIOPLAN_POSE_PYTHON", raising=False)
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "nothing"))
+    monkeypatch.chdir(tmp_path)  # no ./.venv-pose here
     code = main(["analyze", str(video)])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "\n" not in err

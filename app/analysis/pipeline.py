@@ -38,6 +38,10 @@ from app.recordings.types import SITES, Channel, RateCheck, Recording, Recording
 #: a muscle that bears the load early switches on well before the forearm moves), but never
 #: before the previous lift's end.
 ONSET_LEAD = 1.0
+#: Energetics run on the angles thinned to at least this rate [Hz]: the angles are low-passed
+#: at 6 Hz, so 250 Hz loses nothing, while a 2 kHz goniometer made the arm's inverse dynamics
+#: half of a long session's analysis.
+ENERGETICS_RATE = 250.0
 
 
 @dataclass(frozen=True)
@@ -658,12 +662,15 @@ def _lift_report(
     if ctx.dyn is not None and ctx.q is not None and ctx.qd is not None and ctx.qdd is not None:
         # Only the lift's samples go in: the whole recording per lift is O(lifts x N).
         span = _span(tc, lift.start, lift.end, tol=1e-9)
+        step = max(1, int(angles.rate // ENERGETICS_RATE))
+        idx = np.arange(span.start, span.stop)
+        idx = np.unique(np.append(idx[::step], idx[-1:]))  # keep the lift's last sample
         try:
             energetics = lift_energetics(
-                tc[span],
-                ctx.q[span],
-                ctx.qd[span],
-                ctx.qdd[span],
+                tc[idx],
+                ctx.q[idx],
+                ctx.qd[idx],
+                ctx.qdd[idx],
                 ctx.dyn,
                 interval=(lift.start, lift.end),
                 phases=[p.phase for p in phases],

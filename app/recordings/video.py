@@ -4,8 +4,9 @@ MediaPipe 0.10.21 is the last release whose ``solutions.pose`` ships its model i
 (so it works offline); it needs numpy<2 and protobuf<5, which BioPlan's own environment cannot
 have. So extraction runs a small worker script (``_pose_worker.py``, shipped in this package)
 with the Python of a separate *pose environment*, found from, in order: the ``pose_python``
-argument (CLI ``--pose-python``), the ``BIOPLAN_POSE_PYTHON`` environment variable, or the
-default location that ``bioplan pose-env`` creates (:func:`default_pose_env`). The worker reports
+argument (CLI ``--pose-python``), the ``BIOPLAN_POSE_PYTHON`` environment variable, a
+``.venv-pose`` in the current directory (what ``make`` creates), or the default location that
+``bioplan pose-env`` creates (:func:`default_pose_env`). The worker reports
 progress as JSON lines (frames done / total) and writes the landmarks as MediaPipe JSON with the
 video's frame rate and image size, so they are read and analysed exactly like an uploaded
 MediaPipe file (true angles: the image size undoes the aspect distortion). Cancelling stops the
@@ -126,15 +127,22 @@ def _env_python(env: Path) -> Path:
     return env / ("Scripts/python.exe" if sys.platform == "win32" else "bin/python")
 
 
+#: The pose environment ``make`` creates in the project folder (looked for in the current
+#: directory, never by walking up from a source file).
+PROJECT_POSE_ENV = ".venv-pose"
+
+
 def find_pose_python(pose_python: str | Path | None = None) -> Path:
-    """The pose environment's Python: ``pose_python``, else ``$BIOPLAN_POSE_PYTHON``, else the
-    default environment's.
+    """The pose environment's Python: ``pose_python``, else ``$BIOPLAN_POSE_PYTHON``, else
+    ``./.venv-pose`` (what ``make`` creates), else the default environment's.
 
     Raises:
-        RecordingError: none of them exists; the message names all three ways to give it.
+        RecordingError: none of them exists; the message names the ways to give it.
     """
     given = pose_python or os.environ.get(POSE_PYTHON_ENV)
     candidate = Path(given) if given else _env_python(default_pose_env())
+    if not given and _env_python(Path(PROJECT_POSE_ENV)).is_file():
+        candidate = _env_python(Path(PROJECT_POSE_ENV)).absolute()
     if candidate.is_dir():
         candidate = _env_python(candidate)
     if candidate.is_file() and os.access(candidate, os.X_OK):

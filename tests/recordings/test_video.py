@@ -72,6 +72,7 @@ def test_missing_environment_names_every_way_to_give_it(
 ) -> None:
     monkeypatch.delenv("BIOPLAN_POSE_PYTHON", raising=False)
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
+    monkeypatch.chdir(tmp_path)  # no ./.venv-pose here
     with pytest.raises(RecordingError) as err:
         find_pose_python()
     text = str(err.value)
