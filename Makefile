@@ -55,7 +55,7 @@ pytest: $(TSTAMP) browser
 
 test: $(POSE_STAMP) lint typecheck pytest
 
-bench: $(TSTAMP)
+bench: $(TSTAMP) $(POSE_STAMP)
 	$(PY) benchmarks/run_all.py
 
 clean:
