@@ -156,6 +156,7 @@ class AnalysisOverlays:
                         "source": lift.source,
                         "start_s": lift.start,
                         "top_s": lift.top,
+                        "hold_s": list(lift.hold),
                         "end_s": lift.end,
                         "peak_velocity_angle_deg": math.degrees(report.profile.peak_velocity_angle),
                         "phases": [

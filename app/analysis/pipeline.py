@@ -329,12 +329,19 @@ class AnalysisResult:
             for w in rec.warnings:
                 lines.append(f"  warning: {w}")
         tpl = self.template
-        lines.append("template:")
+        lines.append(f"template ({tpl.source}):")
         lines.append(
             f"  peak velocity at {tpl.peak_velocity_angle_deg:.1f}"
             f" +- {tpl.peak_velocity_angle_sd_deg:.1f} deg elbow flexion"
-            f" ({tpl.n_lifts} lifts; {tpl.source})"
         )
+        if tpl.peak_velocity_range_fraction is not None and tpl.lift_range_deg is not None:
+            lo, hi = tpl.lift_range_deg
+            lines.append(
+                f"  = {100 * tpl.peak_velocity_range_fraction:.0f}"
+                f" +- {100 * tpl.peak_velocity_range_fraction_sd:.0f}% of the lifts' range"
+                f" ({lo:.0f} -> {hi:.0f} deg); the planner places the peak there on the robot's"
+                " stroke"
+            )
         if tpl.peak_velocity_time_fraction is not None:
             lines.append(f"  at {100 * tpl.peak_velocity_time_fraction:.0f}% of the lifting time")
         if tpl.activation_order:

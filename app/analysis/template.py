@@ -112,6 +112,9 @@ def lift_profile(
         where = "first" if k == 0 else "last"
         return replace(base, rejected=f"the velocity peaks on the lift's {where} sample")
     rise = float(ang[-1] - ang[0])
+    fraction = float((ang[k] - ang[0]) / rise) if rise > 0 else float("nan")
+    if not 0.0 < fraction < 1.0:
+        return replace(base, rejected="the velocity peak lies outside the lift's range")
     grid = np.linspace(0.0, 1.0, grid_points)
     tau = (ts - lift.start) / span
     acc_scale = float(np.max(np.abs(acc)))
@@ -120,7 +123,7 @@ def lift_profile(
         peak_velocity=peak,
         peak_velocity_angle=float(ang[k]),
         peak_velocity_time_fraction=float(tau[k]),
-        peak_velocity_range_fraction=float((ang[k] - ang[0]) / rise) if rise > 0 else np.nan,
+        peak_velocity_range_fraction=fraction,
         velocity=np.interp(grid, tau, vel) / peak,
         acceleration=np.interp(grid, tau, acc) / acc_scale
         if acc_scale > 0
@@ -171,23 +174,27 @@ def build_template(
     """
     kin = [p for p in profiles if p.has_kinematics]
     order, emg_peaks = _emg_fields(profiles)
-    common = {
-        "phase_bounds_deg": (float(phase_bounds_deg[0]), float(phase_bounds_deg[1])),
-        "activation_order": order,
-        "emg_peak_time_fraction": emg_peaks,
-        "files": tuple(files),
-        "emg_lifts": sum(bool(p.activation_order or p.emg_peak_time_fraction) for p in profiles),
-        "assumptions": tuple(assumptions),
-    }
+    base = HumanTemplate(
+        phase_bounds_deg=(float(phase_bounds_deg[0]), float(phase_bounds_deg[1])),
+        activation_order=order,
+        emg_peak_time_fraction=emg_peaks,
+        files=tuple(files),
+        emg_lifts=sum(bool(p.activation_order or p.emg_peak_time_fraction) for p in profiles),
+        assumptions=tuple(assumptions),
+        n_lifts=0,
+        source=_default_source(profiles),
+    )
     if not kin:
-        return HumanTemplate(source=_default_source(profiles), n_lifts=0, **common)  # type: ignore[arg-type]
+        return base
     angles = np.rad2deg([p.peak_velocity_angle for p in kin])
     fractions = np.array([p.peak_velocity_range_fraction for p in kin])
     ranges = np.rad2deg([[p.lift.start_angle, p.lift.top_angle] for p in kin])
     vel = np.stack([p.velocity for p in kin])
     acc = np.stack([p.acceleration for p in kin])
     grid = np.linspace(0.0, 1.0, vel.shape[1])
-    return HumanTemplate(
+    without = len(profiles) - len(kin)
+    return replace(
+        base,
         peak_velocity_angle_deg=float(np.mean(angles)),
         peak_velocity_angle_sd_deg=_sd(angles),
         peak_velocity_time_fraction=float(np.mean([p.peak_velocity_time_fraction for p in kin])),
@@ -200,9 +207,7 @@ def build_template(
         acceleration_mean=tuple(float(v) for v in acc.mean(axis=0)),
         acceleration_sd=_profile_sd(acc),
         n_lifts=len(kin),
-        source=f"{len(kin)} lift(s) with kinematics"
-        + (f" ({len(profiles) - len(kin)} without)" if len(kin) < len(profiles) else ""),
-        **common,  # type: ignore[arg-type]
+        source=f"{len(kin)} lift(s) with kinematics" + (f" ({without} without)" if without else ""),
     )
 
 
