@@ -877,23 +877,39 @@ def analyze_recordings(
             f"peak velocity at {template.peak_velocity_angle_deg:g} deg, not measured here"
         )
     warnings.extend(assumptions)
-    settings = {
-        "emg_rate_hz": emg_rate,
-        "muscle_map": dict(muscle_map or {}),
-        "exclude_channels": sorted(exclude),
-        "phase_bounds_deg": list(bounds_deg),
-        "body_mass_kg": body_mass,
-        "body_height_m": body_height,
-        "load_mass_kg": load_mass,
-        "offset_s": offset,
-        "session": "together" if together else "separate",
-        "emg": {"band_hz": [20.0, 450.0], "lowpass_hz": 6.0, "method": "lowpass"}
-        | {k: v for k, v in (emg_options or {}).items()},
-        "pose": dict(pose_options or {}),
-    }
+    settings = _settings_echo(
+        options,
+        bounds_deg=bounds_deg,
+        body=(body_mass, body_height, load_mass),
+        together=together,
+    )
     return AnalysisResult(
         recordings=analyses, template=template, settings=settings, warnings=warnings
     )
+
+
+def _settings_echo(
+    options: AnalysisOptions,
+    *,
+    bounds_deg: tuple[float, float],
+    body: tuple[float, float, float],
+    together: bool,
+) -> dict[str, Any]:
+    """Every option of the analysis, JSON-ready, as the result echoes it."""
+    return {
+        "emg_rate_hz": options.emg_rate,
+        "muscle_map": dict(options.muscle_map or {}),
+        "exclude_channels": sorted(options.exclude_channels),
+        "phase_bounds_deg": list(bounds_deg),
+        "body_mass_kg": body[0],
+        "body_height_m": body[1],
+        "load_mass_kg": body[2],
+        "offset_s": options.offset,
+        "session": "together" if together else "separate",
+        "emg": {"band_hz": [20.0, 450.0], "lowpass_hz": 6.0, "method": "lowpass"}
+        | dict(options.emg_options),
+        "pose": dict(options.pose_options),
+    }
 
 
 def _check_bounds(phase_bounds_deg: tuple[float, float]) -> tuple[float, float]:

@@ -433,6 +433,44 @@ def smooth_and_differentiate(
 # public entry point
 
 
+def _choose_arm(
+    recording: Recording,
+    side: Side | None,
+    landmarks: Mapping[str, str | Sequence[str]] | None,
+    min_visibility: float,
+) -> tuple[Side, dict[str, list[Channel]], bool]:
+    """(side, channels per role, whether the names were sided) of the arm to use: ``side``,
+    or the one with more usable samples (then higher mean visibility)."""
+    if side not in (None, "left", "right"):
+        raise RecordingError(f"unknown side {side!r}", expected="'left', 'right' or None")
+    options: list[Side] = [side] if side is not None else ["left", "right"]
+    resolved: list[tuple[tuple[float, float], Side, dict[str, list[Channel]], bool]] = []
+    for s in options:
+        found, sided = _resolve(recording, s, landmarks)
+        if all(role in found for role in ("shoulder", "elbow", "wrist")):
+            arm = [ch for role in ("shoulder", "elbow", "wrist") for ch in found[role]]
+            resolved.append((_confidence(arm, min_visibility), s, found, sided))
+    if not resolved:
+        names = sorted(_position_channels(recording))
+        raise RecordingError(
+            "no arm landmarks found" + (f" for the {side} side" if side else ""),
+            file=recording.source,
+            expected="shoulder, elbow and wrist landmarks or markers (e.g. left_shoulder, "
+            "left_elbow, left_wrist; LSHO, LELB, LWRA; or ACRO_tip, EPICl/EPICm, STYLr/STYLu)"
+            + (f"; position channels present: {names[:12]}" if names else "; none present"),
+        )
+    resolved.sort(key=lambda item: (-item[0][0], -item[0][1]))
+    _, chosen_side, found, sided = resolved[0]
+    lengths = {ch.n_samples for chans in found.values() for ch in chans}
+    if len(lengths) != 1:
+        raise RecordingError(
+            f"arm landmarks have different lengths {sorted(lengths)}",
+            file=recording.source,
+            expected="landmarks sampled together",
+        )
+    return chosen_side, found, sided
+
+
 def arm_angles(
     recording: Recording,
     *,
@@ -473,33 +511,7 @@ def arm_angles(
     Raises:
         RecordingError: no shoulder, elbow and wrist landmarks for the side(s), or none valid.
     """
-    if side not in (None, "left", "right"):
-        raise RecordingError(f"unknown side {side!r}", expected="'left', 'right' or None")
-    options: list[Side] = [side] if side is not None else ["left", "right"]
-    resolved: list[tuple[tuple[float, float], Side, dict[str, list[Channel]], bool]] = []
-    for s in options:
-        found, sided = _resolve(recording, s, landmarks)
-        if all(role in found for role in ("shoulder", "elbow", "wrist")):
-            arm = [ch for role in ("shoulder", "elbow", "wrist") for ch in found[role]]
-            resolved.append((_confidence(arm, min_visibility), s, found, sided))
-    if not resolved:
-        names = sorted(_position_channels(recording))
-        raise RecordingError(
-            "no arm landmarks found" + (f" for the {side} side" if side else ""),
-            file=recording.source,
-            expected="shoulder, elbow and wrist landmarks or markers (e.g. left_shoulder, "
-            "left_elbow, left_wrist; LSHO, LELB, LWRA; or ACRO_tip, EPICl/EPICm, STYLr/STYLu)"
-            + (f"; position channels present: {names[:12]}" if names else "; none present"),
-        )
-    resolved.sort(key=lambda item: (-item[0][0], -item[0][1]))
-    _, chosen_side, found, sided = resolved[0]
-    lengths = {ch.n_samples for chans in found.values() for ch in chans}
-    if len(lengths) != 1:
-        raise RecordingError(
-            f"arm landmarks have different lengths {sorted(lengths)}",
-            file=recording.source,
-            expected="landmarks sampled together",
-        )
+    chosen_side, found, sided = _choose_arm(recording, side, landmarks, min_visibility)
     first = found["shoulder"][0]
     rate = float(first.rate)
     t = np.asarray(first.times, dtype=np.float64)

@@ -146,44 +146,53 @@ def detect_lifts(
         segs = np.asarray(segments, dtype=np.intp).reshape(-1, 2)
     span = float(np.nanmax(y) - np.nanmin(y))
     prominence = max(min_prominence * span, min_range)
-    find_peaks = scipy_signal().find_peaks
+    distance = max(1, round(min_spacing * rate))
     lifts: list[Lift] = []
     for i0, i1 in segs:
-        seg, ts = y[i0:i1], times[i0:i1]
-        if len(seg) < 3:
-            continue
-        peaks, _ = find_peaks(
-            seg, prominence=prominence, distance=max(1, round(min_spacing * rate))
+        if i1 - i0 >= 3:
+            lifts += _segment_lifts(
+                y[i0:i1], times[i0:i1], prominence, distance, rest_speed_fraction, top_fraction
+            )
+    return lifts
+
+
+def _segment_lifts(
+    seg: NDArray[np.float64],
+    ts: NDArray[np.float64],
+    prominence: float,
+    distance: int,
+    rest_fraction: float,
+    top_fraction: float,
+) -> list[Lift]:
+    """The lifts of one gap-free stretch: (S,) angles [rad] at (S,) times [s]."""
+    peaks, _ = scipy_signal().find_peaks(seg, prominence=prominence, distance=distance)
+    speed = np.gradient(seg, ts)
+    lifts: list[Lift] = []
+    for k, p in enumerate(peaks):
+        left = int(peaks[k - 1]) if k > 0 else 0
+        right = int(peaks[k + 1]) if k + 1 < len(peaks) else len(seg) - 1
+        lo = left + int(np.argmin(seg[left : p + 1]))
+        hi = p + int(np.argmin(seg[p : right + 1]))
+        s, top = _rise_bounds(
+            seg[lo : p + 1], speed[lo : p + 1], 0, int(p) - lo, rest_fraction, top_fraction
         )
-        speed = np.gradient(seg, ts)
-        for k, p in enumerate(peaks):
-            left = int(peaks[k - 1]) if k > 0 else 0
-            right = int(peaks[k + 1]) if k + 1 < len(peaks) else len(seg) - 1
-            lo = left + int(np.argmin(seg[left : p + 1]))
-            hi = p + int(np.argmin(seg[p : right + 1]))
-            s, top = _rise_bounds(
-                seg[lo : p + 1], speed[lo : p + 1], 0, int(p) - lo, rest_speed_fraction,
-                top_fraction,
-            )  # fmt: skip
-            s, top = s + lo, top + lo
-            # The fall is the rise seen backwards in time: mirror the lift's samples.
-            fall, fall_speed = seg[p : hi + 1][::-1], -speed[p : hi + 1][::-1]
-            e_m, low_m = _rise_bounds(
-                fall, fall_speed, 0, hi - int(p), rest_speed_fraction, top_fraction
+        s, top = s + lo, top + lo
+        # The fall is the rise seen backwards in time: mirror the lift's samples.
+        fall, fall_speed = seg[p : hi + 1][::-1], -speed[p : hi + 1][::-1]
+        e_m, low_m = _rise_bounds(fall, fall_speed, 0, hi - int(p), rest_fraction, top_fraction)
+        e, lower = hi - e_m, hi - low_m
+        lifts.append(
+            Lift(
+                start=float(ts[s]),
+                top=float(ts[top]),
+                end=float(ts[e]),
+                source="angle",
+                start_angle=float(seg[s]),
+                top_angle=float(seg[top]),
+                end_angle=float(seg[e]),
+                lower_start=float(ts[lower]) if lower > top else None,
             )
-            e, lower = hi - e_m, hi - low_m
-            lifts.append(
-                Lift(
-                    start=float(ts[s]),
-                    top=float(ts[top]),
-                    end=float(ts[e]),
-                    source="angle",
-                    start_angle=float(seg[s]),
-                    top_angle=float(seg[top]),
-                    end_angle=float(seg[e]),
-                    lower_start=float(ts[max(lower, top)]) if lower > top else None,
-                )
-            )
+        )
     return lifts
 
 
