@@ -246,3 +246,54 @@ def test_video_is_analysed_through_pose(run: Run, tmp_path: Path) -> None:
     frames = data["skeleton_frames"]
     assert 1 <= len(frames) <= 4 and all(Path(f).read_bytes()[:2] == b"\xff\xd8" for f in frames)
     assert os.path.dirname(frames[0]) == str(tmp_path)
+
+
+def _fake_uv(tmp_path: Path) -> tuple[Path, Path]:
+    """A stand-in ``uv`` on PATH that logs its arguments and makes ``venv`` create a python
+    that exits 0 (so the import check passes), with no network."""
+    log = tmp_path / "uv.log"
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    uv = bin_dir / "uv"
+    uv.write_text(
+        "#!/bin/sh\n"
+        f'echo "$@" >> {log}\n'
+        'if [ "$1" = venv ]; then for last; do :; done; mkdir -p "$last/bin";'
+        ' printf "#!/bin/sh\\nexit 0\\n" > "$last/bin/python"; chmod +x "$last/bin/python"; fi\n'
+    )
+    uv.chmod(0o755)
+    return bin_dir, log
+
+
+def test_pose_env_creates_the_environment_with_the_given_python(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    bin_dir, log = _fake_uv(tmp_path)
+    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    env = tmp_path / "pose"
+    assert main(["pose-env", str(env), "--python", "/usr/bin/python3.11"]) == 0
+    assert capsys.readouterr().out.strip() == str(env / "bin" / "python")
+    calls = log.read_text().splitlines()
+    assert calls[0] == f"venv --quiet --python /usr/bin/python3.11 {env}"
+    assert "--no-deps mediapipe==0.10.21" in calls[1]
+    assert "numpy<2" in calls[2] and "protobuf>=4.25,<5" in calls[2]
+    # --verbose shows the installers' output: no --quiet; an existing env is not re-created.
+    log.unlink()
+    assert main(["pose-env", str(env), "--verbose"]) == 0
+    calls = log.read_text().splitlines()
+    assert len(calls) == 2 and all("--quiet" not in c for c in calls)
+
+
+def test_pose_env_failure_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "uv").write_text("#!/bin/sh\necho 'no network' >&2\nexit 1\n")
+    (bin_dir / "uv").chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    assert main(["pose-env", str(tmp_path / "pose")]) == 2
+    first, error = capsys.readouterr().err.strip().splitlines()  # what runs, then one error
+    assert first.startswith("creating the pose environment in")
+    assert error.startswith("bioplan pose-env: error:")
+    assert "no network" in error and "package index" in error
