@@ -981,18 +981,22 @@ def analyze_files(
     pose_options: Mapping[str, Any] | None = None,
     frame_rate: float | None = None,
     image_size: tuple[int, int] | None = None,
+    pose_python: str | Path | None = None,
+    max_video_seconds: float = 600.0,
 ) -> AnalysisResult:
     """Read files with ``app.recordings.read_recording`` and analyse them.
 
     ``frame_rate`` [Hz] and ``image_size`` (width, height) [px] go to the reader for pose
-    files that do not state them (MediaPipe CSV without timestamps); the other options are
-    those of :func:`analyze_recordings`. Videos are not read here: extract their pose first
-    (:func:`app.recordings.extract_pose`).
+    files that do not state them (MediaPipe CSV without timestamps). Videos (mp4, mov, avi)
+    become pose first (:func:`app.recordings.extract_pose`, with ``pose_python`` and
+    ``max_video_seconds``). The other options are those of :func:`analyze_recordings`.
     """
-    from app.recordings import read_recording
+    from app.recordings import extract_pose, is_video, read_recording
 
     recordings = [
-        read_recording(
+        extract_pose(p, pose_python=pose_python, max_seconds=max_video_seconds).recording()
+        if is_video(p)
+        else read_recording(
             p,
             emg_rate=emg_rate,
             muscle_map=muscle_map,

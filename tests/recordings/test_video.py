@@ -158,3 +158,13 @@ def test_an_exception_in_progress_stops_the_worker() -> None:
 
     with pytest.raises(Stop):
         extract_pose(shared_file(DEMO), pose_python=py, progress=on_progress)
+
+
+def test_analyze_files_takes_a_video() -> None:
+    from app.analysis import analyze_files
+
+    py = _pose_python()
+    result = analyze_files([shared_file(DEMO)], pose_python=py)
+    (rec,) = result.recordings
+    assert rec.source == "demo.pose.json" and rec.angles is not None
+    assert not result.template.assumptions  # the video states its size
