@@ -159,6 +159,15 @@ def test_muscle_maps_and_exclude_drops_channels(run: Run, files: dict[str, Path]
     assert dropped["settings"]["exclude_channels"] == ["deltoid"]
 
 
+def test_pose_options_on_an_emg_file_are_named_not_ignored(
+    run: Run, files: dict[str, Path]
+) -> None:
+    data = run(files["emg"], "--frame-rate", "30", "--image-size", "640", "480")
+    warnings = data["files"][0]["warnings"]
+    assert any("frame_rate option ignored" in w for w in warnings)
+    assert any("image_size option ignored" in w for w in warnings)
+
+
 def test_the_all_zero_channel_is_left_out_with_a_note(run: Run, files: dict[str, Path]) -> None:
     data = run(files["emg"])
     assert "spare" not in data["files"][0]["emg"]
@@ -195,6 +204,7 @@ def test_out_writes_the_template(run: Run, files: dict[str, Path], tmp_path: Pat
         (["--load", "-1"], "--load"),
         (["--exclude", "nosuch"], "nosuch"),
         (["--max-video-seconds", "0"], "--max-video-seconds"),
+        (["--skeletons", "frames"], "--skeletons needs a video"),
     ],
 )
 def test_bad_options_are_one_line_exit_2(

@@ -113,12 +113,15 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
 def cmd_analyze(args: argparse.Namespace) -> int:
     from app.analysis import analyze_recordings
+    from app.recordings import is_video
 
     for f in args.files:
         if not Path(f).is_file():
             raise CliError(f"{f}: no such file")
     if args.load < 0 or not math.isfinite(args.load):
         raise CliError(f"--load must be a mass >= 0 kg, got {args.load}")
+    if args.skeletons and not any(is_video(f) for f in args.files):
+        raise CliError("--skeletons needs a video (mp4, mov, avi) among the files")
     options = _settings(args)
     recordings, skeletons = _pose_from_videos(args, list(args.files))
     result = analyze_recordings(recordings, **options)

@@ -216,6 +216,12 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
             f"cannot be read as {fmt}: {type(exc).__name__}: {detail}",
             expected=f"a valid {fmt} file",
         ) from exc
+    if not fmt.startswith("mediapipe"):
+        # Only landmark files lack a frame rate or an image size; say so rather than ignore.
+        if opts.frame_rate is not None:
+            src.warn(f"frame_rate option ignored: a {fmt} file states its own timing")
+        if opts.image_size is not None:
+            src.warn(f"image_size option ignored: a {fmt} file holds no image coordinates")
     _apply_muscle_map(rec, src, opts)
     _apply_emg_rate(rec, src, opts)
     _check_channels(rec, src, _user_mapped(rec, opts))
