@@ -87,6 +87,19 @@ def _pose_from_videos(args: argparse.Namespace, files: list[str]) -> tuple[list[
     return recordings, written
 
 
+def _unused_pose_options(args: argparse.Namespace, recordings: list[Any]) -> list[str]:
+    """Warnings for --frame-rate / --image-size when no file could use them (only MediaPipe
+    landmark files lack a frame rate or an image size; a session's EMG file ignores them)."""
+    if any(str(r.format).startswith("mediapipe") for r in recordings):
+        return []
+    out = []
+    if args.frame_rate is not None:
+        out.append("--frame-rate ignored: every file states its own timing")
+    if args.image_size is not None:
+        out.append("--image-size ignored: no file holds image coordinates")
+    return out
+
+
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword options of :func:`app.analysis.analyze_recordings` from the flags."""
     if args.emg_rate is not None:
@@ -125,6 +138,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     options = _settings(args)
     recordings, skeletons = _pose_from_videos(args, list(args.files))
     result = analyze_recordings(recordings, **options)
+    result.warnings.extend(_unused_pose_options(args, recordings))
     result.settings["frame_rate_hz"] = args.frame_rate
     result.settings["image_size_px"] = list(args.image_size) if args.image_size else None
     result.settings["side"] = args.side

@@ -216,12 +216,6 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
             f"cannot be read as {fmt}: {type(exc).__name__}: {detail}",
             expected=f"a valid {fmt} file",
         ) from exc
-    if not fmt.startswith("mediapipe"):
-        # Only landmark files lack a frame rate or an image size; say so rather than ignore.
-        if opts.frame_rate is not None:
-            src.warn(f"frame_rate option ignored: a {fmt} file states its own timing")
-        if opts.image_size is not None:
-            src.warn(f"image_size option ignored: a {fmt} file holds no image coordinates")
     _apply_muscle_map(rec, src, opts)
     _apply_emg_rate(rec, src, opts)
     _check_channels(rec, src, _user_mapped(rec, opts))
@@ -380,8 +374,8 @@ def _check_plausibility(rec: Recording, src: Source) -> None:
         reason = (
             f"EMG spectral median {median:.0f} Hz at {rate:g} Hz is implausible (surface EMG is"
             f" typically 50-150 Hz) for {names}; at {suggested:g} Hz it would be"
-            f" {median * suggested / rate:.0f} Hz - pass emg_rate={suggested:g} if that is the"
-            " true rate"
+            f" {median * suggested / rate:.0f} Hz - give emg_rate={suggested:g}"
+            f" (--emg-rate {suggested:g}) if that is the true rate"
         )
         rec.metadata["rate_check"] = RateCheck(
             stored_rate=rate,
