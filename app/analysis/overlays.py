@@ -164,9 +164,6 @@ class AnalysisOverlays:
                 k = len(files)
                 for name, values_rad in zip(_ANGLE_SERIES, values, strict=True):
                     keep(f"files.{k}.angles.{name}", t, np.degrees(values_rad))
-                    first = f"files.{k}.angles.{name}"
-                    if angles is None and first in series:  # also under the old names
-                        series[f"angles.{name}"] = series[first]
                 angles = angles or {"file": rec.source, "side": a.side}
             files.append(_file_meta(rec))
             for report in rec.lifts:
@@ -256,9 +253,15 @@ class AnalysisOverlays:
             for k, f in enumerate(self.meta.get("files", []))
         ]
         if self.meta["angles"] is not None:
+            # The first file with angles; overlays stored before per-file entries existed
+            # hold its series under "angles.<name>".
+            first = next(
+                (k for k, f in enumerate(self.meta.get("files", [])) if f.get("angles")), None
+            )
+            prefix = "angles" if first is None else f"files.{first}.angles"
             out["angles"] = {
                 **self.meta["angles"],
-                **{name: cut(f"angles.{name}") for name in _ANGLE_SERIES},
+                **{name: cut(f"{prefix}.{name}") for name in _ANGLE_SERIES},
             }
         return out
 

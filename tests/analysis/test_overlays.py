@@ -158,3 +158,18 @@ def test_separate_trials_keep_their_own_spans_angles_and_lifts() -> None:
     assert sorted({lift["file"] for lift in out["lifts"]}) == ["trial_a.csv", "trial_b.csv"]
     # The first file's angles stay where older pages read them.
     assert out["angles"]["elbow_deg"] == fa["angles"]["elbow_deg"]
+
+
+def test_overlays_stored_before_per_file_entries_still_window(
+    overlays: AnalysisOverlays,
+) -> None:
+    """Stored overlays of the previous release: angles under ``angles.<name>``, no ``files``."""
+    meta = {k: v for k, v in overlays.meta.items() if k not in ("files", "session")}
+    series = {
+        name.replace("files.0.angles.", "angles."): value for name, value in overlays.series.items()
+    }
+    old = AnalysisOverlays(meta=meta, series=series)
+    out = old.window(points=300)
+    assert out["files"] == []
+    assert out["angles"]["elbow_deg"] == overlays.window(points=300)["angles"]["elbow_deg"]
+    assert out["angles"]["elbow_deg"]["t"]
