@@ -11,7 +11,13 @@ TSTAMP := $(VENV)/.installed-test
 
 export PYTHON
 
-.PHONY: run test install install-test browser lint typecheck pytest bench clean
+.PHONY: run test install install-test browser lint typecheck pytest bench clean pose-env
+
+# Video to pose runs MediaPipe 0.10.21 in its own environment (it needs numpy<2; BioPlan needs
+# numpy 2). `bioplan pose-env` creates it; BioPlan finds it through BIOPLAN_POSE_PYTHON.
+POSE_ENV   := .venv-pose
+POSE_STAMP := $(POSE_ENV)/.installed
+export BIOPLAN_POSE_PYTHON ?= $(abspath $(POSE_ENV))/bin/python
 
 # ---- environments ---------------------------------------------------------------------------
 
@@ -24,7 +30,14 @@ $(TSTAMP): $(STAMP) pyproject.toml
 	@touch $@
 
 install: $(STAMP)
-install-test: $(TSTAMP)
+install-test: $(TSTAMP) $(POSE_STAMP)
+
+$(POSE_STAMP): $(STAMP)
+	@echo "==> creating the pose environment $(POSE_ENV) (MediaPipe 0.10.21, for videos)"
+	@$(VENV)/bin/bioplan pose-env $(POSE_ENV)
+	@touch $@
+
+pose-env: $(POSE_STAMP)
 
 # Browser tests drive Debian's Chromium (never a downloaded browser build).
 browser:
@@ -37,7 +50,7 @@ browser:
 # The dashboard on the embedded defaults (SQLite in ./data, local job runner), with a demo
 # recording session and a finished comparison already stored. Prints the URL once it answers;
 # BIOPLAN_PORT (or `.venv/bin/bioplan serve --port N --demo`) picks another port.
-run: $(STAMP)
+run: $(STAMP) $(POSE_STAMP)
 	@$(VENV)/bin/bioplan serve --demo
 
 # ---- checks ---------------------------------------------------------------------------------
@@ -49,13 +62,13 @@ lint: $(TSTAMP)
 typecheck: $(TSTAMP)
 	$(VENV)/bin/mypy app
 
-pytest: $(TSTAMP) browser
+pytest: $(TSTAMP) $(POSE_STAMP) browser
 	$(VENV)/bin/pytest
 
-test: lint typecheck pytest
+test: $(POSE_STAMP) lint typecheck pytest
 
-bench: $(TSTAMP)
+bench: $(TSTAMP) $(POSE_STAMP)
 	$(PY) benchmarks/run_all.py
 
 clean:
-	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(POSE_ENV) .mypy_cache .pytest_cache .ruff_cache

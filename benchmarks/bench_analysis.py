@@ -12,8 +12,9 @@ read from its CSV as an upload is. Timed, in one warm process, median of ``--rep
 3. decoding the stored overlays and cutting the whole-recording window at 1600 points per
    series: what ``GET /api/viewer/recordings/{id}/analysis`` does on a cache miss.
 
-There is no target for (1) (it runs in the background); (2) and (3) must stay far below the
-page's 2 s budget.
+Target for (1): under 4 s (issue 11). The machine is shared, so (1) is also given in CPU
+seconds of this process (``time.process_time``), which other processes' load does not inflate.
+(2) and (3) must stay far below the page's 2 s budget.
 """
 
 from __future__ import annotations
@@ -57,9 +58,15 @@ def main() -> int:
     recording = read_bytes(data, "long_session.csv")
     analyze_recordings([recording], muscle_map=DEMO_MUSCLES)  # warm imports and caches
 
-    analyse_s, result = timed(
-        lambda: analyze_recordings([recording], muscle_map=DEMO_MUSCLES), args.repeats
-    )
+    cpu: list[float] = []
+
+    def analyse() -> Any:
+        c0 = time.process_time()
+        out = analyze_recordings([recording], muscle_map=DEMO_MUSCLES)
+        cpu.append(time.process_time() - c0)
+        return out
+
+    analyse_s, result = timed(analyse, args.repeats)
     overlays_s, stored = timed(
         lambda: encode_arrays(AnalysisOverlays.from_result(result).to_arrays()), args.repeats
     )
@@ -75,6 +82,7 @@ def main() -> int:
         "lifts_found": len(result.lifts),
         "lifts_recorded": lifts,
         "analyse_s": analyse_s,
+        "analyse_cpu_s": statistics.median(cpu),
         "overlays_encode_s": overlays_s,
         "stored_megabytes": len(stored) / 1e6,
         "decode_and_window_s": window_s,
@@ -87,7 +95,8 @@ def main() -> int:
     print(f"machine: {m['cpus']} CPUs, load {m['load']:.2f}; median of {args.repeats}")
     print(
         f"{args.minutes:g}-minute 2 kHz session ({samples / 1e6:.1f} M samples, "
-        f"{lifts} curls): analyze_recordings {analyse_s:.2f} s, {len(result.lifts)} lifts found"
+        f"{lifts} curls): analyze_recordings {analyse_s:.2f} s ({out['analyse_cpu_s']:.2f} CPU s),"
+        f" {len(result.lifts)} lifts found"
     )
     print(
         f"overlays: decimate + encode {overlays_s:.3f} s, {out['stored_megabytes']:.1f} MB stored; "

@@ -129,6 +129,36 @@ def _window(t: NDArray[np.float64], t0: float, t1: float) -> NDArray[np.float64]
     return np.concatenate(([t0], inside, [t1]))
 
 
+def _phase_flow(
+    phase: Phase,
+    ts: NDArray[np.float64],
+    power: NDArray[np.float64],
+    kinetic: NDArray[np.float64],
+    potential: NDArray[np.float64],
+) -> PhaseEnergetics | None:
+    """Energy flow over one phase (None when the phase lies outside the samples)."""
+    grid = _window(ts, max(phase.start, ts[0]), min(phase.end, ts[-1]))
+    if grid[-1] <= grid[0]:
+        return None
+    p_grid = np.stack([np.interp(grid, ts, power[:, j]) for j in range(2)], axis=1)
+    ke0, ke1 = np.interp([grid[0], grid[-1]], ts, kinetic)
+    pe0, pe1 = np.interp([grid[0], grid[-1]], ts, potential)
+    d_ke, d_pe = float(ke1 - ke0), float(pe1 - pe0)
+    handed = min(-d_ke, d_pe) if (d_ke < 0 and d_pe > 0) else 0.0
+    return PhaseEnergetics(
+        phase=phase,
+        delta_kinetic=d_ke,
+        delta_potential=d_pe,
+        work=(_trapz(p_grid[:, 0], grid), _trapz(p_grid[:, 1], grid)),
+        positive_work=(
+            _trapz(np.maximum(p_grid[:, 0], 0.0), grid),
+            _trapz(np.maximum(p_grid[:, 1], 0.0), grid),
+        ),
+        kinetic_to_potential=handed,
+        peak_power=float(np.abs(p_grid).sum(axis=1).max()),
+    )
+
+
 def lift_energetics(
     t: ArrayLike,
     q: ArrayLike,
@@ -189,30 +219,7 @@ def lift_energetics(
         "min_peak_power": delta_pe / duration if duration > 0 else 0.0,
         "duration": duration,
     }
-    flows = []
-    for phase in phases:
-        grid = _window(ts, max(phase.start, ts[0]), min(phase.end, ts[-1]))
-        if grid[-1] <= grid[0]:
-            continue
-        p_grid = np.stack([np.interp(grid, ts, power[:, j]) for j in range(2)], axis=1)
-        ke0, ke1 = np.interp([grid[0], grid[-1]], ts, kinetic)
-        pe0, pe1 = np.interp([grid[0], grid[-1]], ts, potential)
-        d_ke, d_pe = float(ke1 - ke0), float(pe1 - pe0)
-        handed = min(-d_ke, d_pe) if (d_ke < 0 and d_pe > 0) else 0.0
-        flows.append(
-            PhaseEnergetics(
-                phase=phase,
-                delta_kinetic=d_ke,
-                delta_potential=d_pe,
-                work=(_trapz(p_grid[:, 0], grid), _trapz(p_grid[:, 1], grid)),
-                positive_work=(
-                    _trapz(np.maximum(p_grid[:, 0], 0.0), grid),
-                    _trapz(np.maximum(p_grid[:, 1], 0.0), grid),
-                ),
-                kinetic_to_potential=handed,
-                peak_power=float(np.abs(p_grid).sum(axis=1).max()),
-            )
-        )
+    flows = [f for phase in phases if (f := _phase_flow(phase, ts, power, kinetic, potential))]
     return Energetics(
         t=ts,
         torque=torque,

@@ -27,7 +27,7 @@ from app.errors import BioPlanError
 from app.planning.jsonsafe import json_safe
 
 if TYPE_CHECKING:
-    from app.analysis.pipeline import AnalysisResult
+    from app.analysis.pipeline import AnalysisResult, RecordingAnalysis
 
 FloatArray = NDArray[np.float64]
 
@@ -39,6 +39,22 @@ _ANGLE_SERIES = ("shoulder_deg", "elbow_deg", "shoulder_velocity_deg_s", "elbow_
 
 class OverlaysError(BioPlanError):
     """Stored overlays that this module did not write, or an impossible window."""
+
+
+def _file_meta(rec: RecordingAnalysis) -> dict[str, Any]:
+    """One file of the analysis: its span on its clock, side, warnings and rate check."""
+    times = [m.t for m in rec.emg] + ([rec.angles.t + rec.offset] if rec.angles else [])
+    starts = [float(t[0]) for t in times if len(t)]
+    ends = [float(t[-1]) for t in times if len(t)]
+    return {
+        "file": rec.source,
+        "format": rec.format,
+        "span": [min(starts), max(ends)] if starts else None,
+        "angles": None if rec.angles is None else {"file": rec.source, "side": rec.angles.side},
+        "lifts": len(rec.lifts),
+        "warnings": list(rec.warnings),
+        "rate_check": None if rec.rate_check is None else rec.rate_check.to_dict(),
+    }
 
 
 def downsample_with_gaps(
@@ -128,6 +144,7 @@ class AnalysisOverlays:
         emg: list[dict[str, Any]] = []
         angles: dict[str, Any] | None = None
         lifts: list[dict[str, Any]] = []
+        files: list[dict[str, Any]] = []
         for rec in result.recordings:
             for m in rec.emg:
                 keep(f"emg.{len(emg)}", m.t, m.envelope)
@@ -140,13 +157,15 @@ class AnalysisOverlays:
                         "onsets": [[float(a), float(b)] for a, b in np.asarray(m.onsets)],
                     }
                 )
-            if rec.angles is not None and angles is None:
+            if rec.angles is not None:
                 a = rec.angles
                 t = a.t + rec.offset
                 values = (a.shoulder, a.elbow, a.shoulder_velocity, a.elbow_velocity)
+                k = len(files)
                 for name, values_rad in zip(_ANGLE_SERIES, values, strict=True):
-                    keep(f"angles.{name}", t, np.degrees(values_rad))
-                angles = {"file": rec.source, "side": a.side}
+                    keep(f"files.{k}.angles.{name}", t, np.degrees(values_rad))
+                angles = angles or {"file": rec.source, "side": a.side}
+            files.append(_file_meta(rec))
             for report in rec.lifts:
                 lift = report.lift
                 lifts.append(
@@ -156,6 +175,7 @@ class AnalysisOverlays:
                         "source": lift.source,
                         "start_s": lift.start,
                         "top_s": lift.top,
+                        "hold_s": list(lift.hold),
                         "end_s": lift.end,
                         "peak_velocity_angle_deg": math.degrees(report.profile.peak_velocity_angle),
                         "phases": [
@@ -176,6 +196,10 @@ class AnalysisOverlays:
             "emg": emg,
             "angles": angles,
             "lifts": lifts,
+            # Separate trials: each file on its own clock, with its own span, angles, lifts
+            # (entries of "lifts" and "emg" name their "file") and warnings.
+            "session": result.settings.get("session", "separate"),
+            "files": files,
             "template": result.template.to_dict(),
             "activation_order": list(result.activation_order),
             "warnings": list(result.warnings)
@@ -216,10 +240,28 @@ class AnalysisOverlays:
         out["window"] = [t0, t1]
         out["points"] = points
         out["emg"] = [{**e, "envelope": cut(f"emg.{i}")} for i, e in enumerate(self.meta["emg"])]
+        out["files"] = [
+            {**f, "angles": None}
+            if f.get("angles") is None
+            else {
+                **f,
+                "angles": {
+                    **f["angles"],
+                    **{n: cut(f"files.{k}.angles.{n}") for n in _ANGLE_SERIES},
+                },
+            }
+            for k, f in enumerate(self.meta.get("files", []))
+        ]
         if self.meta["angles"] is not None:
+            # The first file with angles; overlays stored before per-file entries existed
+            # hold its series under "angles.<name>".
+            first = next(
+                (k for k, f in enumerate(self.meta.get("files", [])) if f.get("angles")), None
+            )
+            prefix = "angles" if first is None else f"files.{first}.angles"
             out["angles"] = {
                 **self.meta["angles"],
-                **{name: cut(f"angles.{name}") for name in _ANGLE_SERIES},
+                **{name: cut(f"{prefix}.{name}") for name in _ANGLE_SERIES},
             }
         return out
 

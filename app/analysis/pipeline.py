@@ -10,7 +10,7 @@ the JSON summary (degrees at this edge, seconds on the common clock).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -32,12 +32,16 @@ from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lift
 from app.analysis.sync import estimate_offset
 from app.analysis.template import LiftProfile, build_template, consensus_order, lift_profile
 from app.planning.human_template import HumanTemplate
-from app.recordings.types import SITES, Channel, Recording, RecordingError
+from app.recordings.types import SITES, Channel, RateCheck, Recording, RecordingError, rate_check
 
 #: EMG onsets are searched from this long before a lift's start [s] (EMG leads the movement;
 #: a muscle that bears the load early switches on well before the forearm moves), but never
 #: before the previous lift's end.
 ONSET_LEAD = 1.0
+#: Energetics run on the angles thinned to at least this rate [Hz]: the angles are low-passed
+#: at 6 Hz, so 250 Hz loses nothing, while a 2 kHz goniometer made the arm's inverse dynamics
+#: half of a long session's analysis.
+ENERGETICS_RATE = 250.0
 
 
 @dataclass(frozen=True)
@@ -152,13 +156,16 @@ class LiftReport:
             "top_s": lift.top,
             "end_s": lift.end,
             "concentric_s": [lift.start, lift.top],
-            "eccentric_s": [lift.top, lift.end],
+            "hold_s": list(lift.hold),
+            "eccentric_s": list(lift.eccentric),
             "start_angle_deg": _deg(lift.start_angle),
             "top_angle_deg": _deg(lift.top_angle),
             "end_angle_deg": _deg(lift.end_angle),
             "peak_velocity_deg_s": _deg(prof.peak_velocity),
             "peak_velocity_angle_deg": _deg(prof.peak_velocity_angle),
             "peak_velocity_time_fraction": _num(prof.peak_velocity_time_fraction),
+            "peak_velocity_range_fraction": _num(prof.peak_velocity_range_fraction),
+            "kinematics_rejected": prof.rejected or None,
             "phases": [p.to_dict() for p in self.phases],
             "onsets_s": self.onsets,
             "activation_order": list(self.activation_order),
@@ -181,6 +188,7 @@ class RecordingAnalysis:
         offset: t_emg = t_pose + offset [s].
         lifts: the lifts found.
         warnings: what was assumed or skipped.
+        rate_check: an implausible stored EMG rate and the suggested one (None when plausible).
     """
 
     source: str
@@ -190,6 +198,7 @@ class RecordingAnalysis:
     offset: float
     lifts: list[LiftReport]
     warnings: list[str] = field(default_factory=list)
+    rate_check: RateCheck | None = None
 
     @property
     def pose_t(self) -> NDArray[np.float64] | None:
@@ -228,6 +237,7 @@ class RecordingAnalysis:
             "pose": pose,
             "lifts": [lift.to_dict() for lift in self.lifts],
             "warnings": list(self.warnings),
+            "rate_check": None if self.rate_check is None else self.rate_check.to_dict(),
         }
 
 
@@ -319,12 +329,19 @@ class AnalysisResult:
             for w in rec.warnings:
                 lines.append(f"  warning: {w}")
         tpl = self.template
-        lines.append("template:")
+        lines.append(f"template ({tpl.source}):")
         lines.append(
             f"  peak velocity at {tpl.peak_velocity_angle_deg:.1f}"
             f" +- {tpl.peak_velocity_angle_sd_deg:.1f} deg elbow flexion"
-            f" ({tpl.n_lifts} lifts; {tpl.source})"
         )
+        if tpl.peak_velocity_range_fraction is not None and tpl.lift_range_deg is not None:
+            lo, hi = tpl.lift_range_deg
+            lines.append(
+                f"  = {100 * tpl.peak_velocity_range_fraction:.0f}"
+                f" +- {100 * tpl.peak_velocity_range_fraction_sd:.0f}% of the lifts' range"
+                f" ({lo:.0f} -> {hi:.0f} deg); the planner places the peak there on the robot's"
+                " stroke"
+            )
         if tpl.peak_velocity_time_fraction is not None:
             lines.append(f"  at {100 * tpl.peak_velocity_time_fraction:.0f}% of the lifting time")
         if tpl.activation_order:
@@ -475,65 +492,101 @@ def _abs_peak(t: NDArray[np.float64], x: NDArray[np.float64], t0: float, t1: flo
     return float(np.max(np.abs(seg))) if seg.size else float("nan")
 
 
-def _analyze_one(
-    recording: Recording,
-    *,
-    emg_rate: float | None,
-    muscle_map: Mapping[str, str] | None,
-    bounds: tuple[float, float],
-    offset: float | Literal["auto"] | None,
-    dynamics: Callable[[], ArmDynamics | None],
-    emg_options: Mapping[str, Any],
-    pose_options: Mapping[str, Any],
-) -> RecordingAnalysis:
-    warnings: list[str] = []
-    warnings.extend(str(w) for w in recording.metadata.get("warnings", ()))
-    emg = _process_emg(
-        recording,
-        emg_rate=emg_rate,
-        muscle_map=muscle_map,
-        emg_options=emg_options,
-        warnings=warnings,
-    )
-    angles: ArmAngles | None = None
-    if _has_positions(recording):
-        try:
-            angles = arm_angles(recording, **pose_options)
-        except RecordingError as exc:
-            angles = angles_from_channels(recording)
-            if angles is None and not emg:
-                raise
-            warnings.append(f"landmarks not used: {exc}")
-    else:
-        angles = angles_from_channels(recording)
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """What the user chose for one analysis; the same options rerun it unchanged.
+
+    Attributes:
+        emg_rate: true EMG sampling rate [Hz] when the file states a wrong one (None = stored).
+        muscle_map: channel label -> site (``deltoid``, ``triceps``, ``biceps``, ``forearm``).
+        exclude_channels: channel names left out of the analysis (case-insensitive).
+        bounds: (A/B, B/C) elbow-flexion thresholds [rad].
+        offset: t_emg = t_pose + offset [s]; ``"auto"`` = cross-correlation; None = 0.
+        emg_options: options for :func:`emg_process`.
+        pose_options: options for :func:`arm_angles` (``side``, ``min_visibility``...).
+    """
+
+    emg_rate: float | None = None
+    muscle_map: Mapping[str, str] | None = None
+    exclude_channels: frozenset[str] = frozenset()
+    bounds: tuple[float, float] = (float(np.deg2rad(40.0)), float(np.deg2rad(90.0)))
+    offset: float | Literal["auto"] | None = None
+    emg_options: Mapping[str, Any] = field(default_factory=dict)
+    pose_options: Mapping[str, Any] = field(default_factory=dict)
+
+
+def _without_excluded(recording: Recording, exclude: frozenset[str]) -> Recording:
+    if not exclude:
+        return recording
+    keep = {k: c for k, c in recording.channels.items() if k.lower() not in exclude}
+    return replace(recording, channels=keep)
+
+
+def _arm(
+    recording: Recording, has_emg: bool, pose_options: Mapping[str, Any], warnings: list[str]
+) -> ArmAngles | None:
+    """Arm angles from landmarks or markers, else from joint-angle channels (None without)."""
+    side = pose_options.get("side")
+    if not _has_positions(recording):
+        angles = angles_from_channels(recording, side=side)
         if angles is not None:
             warnings.append("arm angles from joint-angle channels (taken as flexion)")
-    if not emg and angles is None:
-        raise RecordingError(
-            "nothing to analyse",
-            file=recording.source,
-            expected="EMG channels, or landmark/marker channels of an arm",
+        return angles
+    try:
+        angles = arm_angles(recording, **pose_options)
+    except RecordingError as exc:
+        fallback = angles_from_channels(recording, side=side)
+        if fallback is None and not has_emg:
+            raise
+        warnings.append(f"landmarks not used: {exc}")
+        return fallback
+    assumption = image_size_assumption(recording)
+    if assumption:
+        warnings.append(assumption)
+    return angles
+
+
+def image_size_assumption(recording: Recording) -> str | None:
+    """The assumption made for normalised landmarks without a known image size, or None."""
+    if not str(recording.metadata.get("coordinates", "")).startswith("normalised"):
+        return None
+    return (
+        f"{recording.source}: video size unknown, so angles come from normalised x, y as if"
+        " the frame were square (up to tens of degrees off for a 16:9 video); give the image"
+        " size (--image-size W H) to correct it"
+    )
+
+
+def _clock_offset(
+    emg: list[MuscleSeries],
+    angles: ArmAngles | None,
+    offset: float | Literal["auto"] | None,
+    warnings: list[str],
+) -> float:
+    """t_emg = t_pose + offset [s] for this recording."""
+    if angles is None or not emg:
+        return float(offset) if isinstance(offset, int | float) else 0.0
+    if offset == "auto":
+        envs = np.stack([m.envelope for m in emg if len(m.t) == len(emg[0].t)], axis=1)
+        shift = estimate_offset(
+            envs,
+            emg[0].rate,
+            np.abs(angles.elbow_acceleration),
+            angles.t,
+            emg_start=float(emg[0].t[0]),
         )
-    shift = 0.0
-    if angles is not None and emg:
-        if offset == "auto":
-            envs = np.stack([m.envelope for m in emg if len(m.t) == len(emg[0].t)], axis=1)
-            shift = estimate_offset(
-                envs,
-                emg[0].rate,
-                np.abs(angles.elbow_acceleration),
-                angles.t,
-                emg_start=float(emg[0].t[0]),
-            )
-            warnings.append(f"clock offset estimated by cross-correlation: {shift:+.3f} s")
-        elif offset is not None:
-            shift = float(offset)
-    elif isinstance(offset, (int, float)):
-        shift = float(offset)
+        warnings.append(f"clock offset estimated by cross-correlation: {shift:+.3f} s")
+        return shift
+    return 0.0 if offset is None else float(offset)
+
+
+def _find_lifts(
+    emg: list[MuscleSeries], angles: ArmAngles | None, shift: float, warnings: list[str]
+) -> list[Lift]:
+    """Lifts from the elbow angle (on the common clock), else from EMG bursts."""
     lifts: list[Lift] = []
     if angles is not None:
-        tc = angles.t + shift
-        lifts = detect_lifts(angles.elbow, tc, segments=angles.segments)
+        lifts = detect_lifts(angles.elbow, angles.t + shift, segments=angles.segments)
         if not lifts:
             warnings.append("no lift found in the elbow angle")
     if not lifts and emg:
@@ -541,112 +594,209 @@ def _analyze_one(
         lifts = detect_emg_lifts(env, emg[0].rate, start=float(emg[0].t[0]))
         if lifts:
             warnings.append(
-                "lifts found from EMG bursts (no usable elbow angle); tops are estimates and "
-                "there are no phases"
+                "lifts found from EMG bursts (no usable elbow angle); tops are estimates, there"
+                " are no phases, and the template's kinematics stay the paper's defaults"
             )
-    dyn = dynamics() if angles is not None else None
-    onsets = {m.muscle: m.onsets for m in emg}
-    reports: list[LiftReport] = []
-    prev_end = -np.inf
+    return lifts
+
+
+def _phase_stats(
+    emg: list[MuscleSeries], angles: ArmAngles, tc: NDArray[np.float64], phases: list[Phase]
+) -> list[PhaseStats]:
+    out: list[PhaseStats] = []
+    for ph in phases:
+        means, peaks = _interval_stats(emg, ph.start, ph.end)
+        out.append(
+            PhaseStats(
+                phase=ph,
+                emg_mean=means,
+                emg_peak=peaks,
+                peak_velocity=_abs_peak(tc, angles.elbow_velocity, ph.start, ph.end),
+                peak_acceleration=_abs_peak(tc, angles.elbow_acceleration, ph.start, ph.end),
+            )
+        )
+    return out
+
+
+@dataclass(frozen=True)
+class _Context:
+    """What every lift of one recording is measured against."""
+
+    emg: list[MuscleSeries]
+    angles: ArmAngles | None
+    tc: NDArray[np.float64] | None
+    dyn: ArmDynamics | None
+    bounds: tuple[float, float]
+    warnings: list[str]
+    # (T, 2) joint angles, velocities, accelerations: ArmAngles stacks them on every access,
+    # so once per recording here, not once per lift (that was O(lifts x samples)).
+    q: NDArray[np.float64] | None = None
+    qd: NDArray[np.float64] | None = None
+    qdd: NDArray[np.float64] | None = None
+
+
+def _lift_report(
+    i: int,
+    lift: Lift,
+    order: list[tuple[str, float]],
+    peaks: dict[str, float],
+    ctx: _Context,
+) -> LiftReport:
+    """Phases, profile and energetics of lift number ``i`` (1-based)."""
+    names = [m for m, _ in order]
+    angles, tc = ctx.angles, ctx.tc
+    if angles is None or tc is None or lift.source != "angle":
+        # An EMG-only lift's top is the EMG's own burst peak: no EMG timing against it.
+        profile = lift_profile(lift, activation_order=names)
+        return LiftReport(
+            i, lift, [], {m: t - lift.start for m, t in order}, tuple(names), {}, profile
+        )
+    phases = _phase_stats(
+        ctx.emg, angles, tc, split_phases(angles.elbow, tc, lift, bounds=ctx.bounds)
+    )
+    profile = lift_profile(
+        lift,
+        t=tc,
+        elbow=angles.elbow,
+        elbow_velocity=angles.elbow_velocity,
+        elbow_acceleration=angles.elbow_acceleration,
+        activation_order=names,
+        emg_peak_times=peaks,
+    )
+    if profile.rejected:
+        ctx.warnings.append(f"lift {i}: no kinematics for the template ({profile.rejected})")
+    energetics: Energetics | None = None
+    if ctx.dyn is not None and ctx.q is not None and ctx.qd is not None and ctx.qdd is not None:
+        # Only the lift's samples go in: the whole recording per lift is O(lifts x N).
+        span = _span(tc, lift.start, lift.end, tol=1e-9)
+        step = max(1, int(angles.rate // ENERGETICS_RATE))
+        idx = np.arange(span.start, span.stop)
+        idx = np.unique(np.append(idx[::step], idx[-1:]))  # keep the lift's last sample
+        try:
+            energetics = lift_energetics(
+                tc[idx],
+                ctx.q[idx],
+                ctx.qd[idx],
+                ctx.qdd[idx],
+                ctx.dyn,
+                interval=(lift.start, lift.end),
+                phases=[p.phase for p in phases],
+            )
+        except RecordingError as exc:
+            ctx.warnings.append(f"lift {i}: no energetics ({exc.message})")
+    return LiftReport(
+        index=i,
+        lift=lift,
+        phases=phases,
+        onsets={m: t - lift.start for m, t in order},
+        activation_order=tuple(names),
+        emg_peak_times=peaks,
+        profile=profile,
+        energetics=energetics,
+    )
+
+
+def _lift_reports(lifts: list[Lift], ctx: _Context) -> list[LiftReport]:
+    onsets = {m.muscle: m.onsets for m in ctx.emg}
     # Envelope peak time of every muscle in every lift's concentric part, one pass per muscle.
     rising = [[lift.start, lift.top] for lift in lifts]
-    peak_table = {
-        m.muscle: peak_times(m.envelope, m.rate, rising, start=float(m.t[0])) if lifts else None
-        for m in emg
-    }
-    # ArmAngles stacks q, qd and qdd on every access: once here, not once per lift.
-    q, qd, qdd = (angles.q, angles.qd, angles.qdd) if angles is not None else (None, None, None)
+    peak_table = (
+        {m.muscle: peak_times(m.envelope, m.rate, rising, start=float(m.t[0])) for m in ctx.emg}
+        if lifts
+        else {}
+    )
+    reports: list[LiftReport] = []
+    prev_end = -np.inf
     for i, lift in enumerate(lifts, start=1):
         window = (max(lift.start - ONSET_LEAD, prev_end), lift.top)
         prev_end = lift.end
         order = activation_order(onsets, window)
-        onset_rel = {m: t - lift.start for m, t in order}
         peaks = {
             muscle: float(table[i - 1])
             for muscle, table in peak_table.items()
-            if table is not None and np.isfinite(table[i - 1])
+            if np.isfinite(table[i - 1])
         }
-        phases: list[PhaseStats] = []
-        energetics: Energetics | None = None
-        if angles is not None and lift.source == "angle":
-            for ph in split_phases(angles.elbow, tc, lift, bounds=bounds):
-                means, pk = _interval_stats(emg, ph.start, ph.end)
-                phases.append(
-                    PhaseStats(
-                        phase=ph,
-                        emg_mean=means,
-                        emg_peak=pk,
-                        peak_velocity=_abs_peak(tc, angles.elbow_velocity, ph.start, ph.end),
-                        peak_acceleration=_abs_peak(
-                            tc, angles.elbow_acceleration, ph.start, ph.end
-                        ),
-                    )
-                )
-            profile = lift_profile(
-                lift,
-                t=tc,
-                elbow=angles.elbow,
-                elbow_velocity=angles.elbow_velocity,
-                elbow_acceleration=angles.elbow_acceleration,
-                activation_order=[m for m, _ in order],
-                emg_peak_times=peaks,
-            )
-            if dyn is not None and q is not None and qd is not None and qdd is not None:
-                # Only the lift's samples go in: the whole recording per lift is O(lifts x N).
-                span = _span(tc, lift.start, lift.end, tol=1e-9)
-                try:
-                    energetics = lift_energetics(
-                        tc[span],
-                        q[span],
-                        qd[span],
-                        qdd[span],
-                        dyn,
-                        interval=(lift.start, lift.end),
-                        phases=[p.phase for p in phases],
-                    )
-                except RecordingError as exc:
-                    warnings.append(f"lift {i}: no energetics ({exc.message})")
-        else:
-            profile = lift_profile(
-                lift, activation_order=[m for m, _ in order], emg_peak_times=peaks
-            )
-        reports.append(
-            LiftReport(
-                index=i,
-                lift=lift,
-                phases=phases,
-                onsets=onset_rel,
-                activation_order=tuple(m for m, _ in order),
-                emg_peak_times=peaks,
-                profile=profile,
-                energetics=energetics,
-            )
+        reports.append(_lift_report(i, lift, order, peaks, ctx))
+    return reports
+
+
+def _analyze_one(
+    recording: Recording,
+    options: AnalysisOptions,
+    dynamics: Callable[[], ArmDynamics | None],
+) -> RecordingAnalysis:
+    warnings: list[str] = [str(w) for w in recording.metadata.get("warnings", ())]
+    recording = _without_excluded(recording, options.exclude_channels)
+    emg = _process_emg(
+        recording,
+        emg_rate=options.emg_rate,
+        muscle_map=options.muscle_map,
+        emg_options=options.emg_options,
+        warnings=warnings,
+    )
+    angles = _arm(recording, bool(emg), options.pose_options, warnings)
+    if not emg and angles is None:
+        raise RecordingError(
+            "nothing to analyse",
+            file=recording.source,
+            expected="EMG channels, or landmark/marker channels of an arm",
         )
+    shift = _clock_offset(emg, angles, options.offset, warnings)
+    lifts = _find_lifts(emg, angles, shift, warnings)
+    ctx = _Context(
+        emg=emg,
+        angles=angles,
+        tc=None if angles is None else angles.t + shift,
+        dyn=dynamics() if angles is not None else None,
+        bounds=options.bounds,
+        warnings=warnings,
+        q=None if angles is None else angles.q,
+        qd=None if angles is None else angles.qd,
+        qdd=None if angles is None else angles.qdd,
+    )
     return RecordingAnalysis(
         source=recording.source,
         format=recording.format,
         emg=emg,
         angles=angles,
         offset=shift,
-        lifts=reports,
+        lifts=_lift_reports(lifts, ctx),
         warnings=warnings,
+        rate_check=rate_check(recording),
     )
 
 
 def merge_recordings(recordings: Sequence[Recording]) -> Recording:
     """Channels of several files of one session (e.g. an EMG file and a pose file) as one
-    recording; names that clash get the file name as a prefix."""
+    recording; names that clash get the file name as a prefix. The files' warnings and what
+    they say about their coordinates are kept."""
     channels: dict[str, Channel] = {}
     for rec in recordings:
         for name, ch in rec.channels.items():
             key = name if name not in channels else f"{rec.source}:{name}"
             channels[key] = replace(ch, name=key) if key != name else ch
+    metadata: dict[str, Any] = {
+        "merged": [r.source for r in recordings],
+        "warnings": [
+            f"{r.source}: {w}" for r in recordings for w in r.metadata.get("warnings", ())
+        ],
+    }
+    for rec in recordings:
+        for key in ("coordinates", "image_size", "rate_check"):
+            if key in rec.metadata:
+                metadata.setdefault(key, rec.metadata[key])
     return Recording(
         channels=channels,
         source=" + ".join(r.source for r in recordings),
         format=" + ".join(r.format for r in recordings),
-        metadata={"merged": [r.source for r in recordings]},
+        metadata=metadata,
     )
+
+
+#: How files given together relate: one session recorded at the same time (their clocks are
+#: joined), or separate trials (default: each keeps its own clock, lifts and warnings; the
+#: template pools their lifts).
+SessionMode = Literal["separate", "together"]
 
 
 def analyze_recordings(
@@ -654,6 +804,7 @@ def analyze_recordings(
     *,
     emg_rate: float | None = None,
     muscle_map: Mapping[str, str] | None = None,
+    exclude_channels: Collection[str] = (),
     phase_bounds_deg: tuple[float, float] = (40.0, 90.0),
     body_mass: float = 75.0,
     body_height: float = 1.75,
@@ -666,18 +817,21 @@ def analyze_recordings(
     """Analyse recordings and build one HumanTemplate from all their lifts.
 
     Args:
-        recordings: the recordings (each analysed on its own unless ``together``).
+        recordings: the recordings (separate trials unless ``together``).
         emg_rate: true EMG sampling rate [Hz] when the file states a wrong one.
         muscle_map: channel label -> site (deltoid, triceps, biceps, forearm), for channels
-            the reader could not map.
+            the reader could not map, or to change the mapping without reading again.
+        exclude_channels: channel names (case-insensitive) left out of the analysis; each must
+            name a channel of some recording.
         phase_bounds_deg: (A/B, B/C) elbow-flexion thresholds [deg].
         body_mass: subject's mass [kg] for the arm model.
         body_height: subject's height [m] for the arm model.
         load_mass: dumbbell mass [kg].
         offset: t_emg = t_pose + offset [s]; None = same clock (0) for one file, ``"auto"``
             estimates it by cross-correlation (the default when ``together`` joins files).
-        together: the recordings are parts of one session (e.g. EMG file + video landmarks):
-            merge them before analysis.
+        together: the recordings were recorded at the same time (e.g. EMG file + video
+            landmarks): merge them onto one clock before analysis. Otherwise they are separate
+            trials, each on its own clock with its own lifts; the template pools the lifts.
         emg_options: options for :func:`emg_filter`/:func:`emg_envelope` (band, notch,
             lowpass, method, ...).
         pose_options: options for :func:`arm_angles` (side, min_visibility, max_gap, ...).
@@ -686,20 +840,115 @@ def analyze_recordings(
         AnalysisResult.
 
     Raises:
-        RecordingError: a recording with bad EMG, or with neither EMG nor an arm.
+        RecordingError: a recording with bad EMG, or with neither EMG nor an arm; an excluded
+            channel that no recording has; bad phase bounds or body parameters.
     """
     if not recordings:
         raise RecordingError("no recordings given", expected="at least one file")
+    bounds_deg = _check_bounds(phase_bounds_deg)
+    _check_body(body_mass, body_height, load_mass)
+    exclude = _check_excluded(recordings, exclude_channels)
+    joined = together and len(recordings) > 1
+    recs = [merge_recordings(recordings)] if joined else list(recordings)
+    if joined and offset is None:
+        offset = "auto"
+    options = AnalysisOptions(
+        emg_rate=emg_rate,
+        muscle_map=muscle_map,
+        exclude_channels=exclude,
+        bounds=(float(np.deg2rad(bounds_deg[0])), float(np.deg2rad(bounds_deg[1]))),
+        offset=offset,
+        emg_options=emg_options or {},
+        pose_options=pose_options or {},
+    )
+    warnings: list[str] = []
+    dynamics = _arm_model(body_mass, body_height, load_mass, warnings)
+    analyses = [_analyze_one(rec, options, dynamics) for rec in recs]
+    assumptions = [a for rec in recordings if (a := image_size_assumption(rec))]
+    template = build_template(
+        [r.profile for a in analyses for r in a.lifts],
+        phase_bounds_deg=bounds_deg,
+        files=[r.source for r in recordings],
+        assumptions=assumptions,
+    )
+    if template.is_paper_default:
+        warnings.append(
+            f"the template's kinematics are the paper's defaults ({template.source}): "
+            f"peak velocity at {template.peak_velocity_angle_deg:g} deg, not measured here"
+        )
+    warnings.extend(assumptions)
+    settings = _settings_echo(
+        options,
+        bounds_deg=bounds_deg,
+        body=(body_mass, body_height, load_mass),
+        together=together,
+    )
+    return AnalysisResult(
+        recordings=analyses, template=template, settings=settings, warnings=warnings
+    )
+
+
+def _settings_echo(
+    options: AnalysisOptions,
+    *,
+    bounds_deg: tuple[float, float],
+    body: tuple[float, float, float],
+    together: bool,
+) -> dict[str, Any]:
+    """Every option of the analysis, JSON-ready, as the result echoes it."""
+    return {
+        "emg_rate_hz": options.emg_rate,
+        "muscle_map": dict(options.muscle_map or {}),
+        "exclude_channels": sorted(options.exclude_channels),
+        "phase_bounds_deg": list(bounds_deg),
+        "body_mass_kg": body[0],
+        "body_height_m": body[1],
+        "load_mass_kg": body[2],
+        "offset_s": options.offset,
+        "session": "together" if together else "separate",
+        "emg": {"band_hz": [20.0, 450.0], "lowpass_hz": 6.0, "method": "lowpass"}
+        | dict(options.emg_options),
+        "pose": dict(options.pose_options),
+    }
+
+
+def _check_bounds(phase_bounds_deg: tuple[float, float]) -> tuple[float, float]:
     lo, hi = float(phase_bounds_deg[0]), float(phase_bounds_deg[1])
     if not 0 < lo < hi < 180:
         raise RecordingError(
             f"phase bounds {phase_bounds_deg} deg", expected="0 < A/B bound < B/C bound < 180"
         )
-    bounds = (float(np.deg2rad(lo)), float(np.deg2rad(hi)))
-    recs = [merge_recordings(recordings)] if together and len(recordings) > 1 else list(recordings)
-    if together and len(recordings) > 1 and offset is None:
-        offset = "auto"
-    warnings: list[str] = []
+    return lo, hi
+
+
+def _check_body(body_mass: float, body_height: float, load_mass: float) -> None:
+    for name, value, lo, hi in (
+        ("body mass", body_mass, 20.0, 250.0),
+        ("body height", body_height, 1.0, 2.5),
+        ("load", load_mass, 0.0, 100.0),
+    ):
+        if not lo <= float(value) <= hi:
+            raise RecordingError(f"{name} is {value}", expected=f"between {lo:g} and {hi:g}")
+
+
+def _check_excluded(recordings: Sequence[Recording], names: Collection[str]) -> frozenset[str]:
+    exclude = frozenset(str(n).strip().lower() for n in names)
+    known = {k.lower() for rec in recordings for k in rec.channels}
+    unknown = sorted(exclude - known)
+    if unknown:
+        shown = sorted({k for rec in recordings for k in rec.channels})
+        listed = ", ".join(shown[:20]) + (" ..." if len(shown) > 20 else "")
+        raise RecordingError(
+            f"cannot exclude channel {unknown[0]!r}: no recording has it",
+            expected=f"one of {listed}",
+        )
+    return exclude
+
+
+def _arm_model(
+    body_mass: float, body_height: float, load_mass: float, warnings: list[str]
+) -> Callable[[], ArmDynamics | None]:
+    """The human arm model, built on first use (EMG-only analyses never need it)."""
     cache: dict[str, ArmDynamics | None] = {}
 
     def dynamics() -> ArmDynamics | None:
@@ -713,39 +962,7 @@ def analyze_recordings(
                 cache["arm"] = None
         return cache["arm"]
 
-    analyses = [
-        _analyze_one(
-            rec,
-            emg_rate=emg_rate,
-            muscle_map=muscle_map,
-            bounds=bounds,
-            offset=offset,
-            dynamics=dynamics,
-            emg_options=emg_options or {},
-            pose_options=pose_options or {},
-        )
-        for rec in recs
-    ]
-    profiles = [r.profile for a in analyses for r in a.lifts]
-    source = ", ".join(a.source for a in analyses)
-    template = build_template(profiles, phase_bounds_deg=(lo, hi), source=source)
-    if not profiles:
-        warnings.append("no lifts found: the template keeps the paper's defaults")
-    settings = {
-        "emg_rate_hz": emg_rate,
-        "muscle_map": dict(muscle_map or {}),
-        "phase_bounds_deg": [lo, hi],
-        "body_mass_kg": body_mass,
-        "body_height_m": body_height,
-        "load_mass_kg": load_mass,
-        "offset_s": offset,
-        "emg": {"band_hz": [20.0, 450.0], "lowpass_hz": 6.0, "method": "lowpass"}
-        | {k: v for k, v in (emg_options or {}).items()},
-        "pose": dict(pose_options or {}),
-    }
-    return AnalysisResult(
-        recordings=analyses, template=template, settings=settings, warnings=warnings
-    )
+    return dynamics
 
 
 def analyze_files(
@@ -753,6 +970,7 @@ def analyze_files(
     *,
     emg_rate: float | None = None,
     muscle_map: Mapping[str, str] | None = None,
+    exclude_channels: Collection[str] = (),
     phase_bounds_deg: tuple[float, float] = (40.0, 90.0),
     body_mass: float = 75.0,
     body_height: float = 1.75,
@@ -763,17 +981,22 @@ def analyze_files(
     pose_options: Mapping[str, Any] | None = None,
     frame_rate: float | None = None,
     image_size: tuple[int, int] | None = None,
+    pose_python: str | Path | None = None,
+    max_video_seconds: float = 600.0,
 ) -> AnalysisResult:
     """Read files with ``app.recordings.read_recording`` and analyse them.
 
     ``frame_rate`` [Hz] and ``image_size`` (width, height) [px] go to the reader for pose
-    files that do not state them (MediaPipe CSV without timestamps); the other options are
-    those of :func:`analyze_recordings`.
+    files that do not state them (MediaPipe CSV without timestamps). Videos (mp4, mov, avi)
+    become pose first (:func:`app.recordings.extract_pose`, with ``pose_python`` and
+    ``max_video_seconds``). The other options are those of :func:`analyze_recordings`.
     """
-    from app.recordings import read_recording
+    from app.recordings import extract_pose, is_video, read_recording
 
     recordings = [
-        read_recording(
+        extract_pose(p, pose_python=pose_python, max_seconds=max_video_seconds).recording()
+        if is_video(p)
+        else read_recording(
             p,
             emg_rate=emg_rate,
             muscle_map=muscle_map,
@@ -782,10 +1005,11 @@ def analyze_files(
         )
         for p in paths
     ]
-    return analyze_recordings(
+    result = analyze_recordings(
         recordings,
         emg_rate=emg_rate,
         muscle_map=muscle_map,
+        exclude_channels=exclude_channels,
         phase_bounds_deg=phase_bounds_deg,
         body_mass=body_mass,
         body_height=body_height,
@@ -795,3 +1019,6 @@ def analyze_files(
         emg_options=emg_options,
         pose_options=pose_options,
     )
+    result.settings["frame_rate_hz"] = frame_rate
+    result.settings["image_size_px"] = list(image_size) if image_size else None
+    return result

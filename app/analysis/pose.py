@@ -255,14 +255,17 @@ def _points(
     return pos, unit
 
 
-def _confidence(channels: list[Channel], min_visibility: float) -> float:
-    scores = []
+def _confidence(channels: list[Channel], min_visibility: float) -> tuple[float, float]:
+    """(share of usable samples, mean visibility) of an arm's landmarks: the side with more
+    usable samples wins, and on a tie the one MediaPipe sees better."""
+    scores, visibility = [], []
     for ch in channels:
         finite = np.isfinite(ch.data).all(axis=1)
-        if ch.confidence is not None:
-            finite &= np.asarray(ch.confidence) >= min_visibility
+        conf = np.ones(ch.n_samples) if ch.confidence is None else np.asarray(ch.confidence)
+        finite &= conf >= min_visibility
         scores.append(float(finite.mean()))
-    return float(np.mean(scores))
+        visibility.append(float(np.nanmean(conf)) if conf.size else 0.0)
+    return float(np.mean(scores)), float(np.mean(visibility))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -325,6 +328,39 @@ def _segments(
     return y, segments, gaps
 
 
+def savgol(
+    y: NDArray[np.float64], n_win: int, polyorder: int, *, deriv: int, delta: float
+) -> NDArray[np.float64]:
+    """``scipy.signal.savgol_filter(y, ..., axis=0, mode="interp")``, computed by overlap-add
+    FFT convolution in the interior.
+
+    Args:
+        y: (N, K) samples, N >= n_win.
+        n_win: odd window length [samples]; polyorder, deriv, delta as for ``savgol_filter``.
+
+    Returns:
+        (N, K) the filtered derivative. The same numbers as ``savgol_filter`` (to rounding);
+        for a 2 kHz goniometer (301-sample window) direct correlation cost most of a long
+        session's analysis, the FFT a small fraction of it.
+    """
+    signal = scipy_signal()
+    n, half = len(y), n_win // 2
+    if n < 4 * n_win:
+        return np.asarray(
+            signal.savgol_filter(
+                y, n_win, polyorder, deriv=deriv, delta=delta, axis=0, mode="interp"
+            )
+        )
+    coeffs = signal.savgol_coeffs(n_win, polyorder, deriv=deriv, delta=delta, use="conv")
+    out = np.empty_like(y)
+    out[half : n - half] = signal.oaconvolve(y, coeffs[:, None], mode="valid", axes=0)
+    # The ends: "interp" fits one polynomial to the first (last) window; same as on a slice.
+    edge = {"deriv": deriv, "delta": delta, "axis": 0, "mode": "interp"}
+    out[:half] = signal.savgol_filter(y[:n_win], n_win, polyorder, **edge)[:half]
+    out[n - half :] = signal.savgol_filter(y[n - n_win :], n_win, polyorder, **edge)[n_win - half :]
+    return out
+
+
 def smooth_and_differentiate(
     t: NDArray[np.float64],
     y: NDArray[np.float64],
@@ -381,13 +417,8 @@ def smooth_and_differentiate(
             d1[start:stop] = spline(t[start:stop], 1)
             d2[start:stop] = spline(t[start:stop], 2)
         else:
-            dt = 1.0 / rate
-            d1[start:stop] = signal.savgol_filter(
-                seg, n_win, polyorder, deriv=1, delta=dt, axis=0, mode="interp"
-            )
-            d2[start:stop] = signal.savgol_filter(
-                seg, n_win, polyorder, deriv=2, delta=dt, axis=0, mode="interp"
-            )
+            d1[start:stop] = savgol(seg, n_win, polyorder, deriv=1, delta=1.0 / rate)
+            d2[start:stop] = savgol(seg, n_win, polyorder, deriv=2, delta=1.0 / rate)
         # Near a gap the derivative window would reach across it: leave those samples NaN.
         if start > 0:
             d1[start : start + half] = np.nan
@@ -400,6 +431,44 @@ def smooth_and_differentiate(
 
 # ---------------------------------------------------------------------------------------------
 # public entry point
+
+
+def _choose_arm(
+    recording: Recording,
+    side: Side | None,
+    landmarks: Mapping[str, str | Sequence[str]] | None,
+    min_visibility: float,
+) -> tuple[Side, dict[str, list[Channel]], bool]:
+    """(side, channels per role, whether the names were sided) of the arm to use: ``side``,
+    or the one with more usable samples (then higher mean visibility)."""
+    if side not in (None, "left", "right"):
+        raise RecordingError(f"unknown side {side!r}", expected="'left', 'right' or None")
+    options: list[Side] = [side] if side is not None else ["left", "right"]
+    resolved: list[tuple[tuple[float, float], Side, dict[str, list[Channel]], bool]] = []
+    for s in options:
+        found, sided = _resolve(recording, s, landmarks)
+        if all(role in found for role in ("shoulder", "elbow", "wrist")):
+            arm = [ch for role in ("shoulder", "elbow", "wrist") for ch in found[role]]
+            resolved.append((_confidence(arm, min_visibility), s, found, sided))
+    if not resolved:
+        names = sorted(_position_channels(recording))
+        raise RecordingError(
+            "no arm landmarks found" + (f" for the {side} side" if side else ""),
+            file=recording.source,
+            expected="shoulder, elbow and wrist landmarks or markers (e.g. left_shoulder, "
+            "left_elbow, left_wrist; LSHO, LELB, LWRA; or ACRO_tip, EPICl/EPICm, STYLr/STYLu)"
+            + (f"; position channels present: {names[:12]}" if names else "; none present"),
+        )
+    resolved.sort(key=lambda item: (-item[0][0], -item[0][1]))
+    _, chosen_side, found, sided = resolved[0]
+    lengths = {ch.n_samples for chans in found.values() for ch in chans}
+    if len(lengths) != 1:
+        raise RecordingError(
+            f"arm landmarks have different lengths {sorted(lengths)}",
+            file=recording.source,
+            expected="landmarks sampled together",
+        )
+    return chosen_side, found, sided
 
 
 def arm_angles(
@@ -442,33 +511,7 @@ def arm_angles(
     Raises:
         RecordingError: no shoulder, elbow and wrist landmarks for the side(s), or none valid.
     """
-    if side not in (None, "left", "right"):
-        raise RecordingError(f"unknown side {side!r}", expected="'left', 'right' or None")
-    options: list[Side] = [side] if side is not None else ["left", "right"]
-    resolved: list[tuple[float, Side, dict[str, list[Channel]], bool]] = []
-    for s in options:
-        found, sided = _resolve(recording, s, landmarks)
-        if all(role in found for role in ("shoulder", "elbow", "wrist")):
-            arm = [ch for role in ("shoulder", "elbow", "wrist") for ch in found[role]]
-            resolved.append((_confidence(arm, min_visibility), s, found, sided))
-    if not resolved:
-        names = sorted(_position_channels(recording))
-        raise RecordingError(
-            "no arm landmarks found" + (f" for the {side} side" if side else ""),
-            file=recording.source,
-            expected="shoulder, elbow and wrist landmarks or markers (e.g. left_shoulder, "
-            "left_elbow, left_wrist; LSHO, LELB, LWRA; or ACRO_tip, EPICl/EPICm, STYLr/STYLu)"
-            + (f"; position channels present: {names[:12]}" if names else "; none present"),
-        )
-    resolved.sort(key=lambda item: -item[0])
-    _, chosen_side, found, sided = resolved[0]
-    lengths = {ch.n_samples for chans in found.values() for ch in chans}
-    if len(lengths) != 1:
-        raise RecordingError(
-            f"arm landmarks have different lengths {sorted(lengths)}",
-            file=recording.source,
-            expected="landmarks sampled together",
-        )
+    chosen_side, found, sided = _choose_arm(recording, side, landmarks, min_visibility)
     first = found["shoulder"][0]
     rate = float(first.rate)
     t = np.asarray(first.times, dtype=np.float64)
@@ -520,17 +563,49 @@ def arm_angles(
     )
 
 
-def _angle_channel(recording: Recording, joint: str, prefer: Sequence[str]) -> Channel | None:
+#: Name fragments of joint-angle channels: goniometers and OpenSim coordinates (arm26
+#: ``r_shoulder_elev``/``r_elbow_flex``, Rajagopal and MoBL ``arm_flex_r``/``elbow_flex_r``,
+#: ``shoulder_elv``/``shoulder_ele``), with the preferred words first.
+_JOINT_WORDS = {
+    "elbow": (("elbow",), ("flex",)),
+    "shoulder": (("shoulder", "arm_flex"), ("flex", "ele")),
+}
+
+
+def _side_of(name: str) -> str | None:
+    low = name.lower()
+    if low.endswith(("_r", "_right")) or low.startswith(("r_", "right_")):
+        return "right"
+    if low.endswith(("_l", "_left")) or low.startswith(("l_", "left_")):
+        return "left"
+    return None
+
+
+def _angle_channel(recording: Recording, joint: str, side: str | None) -> Channel | None:
+    """The joint's angle channel, of ``side`` when the names tell sides apart."""
+    words, prefer = _JOINT_WORDS[joint]
     found = [
         ch
         for name, ch in recording.channels.items()
-        if ch.kind == "angle" and ch.data.ndim == 1 and joint in name.lower()
+        if ch.kind == "angle" and ch.data.ndim == 1 and any(w in name.lower() for w in words)
     ]
+    if side is not None and any(_side_of(ch.name) == side for ch in found):
+        found = [ch for ch in found if _side_of(ch.name) in (side, None)]
     for word in prefer:
         for ch in found:
             if word in ch.name.lower():
                 return ch
     return found[0] if found else None
+
+
+def _elbow_channel(recording: Recording, side: str | None) -> Channel | None:
+    """The elbow channel of ``side``, else of the side whose elbow moves most."""
+    if side is not None:
+        return _angle_channel(recording, "elbow", side)
+    options = [c for c in (_angle_channel(recording, "elbow", s) for s in ("right", "left")) if c]
+    if not options:
+        return None
+    return max(options, key=lambda c: float(np.nanmax(c.data) - np.nanmin(c.data)))
 
 
 def angles_from_channels(
@@ -541,21 +616,24 @@ def angles_from_channels(
     lowpass: float | None = 6.0,
     derivative: DerivativeMethod = "savgol",
     window: float = 0.15,
+    side: str | None = None,
 ) -> ArmAngles | None:
     """Arm angles from joint-angle channels (goniometers, OpenSim coordinates) instead of points.
 
     The elbow channel is the ``angle`` channel whose name contains "elbow" (one with "flex"
-    preferred); the shoulder one contains "shoulder" ("flex" preferred, then "ele" for
-    elevation). Both are taken as flexion in radians, as the readers deliver them. Without a
-    shoulder channel the upper arm is taken as hanging (0 rad).
+    preferred); the shoulder one contains "shoulder" or "arm_flex" ("flex" preferred, then
+    "ele" for elevation), so OpenSim's ``elbow_flex_r``, ``arm_flex_r``, ``shoulder_elv`` are
+    recognised. With sided names (``_r``/``_l``, ``r_``/``l_``) both come from ``side``, or
+    from the side whose elbow moves most. Both are taken as flexion in radians, as the
+    readers deliver them. Without a shoulder channel the upper arm is taken as hanging (0 rad).
 
     Returns:
         ArmAngles (no wrist acceleration: shape (T, 0)), or None without an elbow channel.
     """
-    elbow = _angle_channel(recording, "elbow", ("flex",))
+    elbow = _elbow_channel(recording, side)
     if elbow is None:
         return None
-    shoulder = _angle_channel(recording, "shoulder", ("flex", "ele"))
+    shoulder = _angle_channel(recording, "shoulder", side or _side_of(elbow.name))
     rate = float(elbow.rate)
     t = np.asarray(elbow.times, dtype=np.float64)
     e = np.asarray(elbow.data, dtype=np.float64)
@@ -580,11 +658,6 @@ def angles_from_channels(
         derivative=derivative,
         window=window,
     )
-    side = (
-        "right"
-        if elbow.name.lower().endswith(("_r", "_right"))
-        else ("left" if elbow.name.lower().endswith(("_l", "_left")) else "unspecified")
-    )
     return ArmAngles(
         t=t,
         shoulder=smooth[:, 0],
@@ -598,6 +671,6 @@ def angles_from_channels(
         segments=segments,
         gaps=gaps,
         rate=rate,
-        side=side,
+        side=_side_of(elbow.name) or "unspecified",
         position_unit="",
     )

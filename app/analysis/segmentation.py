@@ -27,12 +27,14 @@ class Lift:
     """One repetition.
 
     Attributes:
-        start: movement start [s].
-        top: highest elbow flexion (end of the concentric part) [s]; for EMG-only lifts the time
-            of the burst's peak, an estimate.
+        start: movement start: the last moment at rest before the elbow rises [s].
+        top: first arrival at the highest elbow flexion (end of the concentric part) [s]; for
+            EMG-only lifts the time of the burst's peak, an estimate.
         end: back at rest [s].
         source: ``"angle"`` or ``"emg"`` (what the lift was detected from).
         start_angle, top_angle, end_angle: elbow flexion there [rad] (NaN for EMG-only lifts).
+        lower_start: when the lowering begins [s]; ``top -> lower_start`` is the hold at the
+            top (its own part, in no phase). None = no hold (lowering begins at ``top``).
     """
 
     start: float
@@ -42,14 +44,20 @@ class Lift:
     start_angle: float = float("nan")
     top_angle: float = float("nan")
     end_angle: float = float("nan")
+    lower_start: float | None = None
 
     @property
     def concentric(self) -> tuple[float, float]:
         return (self.start, self.top)
 
     @property
+    def hold(self) -> tuple[float, float]:
+        """(top, lowering start) [s]: the hold at the top (zero length without one)."""
+        return (self.top, self.top if self.lower_start is None else self.lower_start)
+
+    @property
     def eccentric(self) -> tuple[float, float]:
-        return (self.top, self.end)
+        return (self.hold[1], self.end)
 
     @property
     def duration(self) -> float:
@@ -91,14 +99,24 @@ def detect_lifts(
     min_prominence: float = 0.3,
     min_range: float = float(np.deg2rad(20.0)),
     min_spacing: float = 1.0,
-    rest_fraction: float = 0.05,
+    rest_speed_fraction: float = 0.05,
+    top_fraction: float = 0.02,
 ) -> list[Lift]:
     """Lifts from the elbow flexion angle.
 
     Each lift is a peak of the angle whose prominence is at least ``min_prominence`` of the
-    angle's whole range (and at least ``min_range``), peaks at least ``min_spacing`` apart. Its
-    start (end) is where the angle last leaves (first returns to) within ``rest_fraction`` of
-    the lift's amplitude of the minimum before (after) the peak. Lifts never span a gap.
+    angle's whole range (and at least ``min_range``), peaks at least ``min_spacing`` apart.
+    Its boundaries follow the elbow's speed, so they mark when the forearm moves:
+
+    - start: the last sample before the rise's fastest point whose rising speed is at most
+      ``rest_speed_fraction`` of that peak speed (the elbow starts to move);
+    - top: the first arrival at the top: the first sample after the fastest point whose speed
+      has fallen to that fraction in the upper tenth of the rise (when the speed never settles,
+      the first sample within ``top_fraction`` of the rise of the highest angle);
+    - lowering start and end: the same rules mirrored on the way down. Time at the top between
+      top and lowering start is the hold, in no phase.
+
+    Lifts never span a gap.
 
     Args:
         elbow: (T,) elbow flexion [rad], NaN in gaps.
@@ -107,7 +125,9 @@ def detect_lifts(
         min_prominence: smallest peak prominence as a fraction of the angle's range.
         min_range: smallest peak prominence [rad].
         min_spacing: shortest time between two tops [s].
-        rest_fraction: how close to the resting minimum the movement counts as started/ended.
+        rest_speed_fraction: speed, as a fraction of the rise's (fall's) peak speed, below
+            which the elbow counts as not moving.
+        top_fraction: share of the rise (fall) within which the angle counts as at the top.
 
     Returns:
         Lifts in time order.
@@ -119,45 +139,96 @@ def detect_lifts(
             f"elbow angle {y.shape} and times {times.shape} do not match", expected="(T,) each"
         )
     rate = _rate_of(times)
-    finite = np.isfinite(y)
     if segments is None:
-        padded = np.concatenate(([False], finite, [False]))
+        padded = np.concatenate(([False], np.isfinite(y), [False]))
         segs = np.flatnonzero(padded[1:] != padded[:-1]).reshape(-1, 2)
     else:
         segs = np.asarray(segments, dtype=np.intp).reshape(-1, 2)
     span = float(np.nanmax(y) - np.nanmin(y))
     prominence = max(min_prominence * span, min_range)
-    find_peaks = scipy_signal().find_peaks
+    distance = max(1, round(min_spacing * rate))
     lifts: list[Lift] = []
     for i0, i1 in segs:
-        seg = y[i0:i1]
-        if len(seg) < 3:
-            continue
-        peaks, _ = find_peaks(
-            seg, prominence=prominence, distance=max(1, round(min_spacing * rate))
-        )
-        for k, p in enumerate(peaks):
-            left = int(peaks[k - 1]) if k > 0 else 0
-            right = int(peaks[k + 1]) if k + 1 < len(peaks) else len(seg) - 1
-            lo = left + int(np.argmin(seg[left : p + 1]))
-            hi = p + int(np.argmin(seg[p : right + 1]))
-            up, down = seg[p] - seg[lo], seg[p] - seg[hi]
-            rising = np.flatnonzero(seg[lo : p + 1] <= seg[lo] + rest_fraction * up)
-            falling = np.flatnonzero(seg[p : hi + 1] <= seg[hi] + rest_fraction * down)
-            s = lo + int(rising[-1])
-            e = p + int(falling[0])
-            lifts.append(
-                Lift(
-                    start=float(times[i0 + s]),
-                    top=float(times[i0 + p]),
-                    end=float(times[i0 + e]),
-                    source="angle",
-                    start_angle=float(seg[s]),
-                    top_angle=float(seg[p]),
-                    end_angle=float(seg[e]),
-                )
+        if i1 - i0 >= 3:
+            lifts += _segment_lifts(
+                y[i0:i1], times[i0:i1], prominence, distance, rest_speed_fraction, top_fraction
             )
     return lifts
+
+
+def _segment_lifts(
+    seg: NDArray[np.float64],
+    ts: NDArray[np.float64],
+    prominence: float,
+    distance: int,
+    rest_fraction: float,
+    top_fraction: float,
+) -> list[Lift]:
+    """The lifts of one gap-free stretch: (S,) angles [rad] at (S,) times [s]."""
+    peaks, _ = scipy_signal().find_peaks(seg, prominence=prominence, distance=distance)
+    speed = np.gradient(seg, ts)
+    lifts: list[Lift] = []
+    for k, p in enumerate(peaks):
+        left = int(peaks[k - 1]) if k > 0 else 0
+        right = int(peaks[k + 1]) if k + 1 < len(peaks) else len(seg) - 1
+        lo = left + int(np.argmin(seg[left : p + 1]))
+        hi = p + int(np.argmin(seg[p : right + 1]))
+        s, top = _rise_bounds(
+            seg[lo : p + 1], speed[lo : p + 1], 0, int(p) - lo, rest_fraction, top_fraction
+        )
+        s, top = s + lo, top + lo
+        # The fall is the rise seen backwards in time: mirror the lift's samples.
+        fall, fall_speed = seg[p : hi + 1][::-1], -speed[p : hi + 1][::-1]
+        e_m, low_m = _rise_bounds(fall, fall_speed, 0, hi - int(p), rest_fraction, top_fraction)
+        e, lower = hi - e_m, hi - low_m
+        lifts.append(
+            Lift(
+                start=float(ts[s]),
+                top=float(ts[top]),
+                end=float(ts[e]),
+                source="angle",
+                start_angle=float(seg[s]),
+                top_angle=float(seg[top]),
+                end_angle=float(seg[e]),
+                lower_start=float(ts[lower]) if lower > top else None,
+            )
+        )
+    return lifts
+
+
+def _rise_bounds(
+    y: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    lo: int,
+    p: int,
+    rest_fraction: float,
+    top_fraction: float,
+) -> tuple[int, int]:
+    """(start, first arrival at the top) indices of the rise ``y[lo] -> y[p]`` (p = highest).
+
+    Args:
+        y: (T,) angle [rad].
+        speed: (T,) its time derivative [rad/s].
+        lo, p: indices of the resting minimum before the rise and of the highest angle.
+        rest_fraction: share of the peak rising speed below which the elbow is at rest.
+        top_fraction: share of the rise within which the angle counts as at the top.
+    """
+    if p <= lo:
+        return lo, p
+    k = lo + int(np.argmax(speed[lo : p + 1]))
+    v_peak = float(speed[k])
+    rise = float(y[p] - y[lo])
+    if not v_peak > 0 or not rise > 0:
+        return lo, p
+    slow = speed <= rest_fraction * v_peak
+    before = np.flatnonzero(slow[lo : k + 1])
+    start = lo + int(before[-1]) if before.size else lo
+    # Speed first: it marks the arrival exactly; the angle band is the fallback for noisy
+    # angles whose speed never settles (it puts the top up to top_fraction of the rise early).
+    stopped = np.flatnonzero(slow[k : p + 1] & (y[k : p + 1] >= y[p] - 0.1 * rise))
+    near = np.flatnonzero(y[k : p + 1] >= y[p] - top_fraction * rise)
+    top = k + int(stopped[0]) if stopped.size else k + int(near[0]) if near.size else p
+    return start, top
 
 
 def detect_emg_lifts(
@@ -240,9 +311,10 @@ def split_phases(
 ) -> list[Phase]:
     """Split a lift into phases A/B/C by elbow flexion, on the way up and on the way down.
 
-    On the way up a phase ends where the angle first reaches the next bound; on the way down a
-    phase ends where the angle last leaves it. Phases the lift never enters are left out (a lift
-    that starts at 50 deg has no concentric A).
+    On the way up (start -> top) a phase ends where the angle first reaches the next bound; on
+    the way down (lowering start -> end) a phase ends where the angle last leaves it. A hold at
+    the top (top -> lowering start) belongs to no phase. Phases the lift never enters are left
+    out (a lift that starts at 50 deg has no concentric A).
 
     Args:
         elbow: (T,) elbow flexion [rad].
@@ -258,8 +330,9 @@ def split_phases(
     b1, b2 = bounds
     if not 0 < b1 < b2:
         raise RecordingError(f"phase bounds {bounds} rad", expected="0 < A/B bound < B/C bound")
-    i_s, i_top, i_e = (
-        int(np.searchsorted(times, x - 1e-9)) for x in (lift.start, lift.top, lift.end)
+    i_s, i_top, i_low, i_e = (
+        int(np.searchsorted(times, x - 1e-9))
+        for x in (lift.start, lift.top, lift.eccentric[0], lift.end)
     )
     i_e = min(i_e, len(times) - 1)
     names: tuple[PhaseName, PhaseName, PhaseName] = ("A", "B", "C")
@@ -275,7 +348,7 @@ def split_phases(
         if t1 > t0:
             phases.append(Phase(name, "concentric", t0, t1))
     # Eccentric: times where the falling angle last leaves each bound, highest bound first.
-    dn_t, dn_y = times[i_top : i_e + 1], y[i_top : i_e + 1]
+    dn_t, dn_y = times[i_low : i_e + 1], y[i_low : i_e + 1]
     edges = [float(dn_t[0])]
     for b in (b2, b1):
         above = np.flatnonzero(dn_y >= b)

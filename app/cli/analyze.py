@@ -1,14 +1,17 @@
-"""``bioplan analyze``: recordings of lifts in, lifts, phases, onsets and a human template out."""
+"""``bioplan analyze``: recordings of lifts in, lifts, phases, onsets and a human template out;
+``bioplan pose-env``: create the separate environment that turns videos into pose."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError
+from app.cli._common import CliError, floats, positive, progress_printer
 from app.planning.jsonsafe import json_safe
 
 
@@ -24,14 +27,124 @@ def _muscle_map(pairs: Sequence[str] | None) -> dict[str, str] | None:
     return out
 
 
+def _offset(text: str | None) -> float | str | None:
+    if text is None or text == "auto":
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise CliError(f"--offset expects seconds or 'auto', got {text!r}") from None
+    if not math.isfinite(value):
+        raise CliError(f"--offset must be finite, got {text!r}")
+    return value
+
+
+def _bounds(text: str) -> tuple[float, float]:
+    values = floats(text, "phase-bounds-deg")
+    if len(values) != 2:
+        raise CliError(f"--phase-bounds-deg expects two angles A/B,B/C, got {text!r}")
+    return values[0], values[1]
+
+
+def _image_size(values: Sequence[int] | None) -> tuple[int, int] | None:
+    if values is None:
+        return None
+    w, h = values
+    if w <= 0 or h <= 0:
+        raise CliError(f"--image-size expects a width and height > 0 in pixels, got {w} {h}")
+    return (w, h)
+
+
+def _pose_from_videos(args: argparse.Namespace, files: list[str]) -> tuple[list[Any], list[str]]:
+    """Recordings of the files, videos turned into pose first; and what was written."""
+    from app.recordings import extract_pose, is_video, read_recording, save_skeletons
+
+    recordings: list[Any] = []
+    written: list[str] = []
+    show = progress_printer(not args.json)
+    for f in files:
+        if is_video(f):
+            extraction = extract_pose(
+                f,
+                pose_python=args.pose_python,
+                max_seconds=args.max_video_seconds,
+                skeleton_frames=4 if args.skeletons else 0,
+                progress=show,
+            )
+            recordings.append(extraction.recording())
+            if args.skeletons:
+                written += [str(p) for p in save_skeletons(extraction, args.skeletons)]
+        else:
+            recordings.append(
+                read_recording(
+                    f,
+                    emg_rate=args.emg_rate,
+                    muscle_map=_muscle_map(args.muscle),
+                    frame_rate=args.frame_rate,
+                    image_size=_image_size(args.image_size),
+                )
+            )
+    return recordings, written
+
+
+def _unused_pose_options(args: argparse.Namespace, recordings: list[Any]) -> list[str]:
+    """Warnings for --frame-rate / --image-size when no file could use them (only MediaPipe
+    landmark files lack a frame rate or an image size; a session's EMG file ignores them)."""
+    if any(str(r.format).startswith("mediapipe") for r in recordings):
+        return []
+    out = []
+    if args.frame_rate is not None:
+        out.append("--frame-rate ignored: every file states its own timing")
+    if args.image_size is not None:
+        out.append("--image-size ignored: no file holds image coordinates")
+    return out
+
+
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword options of :func:`app.analysis.analyze_recordings` from the flags."""
+    if args.emg_rate is not None:
+        positive("emg-rate", args.emg_rate)
+    if args.frame_rate is not None:
+        positive("frame-rate", args.frame_rate)
+    positive("max-video-seconds", args.max_video_seconds)
+    pose: dict[str, Any] = {}
+    if args.side != "auto":
+        pose["side"] = args.side
+    return {
+        "emg_rate": args.emg_rate,
+        "muscle_map": _muscle_map(args.muscle),
+        "exclude_channels": args.exclude or (),
+        "phase_bounds_deg": _bounds(args.phase_bounds_deg),
+        "body_mass": positive("body-mass", args.body_mass),
+        "body_height": positive("body-height", args.body_height),
+        "load_mass": args.load,
+        "offset": _offset(args.offset),
+        "together": args.together,
+        "pose_options": pose,
+    }
+
+
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from app.analysis import analyze_files
+    from app.analysis import analyze_recordings
+    from app.recordings import is_video
 
     for f in args.files:
         if not Path(f).is_file():
             raise CliError(f"{f}: no such file")
-    result = analyze_files(args.files, emg_rate=args.emg_rate, muscle_map=_muscle_map(args.muscle))
+    if args.load < 0 or not math.isfinite(args.load):
+        raise CliError(f"--load must be a mass >= 0 kg, got {args.load}")
+    if args.skeletons and not any(is_video(f) for f in args.files):
+        raise CliError("--skeletons needs a video (mp4, mov, avi) among the files")
+    options = _settings(args)
+    recordings, skeletons = _pose_from_videos(args, list(args.files))
+    result = analyze_recordings(recordings, **options)
+    result.warnings.extend(_unused_pose_options(args, recordings))
+    result.settings["frame_rate_hz"] = args.frame_rate
+    result.settings["image_size_px"] = list(args.image_size) if args.image_size else None
+    result.settings["side"] = args.side
     payload = json_safe(result.to_dict())
+    if skeletons:
+        payload["skeleton_frames"] = skeletons
     if args.plot:
         from app.analysis import write_analysis_plots
 
@@ -41,38 +154,97 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         Path(args.out).write_text(result.template.to_json() + "\n", encoding="utf-8")
     if args.json:
         print(json.dumps(payload, indent=2, allow_nan=False))
-    else:
-        print(result.summary())
-        if args.plot:
-            print(f"figures written to {args.plot}")
-        if args.out:
-            print(f"template written to {args.out}")
+        return 0
+    print(result.summary())
+    for label, what in ((args.plot, "figures"), (args.skeletons, "skeleton frames")):
+        if label:
+            print(f"{what} written to {label}")
+    if args.out:
+        print(f"template written to {args.out}")
+    return 0
+
+
+def cmd_pose_env(args: argparse.Namespace) -> int:
+    from app.recordings import create_pose_env, default_pose_env
+
+    target = Path(args.dir) if args.dir else default_pose_env()
+    print(f"creating the pose environment in {target} (MediaPipe 0.10.21) ...", file=sys.stderr)
+    py = create_pose_env(target, python=args.python, quiet=not args.verbose)
+    print(py)
     return 0
 
 
 def register(sub: Any) -> None:
-    """Add ``analyze`` to the ``bioplan`` subcommands."""
-    p = sub.add_parser("analyze", help="analyse EMG and pose recordings into a human template")
-    p.add_argument("files", nargs="+", help="recording files (format detected from content)")
+    """Add ``analyze`` and ``pose-env`` to the ``bioplan`` subcommands."""
+    p = sub.add_parser("analyze", help="analyse EMG, pose and video recordings into a template")
+    p.add_argument(
+        "files",
+        nargs="+",
+        help="recording files (format detected from content); videos (mp4, mov, avi) are"
+        " turned into pose first",
+    )
     p.add_argument("--emg-rate", type=float, default=None, help="override the stored EMG rate [Hz]")
     p.add_argument(
         "--muscle", action="append", default=None, metavar="LABEL=SITE", help="map a channel"
     )
-    p.add_argument("--frame-rate", type=float, default=None, help="pose frame rate [Hz]")
     p.add_argument(
-        "--image-size", type=int, nargs=2, default=None, metavar=("W", "H"), help="video size [px]"
+        "--exclude", action="append", default=None, metavar="CHANNEL", help="leave a channel out"
+    )
+    p.add_argument(
+        "--frame-rate", type=float, default=None, help="pose frame rate [Hz] for files without one"
+    )
+    p.add_argument(
+        "--image-size",
+        type=int,
+        nargs=2,
+        default=None,
+        metavar=("W", "H"),
+        help="video size [px] of MediaPipe files that do not state it",
+    )
+    p.add_argument(
+        "--side",
+        choices=("auto", "left", "right"),
+        default="auto",
+        help="which arm (auto: the better visible one)",
     )
     p.add_argument(
         "--offset", default=None, help="EMG-to-pose clock offset [s], or 'auto' (cross-correlation)"
     )
     p.add_argument(
-        "--together", action="store_true", help="treat the files as one recording (EMG + pose)"
+        "--together",
+        action="store_true",
+        help="the files were recorded at the same time (one clock); default: separate trials",
     )
     p.add_argument("--phase-bounds-deg", default="40,90", help="A/B and B/C elbow angles [deg]")
     p.add_argument("--body-mass", type=float, default=75.0, help="subject mass [kg]")
     p.add_argument("--body-height", type=float, default=1.75, help="subject height [m]")
     p.add_argument("--load", type=float, default=12.0, help="dumbbell mass [kg]")
+    p.add_argument(
+        "--pose-python",
+        default=None,
+        help="python of the pose environment for videos (default: $BIOPLAN_POSE_PYTHON, then"
+        " the one 'bioplan pose-env' creates)",
+    )
+    p.add_argument(
+        "--max-video-seconds", type=float, default=600.0, help="longest video accepted [s]"
+    )
+    p.add_argument(
+        "--skeletons", default=None, metavar="DIR", help="write video frames with the skeleton"
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="write the HumanTemplate JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write figures into DIR")
     p.set_defaults(handler=cmd_analyze)
+
+    e = sub.add_parser("pose-env", help="create the environment that extracts pose from videos")
+    e.add_argument(
+        "dir",
+        nargs="?",
+        default=None,
+        help="where to create it (default: $XDG_DATA_HOME/bioplan/pose-env)",
+    )
+    e.add_argument(
+        "--python", default=None, help="interpreter to base it on (CPython 3.9-3.12; default: this)"
+    )
+    e.add_argument("--verbose", action="store_true", help="show the installers' output")
+    e.set_defaults(handler=cmd_pose_env)

@@ -3,6 +3,12 @@
 The analysis package builds it from recordings (``app.analysis.template``); the planner only
 reads it. Defaults are the paper's: the elbow's velocity peaks at 62 deg, in the middle of phase B
 (40-90 deg).
+
+Where the peak goes on a robot stroke: a template built from lifts knows where, within each
+lift's own range (start angle -> top angle), the elbow was fastest, as a fraction of that range;
+the robot's elbow stroke q0 -> q1 gets its peak at the same fraction. Absolute angles would move
+the peak of a 40 -> 127 deg lift to the wrong place on a 0 -> 150 deg task. The paper's default
+has no lifts, so it keeps the paper's absolute 62 deg (see :func:`joint_on_stroke`).
 """
 
 from __future__ import annotations
@@ -17,6 +23,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from app.errors import BioPlanError
 from app.names import HUMAN_CURL_SPAN_DEG
+
+#: ``HumanTemplate.source`` when no recorded lift had usable elbow kinematics.
+PAPER_DEFAULT_SOURCE = "paper default"
 
 
 @dataclass(frozen=True)
@@ -35,8 +44,18 @@ class HumanTemplate:
         acceleration_mean, acceleration_sd: (K,) elbow acceleration normalised by its peak |value|.
         activation_order: EMG sites in order of onset (e.g. deltoid first).
         emg_peak_time_fraction: site -> time of the EMG envelope peak as a fraction of the lift.
-        n_lifts: how many lifts the template rests on (0 = paper defaults).
-        source: where it came from (file names, or "paper defaults").
+        n_lifts: how many lifts the kinematic fields rest on (0 = paper defaults).
+        source: where the kinematic numbers come from: ``"N lifts with kinematics"`` or
+            :data:`PAPER_DEFAULT_SOURCE` (and why).
+        peak_velocity_range_fraction: where the velocity peaks within each lift's own range,
+            (angle at the peak - start angle) / (top angle - start angle), mean over lifts
+            (None for the paper's default); what the planner places on the robot's stroke.
+        peak_velocity_range_fraction_sd: its standard deviation over lifts.
+        lift_range_deg: mean (start, top) elbow flexion of the lifts [deg] (None without).
+        files: the recordings the template was built from.
+        emg_lifts: how many lifts the EMG timing fields (``activation_order``,
+            ``emg_peak_time_fraction``) rest on.
+        assumptions: what the analysis had to assume (e.g. an unknown video size).
     """
 
     peak_velocity_angle_deg: float = 62.0
@@ -51,7 +70,13 @@ class HumanTemplate:
     activation_order: tuple[str, ...] = ()
     emg_peak_time_fraction: dict[str, float] = field(default_factory=dict)
     n_lifts: int = 0
-    source: str = "paper defaults"
+    source: str = PAPER_DEFAULT_SOURCE
+    peak_velocity_range_fraction: float | None = None
+    peak_velocity_range_fraction_sd: float = 0.0
+    lift_range_deg: tuple[float, float] | None = None
+    files: tuple[str, ...] = ()
+    emg_lifts: int = 0
+    assumptions: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         lo, hi = self.phase_bounds_deg
@@ -63,18 +88,27 @@ class HumanTemplate:
             raise BioPlanError(
                 f"peak velocity angle must lie in (0, 180) deg, got {self.peak_velocity_angle_deg}"
             )
+        frac = self.peak_velocity_range_fraction
+        if frac is not None and not 0.0 < frac < 1.0:
+            raise BioPlanError(
+                f"peak_velocity_range_fraction must lie in (0, 1), got {frac}"
+                " (the peak lies strictly inside each lift's range)"
+            )
 
     @property
     def is_paper_default(self) -> bool:
-        """True when no recorded lift shaped this template (the paper's values are used)."""
+        """True when no recorded lift shaped the kinematic fields (the paper's values are used)."""
         return self.n_lifts == 0
 
     def peak_joint_angle(self, q0: float, q1: float) -> float:
         """Where on a robot elbow stroke q0 -> q1 [rad] the elbow should be fastest [rad].
 
-        The template's peak-velocity angle is a human elbow flexion [deg]; it is placed on the
-        stroke by :func:`joint_on_stroke`.
+        With lifts, at the same fraction of the stroke as within the lifts' own ranges:
+        ``q0 + peak_velocity_range_fraction * (q1 - q0)``. The paper's default (no lifts) places
+        its absolute 62 deg by :func:`joint_on_stroke`.
         """
+        if self.peak_velocity_range_fraction is not None:
+            return q0 + self.peak_velocity_range_fraction * (q1 - q0)
         return joint_on_stroke(self.peak_velocity_angle_deg, q0, q1)
 
     def to_dict(self) -> dict[str, Any]:
@@ -95,9 +129,13 @@ class HumanTemplate:
             "acceleration_mean",
             "acceleration_sd",
             "activation_order",
+            "files",
+            "assumptions",
         ):
             if name in kwargs:
                 kwargs[name] = tuple(kwargs[name])
+        if kwargs.get("lift_range_deg") is not None:
+            kwargs["lift_range_deg"] = tuple(kwargs["lift_range_deg"])
         return cls(**kwargs)
 
     def to_json(self) -> str:

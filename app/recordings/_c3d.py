@@ -185,6 +185,38 @@ def read_c3d(src: Source, opts: Options) -> Recording:
     Analog values are ``(raw - OFFSET) * SCALE * GEN_SCALE``; integer point data is scaled
     by ``|POINT:SCALE|``. Labels longer than one parameter (``LABELS2``...) are joined.
     """
+    r, params, proc = _open(src)
+    lay = _layout(src, r, params)
+    block = _data_block(r, lay)
+    channels: dict[str, Channel] = {}
+    _analog_channels(
+        src,
+        params,
+        block[:, lay.n_points * 4 :],
+        lay.n_analog,
+        lay.spf,
+        lay.analog_rate,
+        lay.is_float,
+        lay.start,
+        channels,
+    )
+    _point_channels(
+        src,
+        params,
+        block[:, : lay.n_points * 4],
+        lay.n_points,
+        abs(lay.scale),
+        lay.is_float,
+        lay.point_rate,
+        lay.start,
+        channels,
+    )
+    metadata = _metadata(params, lay, proc)
+    return Recording(channels=channels, source=src.name, format="c3d", metadata=metadata)
+
+
+def _open(src: Source) -> tuple[_Reader, _Params, int]:
+    """A reader over the file, its parameters and its processor type, after header checks."""
     data = src.data()
     if len(data) < 512:
         raise src.error(f"is {len(data)} bytes long", expected="at least the 512-byte C3D header")
@@ -201,35 +233,59 @@ def read_c3d(src: Source, opts: Options) -> Recording:
         raise src.error(
             f"unknown processor type {proc}", expected="84 (Intel), 85 (DEC) or 86 (MIPS)"
         )
-    endian = ">" if proc == 86 else "<"
-    r = _Reader(src, data, endian, proc == 85)
-    params = _parse_parameters(r, pstart, data[pstart + 2])
+    r = _Reader(src, data, ">" if proc == 86 else "<", proc == 85)
+    return r, _parse_parameters(r, pstart, data[pstart + 2]), proc
 
-    h_points = r.u16(2, "header")
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where and how the samples are stored."""
+
+    n_points: int
+    n_analog: int
+    spf: int  # analog samples per channel and frame
+    scale: float  # POINT:SCALE (< 0: float storage)
+    point_rate: float
+    analog_rate: float
+    first: int
+    n_frames: int
+    data_start: int
+
+    @property
+    def is_float(self) -> bool:
+        return self.scale < 0
+
+    @property
+    def start(self) -> float:
+        """Time of the first frame [s]."""
+        return (self.first - 1) / self.point_rate if self.first >= 1 else 0.0
+
+
+def _frames(r: _Reader, params: _Params) -> tuple[int, int]:
+    """(first, last) frame numbers; TRIAL holds 32-bit ones for trials over 65535 frames."""
+    first, last = r.u16(6, "header"), r.u16(8, "header")
+    trial_start = params.numbers("TRIAL", "ACTUAL_START_FIELD")
+    trial_end = params.numbers("TRIAL", "ACTUAL_END_FIELD")
+    if trial_start.size >= 2 and trial_end.size >= 2:
+        first = _unsigned(trial_start[0]) + _unsigned(trial_start[1]) * 65536
+        last = _unsigned(trial_end[0]) + _unsigned(trial_end[1]) * 65536
+    return first, last
+
+
+def _layout(src: Source, r: _Reader, params: _Params) -> _Layout:
     h_analog_per_frame = r.u16(4, "header")
-    h_first = r.u16(6, "header")
-    h_last = r.u16(8, "header")
     h_scale = float(r.floats(r.need(12, 4, "header"), 1)[0])
-    h_start = r.u16(16, "header")
     h_rate = float(r.floats(r.need(20, 4, "header"), 1)[0])
-
-    n_points = _unsigned(params.number("POINT:USED", h_points))
+    n_points = _unsigned(params.number("POINT:USED", r.u16(2, "header")))
     scale = params.number("POINT:SCALE", h_scale)
     point_rate = params.number("POINT:RATE", h_rate)
-    data_start = _unsigned(params.number("POINT:DATA_START", h_start))
+    data_start = _unsigned(params.number("POINT:DATA_START", r.u16(16, "header")))
     n_analog = _unsigned(params.number("ANALOG:USED", 0.0))
     analog_rate = params.number("ANALOG:RATE", 0.0)
     if not (math.isfinite(scale) and math.isfinite(point_rate) and math.isfinite(analog_rate)):
         raise src.error("point scale or rate is not finite", expected="finite header values")
-    first, last = h_first, h_last
-    trial_start = params.numbers("TRIAL", "ACTUAL_START_FIELD")
-    trial_end = params.numbers("TRIAL", "ACTUAL_END_FIELD")
-    if trial_start.size >= 2 and trial_end.size >= 2:
-        # 32-bit frame numbers for trials longer than 65535 frames
-        first = _unsigned(trial_start[0]) + _unsigned(trial_start[1]) * 65536
-        last = _unsigned(trial_end[0]) + _unsigned(trial_end[1]) * 65536
-    n_frames = last - first + 1
-    if n_frames < 1:
+    first, last = _frames(r, params)
+    if last - first + 1 < 1:
         raise src.error(f"frames {first}..{last}", expected="at least one frame")
     if n_analog == 0 or h_analog_per_frame == 0 or analog_rate <= 0:
         raise src.error("has no analog data", expected="analog EMG channels")
@@ -247,43 +303,42 @@ def read_c3d(src: Source, opts: Options) -> Recording:
             f" using {spf * point_rate:g} Hz"
         )
         analog_rate = spf * point_rate
-    is_float = scale < 0
-    word = 4 if is_float else 2
-    frame_words = n_points * 4 + n_analog * spf
-    offset = (data_start - 1) * 512
     if data_start < 2:
         raise src.error(f"data start block {data_start}", expected="a block number >= 2")
-    raw = r.need(offset, n_frames * frame_words * word, f"data section ({n_frames} frames)")
-    if is_float:
-        block = r.floats(raw, n_frames * frame_words).reshape(n_frames, frame_words)
-    else:
-        block = np.frombuffer(raw, dtype=endian + "i2").reshape(n_frames, frame_words)
+    return _Layout(
+        n_points=n_points,
+        n_analog=n_analog,
+        spf=spf,
+        scale=scale,
+        point_rate=point_rate,
+        analog_rate=analog_rate,
+        first=first,
+        n_frames=last - first + 1,
+        data_start=data_start,
+    )
 
-    start = (first - 1) / point_rate if first >= 1 else 0.0
-    channels: dict[str, Channel] = {}
-    _analog_channels(
-        src, params, block[:, n_points * 4 :], n_analog, spf, analog_rate, is_float, start, channels
-    )
-    _point_channels(
-        src,
-        params,
-        block[:, : n_points * 4],
-        n_points,
-        abs(scale),
-        is_float,
-        point_rate,
-        start,
-        channels,
-    )
+
+def _data_block(r: _Reader, lay: _Layout) -> Any:
+    """(frames, words per frame) samples: points (x, y, z, residual) then analog values."""
+    word = 4 if lay.is_float else 2
+    frame_words = lay.n_points * 4 + lay.n_analog * lay.spf
+    offset = (lay.data_start - 1) * 512
+    raw = r.need(offset, lay.n_frames * frame_words * word, f"data section ({lay.n_frames} frames)")
+    if lay.is_float:
+        return r.floats(raw, lay.n_frames * frame_words).reshape(lay.n_frames, frame_words)
+    return np.frombuffer(raw, dtype=r.endian + "i2").reshape(lay.n_frames, frame_words)
+
+
+def _metadata(params: _Params, lay: _Layout, proc: int) -> dict[str, Any]:
     metadata: dict[str, Any] = {
-        "point_rate": point_rate,
-        "analog_rate": analog_rate,
-        "stored_rate": analog_rate,
-        "frames": n_frames,
-        "first_frame": first,
+        "point_rate": lay.point_rate,
+        "analog_rate": lay.analog_rate,
+        "stored_rate": lay.analog_rate,
+        "frames": lay.n_frames,
+        "first_frame": lay.first,
         "processor": _PROCESSORS[proc],
-        "points": n_points,
-        "analog_channels": n_analog,
+        "points": lay.n_points,
+        "analog_channels": lay.n_analog,
     }
     company = params.strings("MANUFACTURER", "COMPANY") + params.strings("MANUFACTURER", "SOFTWARE")
     words: list[str] = []
@@ -296,7 +351,7 @@ def read_c3d(src: Source, opts: Options) -> Recording:
     subjects = params.strings("SUBJECTS", "NAMES")
     if subjects:
         metadata["subject"] = ", ".join(s for s in subjects if s)
-    return Recording(channels=channels, source=src.name, format="c3d", metadata=metadata)
+    return metadata
 
 
 def _analog_channels(

@@ -51,6 +51,7 @@ class Source:
     content: bytes | None = None
     warnings: list[str] = field(default_factory=list)
     utf8: bytes | None = field(default=None, repr=False)
+    sidecars: Mapping[str, bytes] = field(default_factory=dict)
 
     def data(self) -> bytes:
         if self.content is None:
@@ -105,14 +106,22 @@ class Source:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
 
-    def sidecar(self, *names: str) -> Path | None:
-        """The first existing file beside the source among ``names`` (only for real paths)."""
+    def sidecar(self, *names: str) -> tuple[str, bytes] | None:
+        """(name, bytes) of the first sidecar among ``names``: given with the upload
+        (``sidecars``, matched by file name, case-insensitively), else beside the file."""
+        given = {Path(k).name.lower(): (Path(k).name, v) for k, v in self.sidecars.items()}
+        for n in names:
+            if n.lower() in given:
+                return given[n.lower()]
         if self.path is None:
             return None
         for n in names:
             p = self.path.with_name(n)
             if p.is_file():
-                return p
+                try:
+                    return p.name, p.read_bytes()
+                except OSError:
+                    return None
         return None
 
 

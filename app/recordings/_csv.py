@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -352,6 +353,20 @@ def read_vicon(src: Source, opts: Options) -> Recording:
     return Recording(channels=channels, source=src.name, format="vicon_csv", metadata=metadata)
 
 
+@dataclass
+class _ViconHeader:
+    """The 5 header rows of one Vicon section, split into fields."""
+
+    section: str
+    rate: float
+    delim: str
+    groups: list[str]
+    cols: list[str]
+    units: list[str]
+    offsets: list[int]
+    first_line: int
+
+
 def _vicon_section(
     src: Source,
     data: bytes,
@@ -360,6 +375,16 @@ def _vicon_section(
     channels: dict[str, Channel],
     metadata: dict[str, Any],
 ) -> None:
+    head = _vicon_header(src, data, start)
+    if head is None:
+        return
+    table, n = _vicon_table(src, data, end, head)
+    t0 = _vicon_start(src, table, head, metadata)
+    _vicon_channels(src, table, n, head, t0, channels)
+
+
+def _vicon_header(src: Source, data: bytes, start: int) -> _ViconHeader | None:
+    """The section's header rows (None for the Events section, which holds no signal)."""
     offsets = _line_starts(data, start, 5)
     first_line = data.count(b"\n", 0, start) + 1
     rows = [
@@ -368,12 +393,8 @@ def _vicon_section(
     ]
     section = rows[0].strip(",;\t ")
     if section == "Events":
-        return
-    delim = ","
-    for d in (",", ";", "\t"):
-        if d in rows[3]:
-            delim = d
-            break
+        return None
+    delim = next((d for d in (",", ";", "\t") if d in rows[3]), ",")
     rate_text = split_fields(rows[1], delim)[0] if rows[1] else ""
     stored = to_float(rate_text)
     if stored is None:
@@ -382,10 +403,7 @@ def _vicon_section(
             line=first_line + 1,
             expected="the sampling rate in Hz on the row after the section name",
         )
-    rate = check_rate(stored, src=src, what=f"{section} rate")
-    groups = split_fields(rows[2], delim)
     cols = split_fields(rows[3], delim)
-    units = split_fields(rows[4], delim)
     while cols and not cols[-1]:
         cols.pop()
     if len(cols) < 3 or cols[0].lower() != "frame":
@@ -394,13 +412,28 @@ def _vicon_section(
             line=first_line + 3,
             expected="'Frame,Sub Frame,...' as the 4th row of a section",
         )
+    return _ViconHeader(
+        section=section,
+        rate=check_rate(stored, src=src, what=f"{section} rate"),
+        delim=delim,
+        groups=split_fields(rows[2], delim),
+        cols=cols,
+        units=split_fields(rows[4], delim),
+        offsets=offsets,
+        first_line=first_line,
+    )
+
+
+def _vicon_table(src: Source, data: bytes, end: int, head: _ViconHeader) -> tuple[Table, int]:
+    """The section's numbers (columns named by index) and its number of columns."""
+    offsets, first_line, section = head.offsets, head.first_line, head.section
     # data rows may carry trailing empty fields the column row does not
     nl = data.find(b"\n", offsets[5])
     first_row = data[offsets[5] : nl if nl >= 0 else len(data)].decode("utf-8", "replace")
-    n = max(len(cols), len(split_fields(first_row.rstrip("\r"), delim)))
-    cols = (cols + [""] * n)[:n]
-    groups = (groups + [""] * n)[:n]
-    units = (units + [""] * n)[:n]
+    n = max(len(head.cols), len(split_fields(first_row.rstrip("\r"), head.delim)))
+    head.cols = (head.cols + [""] * n)[:n]
+    head.groups = (head.groups + [""] * n)[:n]
+    head.units = (head.units + [""] * n)[:n]
     # Data ends at the first blank line (sections are separated by one).
     blank = re.compile(rb"\n[,;\t ]*\r?\n")
     m = blank.search(data, offsets[5] - 1 if offsets[5] > 0 else 0, end)
@@ -408,7 +441,7 @@ def _vicon_section(
     if stop <= offsets[5]:
         raise src.error(f"{section} has no data rows", line=first_line + 5, expected="numbers")
     layout = Layout(
-        delimiter=delim,
+        delimiter=head.delim,
         decimal=".",
         comments=[],
         preamble=[],
@@ -420,14 +453,19 @@ def _vicon_section(
         first_data_line=first_line + 5,
         n_fields=n,
     )
-    keys = [f"{k}" for k in range(n)]
-    table = read_table(data, layout, src, names=keys, end=stop)
+    table = read_table(data, layout, src, names=[f"{k}" for k in range(n)], end=stop)
     if table.n_rows < 2:
         raise src.error(
             f"{section} has {table.n_rows} data row(s)",
             line=first_line + 5,
             expected="at least 2 samples",
         )
+    return table, n
+
+
+def _vicon_start(src: Source, table: Table, head: _ViconHeader, metadata: dict[str, Any]) -> float:
+    """Time of the section's first row [s] from its frame and sub-frame numbers."""
+    rate, section = head.rate, head.section
     frames = table.finite("0", channel="Frame")
     subs = table.numeric.get("1")
     n_sub = int(np.nanmax(subs)) + 1 if subs is not None and np.isfinite(subs).any() else 1
@@ -445,49 +483,70 @@ def _vicon_section(
         "rows": table.n_rows,
         "first_frame": int(frames[0]),
     }
+    return t0
+
+
+def _vicon_channels(
+    src: Source,
+    table: Table,
+    n: int,
+    head: _ViconHeader,
+    t0: float,
+    channels: dict[str, Channel],
+) -> None:
+    """Device columns as scalar channels, X/Y/Z triples as markers, into ``channels``."""
     current = ""
     group_of: list[str] = []
-    for g in groups:
+    for g in head.groups:
         current = g or current
         group_of.append(current)
     k = 2
     while k < n:
-        col = cols[k]
-        group = group_of[k]
-        triple = [c.upper() for c in cols[k : k + 3]]
-        if triple == ["X", "Y", "Z"] and section != "Devices":
-            unit = units[k] or None
-            name = unique_name(group or f"column{k + 1}", channels)
-            xyz = np.column_stack(
-                [table.numeric.get(str(k + j), _nan(table.n_rows)) for j in range(3)]
-            )
-            if norm_is_length(unit):
-                channels[name] = position_channel(
-                    name, xyz, rate=rate, unit=unit, kind="marker", src=src, start=t0
-                )
-            else:
-                for j, axis in enumerate("XYZ"):
-                    sub = unique_name(f"{name}.{axis}", channels)
-                    values = table.finite(str(k + j), channel=sub)
-                    kind = classify(group, unit)
-                    channels[sub] = scalar_channel(
-                        sub, values, rate=rate, unit=unit, kind=kind, src=src, start=t0
-                    )
+        triple = [c.upper() for c in head.cols[k : k + 3]]
+        if triple == ["X", "Y", "Z"] and head.section != "Devices":
+            _vicon_triple(src, table, k, group_of[k], head, t0, channels)
             k += 3
             continue
         if str(k) in table.numeric:
+            col, group = head.cols[k], group_of[k]
             short = group.rsplit(" - ", 1)[-1].strip() if group else ""
             label = col or f"column{k + 1}"
             if re.fullmatch(r"\d+", label) or (label in channels and short):
                 label = f"{short}.{label}" if short else label
             name = unique_name(label, channels)
-            unit = units[k] or None
-            kind = classify(col, unit)
+            unit = head.units[k] or None
             values = table.finite(str(k), channel=name)
             channels[name] = scalar_channel(
-                name, values, rate=rate, unit=unit, kind=kind, src=src, start=t0
-            )
+                name, values, rate=head.rate, unit=unit, kind=classify(col, unit), src=src,
+                start=t0,
+            )  # fmt: skip
         k += 1
+
+
+def _vicon_triple(
+    src: Source,
+    table: Table,
+    k: int,
+    group: str,
+    head: _ViconHeader,
+    t0: float,
+    channels: dict[str, Channel],
+) -> None:
+    """Columns k..k+2 (X, Y, Z): a marker when the unit is a length, else three scalars."""
+    unit = head.units[k] or None
+    name = unique_name(group or f"column{k + 1}", channels)
+    if norm_is_length(unit):
+        xyz = np.column_stack([table.numeric.get(str(k + j), _nan(table.n_rows)) for j in range(3)])
+        channels[name] = position_channel(
+            name, xyz, rate=head.rate, unit=unit, kind="marker", src=src, start=t0
+        )
+        return
+    for j, axis in enumerate("XYZ"):
+        sub = unique_name(f"{name}.{axis}", channels)
+        values = table.finite(str(k + j), channel=sub)
+        channels[sub] = scalar_channel(
+            sub, values, rate=head.rate, unit=unit, kind=classify(group, unit), src=src, start=t0
+        )
 
 
 def _nan(n: int) -> F64:

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 from typing import Any, get_args
 
 import numpy as np
 
 from app.errors import BioPlanError
 from app.recordings._common import (
+    F64,
     Options,
     Source,
     check_rate,
@@ -17,7 +19,7 @@ from app.recordings._common import (
     si_scale,
     unique_name,
 )
-from app.recordings._table import detect_layout, read_table
+from app.recordings._table import Table, detect_layout, read_table
 from app.recordings.muscles import map_muscle
 from app.recordings.types import Channel, ChannelKind, DatalogSensor, Recording
 
@@ -76,16 +78,17 @@ def sensors_from_json(obj: Any) -> list[DatalogSensor]:
 
 
 def _sidecar_sensors(src: Source) -> list[DatalogSensor] | None:
-    if src.path is None:
-        return None
-    side = src.sidecar(src.path.name + ".json", src.path.stem + ".json")
+    name = Path(src.name)
+    side = src.sidecar(name.name + ".json", name.stem + ".json")
+    if side is None and src.path is not None:
+        side = src.sidecar(src.path.name + ".json", src.path.stem + ".json")
     if side is None:
         return None
     try:
-        return sensors_from_json(json.loads(side.read_text(encoding="utf-8")))
-    except (OSError, ValueError) as exc:
+        return sensors_from_json(json.loads(side[1].decode("utf-8")))
+    except (UnicodeDecodeError, ValueError) as exc:
         raise src.error(
-            f"sidecar {side.name} cannot be used: {exc}",
+            f"sidecar {side[0]} cannot be used: {exc}",
             expected='{"sensors": [{"column", "name", "kind", "rate", "physical_range", "unit"}]}',
         ) from None
 
@@ -104,6 +107,50 @@ def _check_sensor(src: Source, s: DatalogSensor, n_columns: int) -> float:
         if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
             raise src.error(f"{what} is {v!r}", channel=label, expected="a positive number")
     return check_rate(s.rate, src=src, what="sensor rate", channel=label)
+
+
+def _sensor_counts(src: Source, table: Table, col: str, name: str) -> F64:
+    """The column's counts without the empty tail of a slower sensor."""
+    values = table.numeric.get(col)
+    if values is None:
+        raise src.error(
+            "column holds no numbers",
+            line=table.layout.first_data_line,
+            channel=name,
+            expected="ADC counts",
+        )
+    finite = np.isfinite(values)
+    n = int(np.flatnonzero(finite)[-1]) + 1 if finite.any() else 0
+    if n and not finite[:n].all():
+        row = int(np.flatnonzero(~finite[:n])[0])
+        raise src.error(
+            "empty field inside the column",
+            line=table.line_of_row(row),
+            channel=name,
+            expected="empty fields only at the end of a slower sensor's column",
+        )
+    if n < 2:
+        raise src.error(f"column has {n} sample(s)", channel=name, expected="at least 2")
+    return values[:n]
+
+
+def _to_si(src: Source, s: DatalogSensor, physical: F64, name: str) -> tuple[F64, str]:
+    """Physical values in the sensor's unit -> SI (EMG in V; angles, accelerations...)."""
+    unit = s.unit
+    if s.kind == "emg":
+        if si_scale("emg", unit) is None:
+            raise src.error(f"EMG unit {unit!r}", channel=name, expected="V, mV or uV")
+        return emg_to_volts(physical, unit, src=src, channel=name)
+    if s.kind in ("angle", "accel", "marker"):
+        scaled = si_scale(s.kind, unit)
+        if scaled is None:
+            raise src.error(
+                f"{s.kind} unit {unit!r} is not known",
+                channel=name,
+                expected="an SI-convertible unit",
+            )
+        return physical * scaled[0], scaled[1]
+    return physical, unit
 
 
 def read_datalog(src: Source, opts: Options) -> Recording:
@@ -136,43 +183,8 @@ def read_datalog(src: Source, opts: Options) -> Recording:
     for s in sensors:
         rate = _check_sensor(src, s, layout.n_fields)
         name = unique_name(s.name or f"column{s.column + 1}", channels)
-        col = columns[s.column]
-        values = table.numeric.get(col)
-        if values is None:
-            raise src.error(
-                "column holds no numbers",
-                line=layout.first_data_line,
-                channel=name,
-                expected="ADC counts",
-            )
-        finite = np.isfinite(values)
-        n = int(np.flatnonzero(finite)[-1]) + 1 if finite.any() else 0
-        if n and not finite[:n].all():
-            row = int(np.flatnonzero(~finite[:n])[0])
-            raise src.error(
-                "empty field inside the column",
-                line=table.line_of_row(row),
-                channel=name,
-                expected="empty fields only at the end of a slower sensor's column",
-            )
-        if n < 2:
-            raise src.error(f"column has {n} sample(s)", channel=name, expected="at least 2")
-        counts = values[:n]
-        physical = counts * (s.physical_range / s.counts_range)
-        unit = s.unit
-        if s.kind == "emg":
-            if si_scale("emg", unit) is None:
-                raise src.error(f"EMG unit {unit!r}", channel=name, expected="V, mV or uV")
-            physical, unit = emg_to_volts(physical, unit, src=src, channel=name)
-        elif s.kind in ("angle", "accel", "marker"):
-            scaled = si_scale(s.kind, unit)
-            if scaled is None:
-                raise src.error(
-                    f"{s.kind} unit {unit!r} is not known",
-                    channel=name,
-                    expected="an SI-convertible unit",
-                )
-            physical, unit = physical * scaled[0], scaled[1]
+        counts = _sensor_counts(src, table, columns[s.column], name)
+        physical, unit = _to_si(src, s, counts * (s.physical_range / s.counts_range), name)
         channels[name] = Channel(
             name=name,
             data=np.ascontiguousarray(physical),

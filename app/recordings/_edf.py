@@ -6,9 +6,11 @@ import csv
 import io
 import json
 import re
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from app.recordings._common import Options, Source, classify, norm_unit, scalar_channel, unique_name
 from app.recordings.muscles import map_muscle
@@ -69,41 +71,66 @@ def _expected_size(data: bytes) -> int | None:
 
 
 def _bids_sidecars(src: Source) -> tuple[list[dict[str, str]] | None, dict[str, Any] | None]:
-    if src.path is None:
-        return None, None
-    stem = src.path.name
-    for suffix in ("_emg.edf", "_emg.bdf", ".edf", ".bdf"):
-        if stem.lower().endswith(suffix):
-            stem = stem[: -len(suffix)]
-            break
+    """BIDS ``_channels.tsv`` rows and ``_emg.json`` of the EDF: given with the upload, or
+    beside the file (named after the user's file name, else the stored file's)."""
+    stems = [_bids_stem(src.name)] + ([_bids_stem(src.path.name)] if src.path else [])
     rows = None
-    side = src.sidecar(stem + "_channels.tsv")
+    side = src.sidecar(*(st + "_channels.tsv" for st in stems))
     if side is not None:
         try:
-            text = side.read_text(encoding="utf-8-sig")
+            text = side[1].decode("utf-8-sig")
             rows = list(csv.DictReader(io.StringIO(text), delimiter="\t"))
-        except (OSError, UnicodeDecodeError, csv.Error):
-            src.warn(f"BIDS sidecar {side.name} cannot be read; ignored")
+        except (UnicodeDecodeError, csv.Error):
+            src.warn(f"BIDS sidecar {side[0]} cannot be read; ignored")
     info = None
-    side_json = src.sidecar(stem + "_emg.json")
+    side_json = src.sidecar(*(st + "_emg.json" for st in stems))
     if side_json is not None:
         try:
-            loaded = json.loads(side_json.read_text(encoding="utf-8"))
+            loaded = json.loads(side_json[1].decode("utf-8"))
             info = loaded if isinstance(loaded, dict) else None
-        except (OSError, ValueError):
-            src.warn(f"BIDS sidecar {side_json.name} cannot be read; ignored")
+        except (UnicodeDecodeError, ValueError):
+            src.warn(f"BIDS sidecar {side_json[0]} cannot be read; ignored")
     return rows, info
+
+
+def _bids_stem(name: str) -> str:
+    for suffix in ("_emg.edf", "_emg.bdf", ".edf", ".bdf"):
+        if name.lower().endswith(suffix):
+            return name[: -len(suffix)]
+    return name
 
 
 def read_edf(src: Source, opts: Options) -> Recording:
     """EDF, EDF+ and BDF via pyedflib: physical values, per-signal rates and units.
 
-    A BIDS ``*_channels.tsv`` beside the file renames generic labels (``EMG1``) to its names
-    and maps sites from ``target_muscle``; when its units disagree with the EDF header, the
-    EDF header wins (it defines the digital-to-physical scaling) and a warning says so.
+    A BIDS ``*_channels.tsv`` (beside the file, or given with an upload) renames generic labels
+    (``EMG1``) to its names and maps sites from ``target_muscle``; when its units disagree with
+    the EDF header, the EDF header wins (it defines the digital-to-physical scaling) and a
+    warning says so.
     """
-    import pyedflib
+    _check_header(src)
+    edf = _read_signals(src)
+    rows, info = _bids_sidecars(src)
+    n = len(edf.headers)
+    if rows is not None and len(rows) != n:
+        src.warn(f"BIDS channels.tsv lists {len(rows)} channels, the EDF has {n}; not joined")
+        rows = None
+    if opts.rate is not None:
+        src.warn("rate option ignored: EDF states a rate per signal (use emg_rate for EMG)")
+    channels: dict[str, Channel] = {}
+    labels = []
+    for i, (h, x) in enumerate(zip(edf.headers, edf.signals, strict=True)):
+        label = str(h.get("label", "")).strip() or f"signal{i + 1}"
+        labels.append(label)
+        ch = _channel(src, h, x, label, rows[i] if rows is not None else None, channels)
+        channels[ch.name] = ch
+    metadata = _metadata(edf, labels, channels)
+    if info is not None:
+        _join_bids_info(src, info, metadata)
+    return Recording(channels=channels, source=src.name, format="edf", metadata=metadata)
 
+
+def _check_header(src: Source) -> None:
     data = src.data()
     problem = header_problem(data)
     if problem is not None:
@@ -117,7 +144,21 @@ def read_edf(src: Source, opts: Options) -> Recording:
             f"is truncated: the header announces {size} bytes, the file has {len(data)}",
             expected="a complete EDF file",
         )
-    suffix = ".bdf" if data[:1] == b"\xff" else ".edf"
+
+
+@dataclass
+class _Edf:
+    headers: list[dict[str, Any]]
+    signals: list[NDArray[np.float64]]
+    file_header: dict[str, Any]
+    duration: float
+    filetype: int
+
+
+def _read_signals(src: Source) -> _Edf:
+    import pyedflib
+
+    suffix = ".bdf" if src.data()[:1] == b"\xff" else ".edf"
     with src.as_path(suffix) as path:
         try:
             reader = pyedflib.EdfReader(str(path))
@@ -129,54 +170,59 @@ def read_edf(src: Source, opts: Options) -> Recording:
             ) from None
         try:
             n = reader.signals_in_file
-            headers = [reader.getSignalHeader(i) for i in range(n)]
-            signals = [np.asarray(reader.readSignal(i), dtype=np.float64) for i in range(n)]
-            file_header = reader.getHeader()
-            duration = float(reader.getFileDuration())
-            filetype = reader.filetype
+            edf = _Edf(
+                headers=[reader.getSignalHeader(i) for i in range(n)],
+                signals=[np.asarray(reader.readSignal(i), dtype=np.float64) for i in range(n)],
+                file_header=reader.getHeader(),
+                duration=float(reader.getFileDuration()),
+                filetype=reader.filetype,
+            )
         finally:
             reader.close()
     if n == 0:
         raise src.error("has no signals", expected="at least one signal")
-    rows, info = _bids_sidecars(src)
-    if rows is not None and len(rows) != n:
-        src.warn(f"BIDS channels.tsv lists {len(rows)} channels, the EDF has {n}; not joined")
-        rows = None
-    if opts.rate is not None:
-        src.warn("rate option ignored: EDF states a rate per signal (use emg_rate for EMG)")
-    channels: dict[str, Channel] = {}
-    labels = []
-    for i, (h, x) in enumerate(zip(headers, signals, strict=True)):
-        label = str(h.get("label", "")).strip() or f"signal{i + 1}"
-        labels.append(label)
-        unit = str(h.get("dimension", "")).strip() or None
-        rate = float(h.get("sample_frequency", 0.0) or h.get("sample_rate", 0.0))
-        row = rows[i] if rows is not None else None
-        name = label
-        target = ""
-        kind = classify(label, unit, context=str(h.get("transducer", "")))
-        if row is not None:
-            name = (row.get("name") or label).strip()
-            target = (row.get("target_muscle") or "").strip()
-            if (row.get("type") or "").strip().upper() == "EMG":
-                kind = "emg"
-            side_unit = (row.get("units") or "").strip()
-            if side_unit and unit and _unit_key(side_unit) != _unit_key(unit):
-                src.warn(
-                    f"channel {name!r}: EDF header says {unit!r}, channels.tsv says"
-                    f" {side_unit!r}; the EDF header is used"
-                )
-        name = unique_name(name, channels)
-        ch = scalar_channel(name, x, rate=rate, unit=unit, kind=kind, src=src)
-        if kind == "emg":
-            ch.site = map_muscle(target) if target else ch.site
-            if ch.site is None:
-                ch.site = map_muscle(name) or map_muscle(label)
-        channels[name] = ch
+    return edf
+
+
+def _channel(
+    src: Source,
+    h: dict[str, Any],
+    x: NDArray[np.float64],
+    label: str,
+    row: dict[str, str] | None,
+    channels: dict[str, Channel],
+) -> Channel:
+    """One signal as a channel, named and typed by its channels.tsv row when there is one."""
+    unit = str(h.get("dimension", "")).strip() or None
+    rate = float(h.get("sample_frequency", 0.0) or h.get("sample_rate", 0.0))
+    name, target = label, ""
+    kind = classify(label, unit, context=str(h.get("transducer", "")))
+    if row is not None:
+        name = (row.get("name") or label).strip()
+        target = (row.get("target_muscle") or "").strip()
+        if (row.get("type") or "").strip().upper() == "EMG":
+            kind = "emg"
+        side_unit = (row.get("units") or "").strip()
+        if side_unit and unit and _unit_key(side_unit) != _unit_key(unit):
+            src.warn(
+                f"channel {name!r}: EDF header says {unit!r}, channels.tsv says"
+                f" {side_unit!r}; the EDF header is used"
+            )
+    name = unique_name(name, channels)
+    ch = scalar_channel(name, x, rate=rate, unit=unit, kind=kind, src=src)
+    if kind == "emg":
+        ch.site = map_muscle(target) if target else ch.site
+        if ch.site is None:
+            ch.site = map_muscle(name) or map_muscle(label)
+    return ch
+
+
+def _metadata(edf: _Edf, labels: list[str], channels: dict[str, Channel]) -> dict[str, Any]:
+    file_header = edf.file_header
     metadata: dict[str, Any] = {
         "edf_labels": labels,
-        "duration": duration,
-        "filetype": {0: "EDF", 1: "EDF+", 2: "BDF", 3: "BDF+"}.get(filetype, str(filetype)),
+        "duration": edf.duration,
+        "filetype": {0: "EDF", 1: "EDF+", 2: "BDF", 3: "BDF+"}.get(edf.filetype, str(edf.filetype)),
     }
     start = file_header.get("startdate")
     if start is not None:
@@ -189,20 +235,23 @@ def read_edf(src: Source, opts: Options) -> Recording:
     rates = {ch.rate for ch in channels.values()}
     if len(rates) == 1:
         metadata["stored_rate"] = rates.pop()
-    if info is not None:
-        metadata["bids"] = info
-        if info.get("ManufacturersModelName") or info.get("Manufacturer"):
-            metadata["device"] = " ".join(
-                str(info[k]) for k in ("Manufacturer", "ManufacturersModelName") if info.get(k)
-            )
-        fs = info.get("SamplingFrequency")
-        stored = metadata.get("stored_rate")
-        if isinstance(fs, int | float) and stored and abs(float(fs) - stored) > 1e-6 * fs:
-            src.warn(
-                f"BIDS SamplingFrequency {fs} Hz disagrees with the EDF's {stored:g} Hz;"
-                " the EDF is used"
-            )
-    return Recording(channels=channels, source=src.name, format="edf", metadata=metadata)
+    return metadata
+
+
+def _join_bids_info(src: Source, info: dict[str, Any], metadata: dict[str, Any]) -> None:
+    """The BIDS ``_emg.json``: device names, and a warning when its rate disagrees."""
+    metadata["bids"] = info
+    if info.get("ManufacturersModelName") or info.get("Manufacturer"):
+        metadata["device"] = " ".join(
+            str(info[k]) for k in ("Manufacturer", "ManufacturersModelName") if info.get(k)
+        )
+    fs = info.get("SamplingFrequency")
+    stored = metadata.get("stored_rate")
+    if isinstance(fs, int | float) and stored and abs(float(fs) - stored) > 1e-6 * fs:
+        src.warn(
+            f"BIDS SamplingFrequency {fs} Hz disagrees with the EDF's {stored:g} Hz;"
+            " the EDF is used"
+        )
 
 
 def _unit_key(unit: str) -> str:

@@ -284,9 +284,43 @@ def read_mediapipe_json(src: Source, opts: Options) -> Recording:
     are milliseconds (MediaPipe's convention), ``time`` is seconds, ``frame`` needs
     ``frame_rate``.
     """
-    data = src.text()
+    frames, info = _load_json(src)
+    n = len(frames)
+    parsed = _parse_frames(frames)
+    found = {
+        LANDMARK_NAMES[k]
+        for k in range(len(LANDMARK_NAMES))
+        if np.isfinite(parsed.pos[:, k, 0]).any()
+    }
+    _require_arm(src, found)
+    metadata: dict[str, Any] = {"frames": n, "landmark_set": "MediaPipe Pose (33)"}
+    if parsed.several:
+        metadata["multi_pose_frames"] = parsed.several
+        src.warn(f"{parsed.several} frame(s) hold several poses; the first pose is used")
+    opts = _options_from_info(opts, info)
+    factor = _image_factor(src, opts, metadata)
+    stamps = parsed.stamps
+    seconds = stamps if parsed.stamp_scale is not None and np.isfinite(stamps).all() else None
+    if parsed.stamp_scale is not None and seconds is None:
+        raise src.error("some frames have no timestamp", expected="a timestamp in every frame")
+    frames_arr = parsed.frame_no if np.isfinite(parsed.frame_no).all() else None
+    rate, start, times = _timing(src, opts, seconds=seconds, frames=frames_arr)
+    xyz = {
+        LANDMARK_NAMES[k]: parsed.pos[:, k, :]
+        for k in range(len(LANDMARK_NAMES))
+        if LANDMARK_NAMES[k] in found
+    }
+    confs: dict[str, F64 | None] = {
+        LANDMARK_NAMES[k]: parsed.conf[:, k] for k in range(len(LANDMARK_NAMES))
+    }
+    channels = _channels(src, xyz, confs, rate=rate, start=start, times=times, factor=factor)
+    return Recording(channels=channels, source=src.name, format="mediapipe_json", metadata=metadata)
+
+
+def _load_json(src: Source) -> tuple[list[Any], dict[str, Any]]:
+    """(frames, the document's other keys) of a MediaPipe JSON file."""
     try:
-        obj = json.loads(data.decode("utf-8-sig"))
+        obj = json.loads(src.text().decode("utf-8-sig"))
     except UnicodeDecodeError as exc:
         raise src.error(f"is not UTF-8 text: {exc.reason}", expected="JSON") from None
     except json.JSONDecodeError as exc:
@@ -294,57 +328,11 @@ def read_mediapipe_json(src: Source, opts: Options) -> Recording:
     frames, info = _frames_of(obj)
     if len(frames) < 2:
         raise src.error(f"has {len(frames)} frame(s)", expected="a list of at least 2 frames")
-    n = len(frames)
-    pos = np.full((n, len(LANDMARK_NAMES), 3), np.nan)
-    conf = np.zeros((n, len(LANDMARK_NAMES)))
-    stamps = np.full(n, np.nan)
-    stamp_scale = None
-    frame_no = np.full(n, np.nan)
-    several = 0
-    for i, frame in enumerate(frames):
-        if isinstance(frame, dict):
-            for key, scale in (
-                ("timestamp_ms", 1e-3),
-                ("timestamp", 1e-3),
-                ("time", 1.0),
-                ("t", 1.0),
-                ("time_s", 1.0),
-            ):
-                if key in frame:
-                    stamps[i] = _num(frame[key]) * scale
-                    stamp_scale = scale
-                    break
-            for key in ("frame", "frame_index", "frame_idx"):
-                if key in frame:
-                    frame_no[i] = _num(frame[key])
-                    break
-        lms, multi = _landmark_list(frame)
-        several += multi
-        for j, lm in enumerate(lms[: len(LANDMARK_NAMES)]):
-            k = j
-            if isinstance(lm, dict):
-                name = lm.get("name")
-                if isinstance(name, str) and name.lower() in LANDMARK_NAMES:
-                    k = LANDMARK_NAMES.index(name.lower())
-                x, y, z = _num(lm.get("x")), _num(lm.get("y")), _num(lm.get("z", 0.0))
-                v = lm.get("visibility", lm.get("presence", 1.0))
-                c = _num(v)
-            elif isinstance(lm, list) and len(lm) >= 2:
-                x, y = _num(lm[0]), _num(lm[1])
-                z = _num(lm[2]) if len(lm) > 2 else 0.0
-                c = _num(lm[3]) if len(lm) > 3 else 1.0
-            else:
-                continue
-            pos[i, k] = (x, y, z)
-            conf[i, k] = c if math.isfinite(c) else 0.0
-    found = {
-        LANDMARK_NAMES[k] for k in range(len(LANDMARK_NAMES)) if np.isfinite(pos[:, k, 0]).any()
-    }
-    _require_arm(src, found)
-    metadata: dict[str, Any] = {"frames": n, "landmark_set": "MediaPipe Pose (33)"}
-    if several:
-        metadata["multi_pose_frames"] = several
-        src.warn(f"{several} frame(s) hold several poses; the first pose is used")
+    return frames, info
+
+
+def _options_from_info(opts: Options, info: dict[str, Any]) -> Options:
+    """The image size and frame rate the file states, unless the user gave them."""
     width = info.get("image_width", info.get("width"))
     height = info.get("image_height", info.get("height"))
     if (
@@ -358,19 +346,67 @@ def read_mediapipe_json(src: Source, opts: Options) -> Recording:
     fps = info.get("fps", info.get("frame_rate"))
     if opts.frame_rate is None and opts.rate is None and isinstance(fps, int | float) and fps > 0:
         opts = dataclasses.replace(opts, frame_rate=float(fps))
-    factor = _image_factor(src, opts, metadata)
-    seconds = stamps if stamp_scale is not None and np.isfinite(stamps).all() else None
-    if stamp_scale is not None and seconds is None:
-        raise src.error("some frames have no timestamp", expected="a timestamp in every frame")
-    frames_arr = frame_no if np.isfinite(frame_no).all() else None
-    rate, start, times = _timing(src, opts, seconds=seconds, frames=frames_arr)
-    xyz = {
-        LANDMARK_NAMES[k]: pos[:, k, :]
-        for k in range(len(LANDMARK_NAMES))
-        if LANDMARK_NAMES[k] in found
-    }
-    confs: dict[str, F64 | None] = {
-        LANDMARK_NAMES[k]: conf[:, k] for k in range(len(LANDMARK_NAMES))
-    }
-    channels = _channels(src, xyz, confs, rate=rate, start=start, times=times, factor=factor)
-    return Recording(channels=channels, source=src.name, format="mediapipe_json", metadata=metadata)
+    return opts
+
+
+@dataclasses.dataclass
+class _Frames:
+    """Per-frame arrays of a JSON document: (n, 33, 3) positions, (n, 33) confidence,
+    timestamps [s] and frame numbers (NaN where absent)."""
+
+    pos: F64
+    conf: F64
+    stamps: F64
+    frame_no: F64
+    stamp_scale: float | None = None
+    several: int = 0
+
+
+_STAMP_KEYS = (("timestamp_ms", 1e-3), ("timestamp", 1e-3), ("time", 1.0), ("t", 1.0),
+               ("time_s", 1.0))  # fmt: skip
+
+
+def _parse_frames(frames: list[Any]) -> _Frames:
+    n, k_all = len(frames), len(LANDMARK_NAMES)
+    out = _Frames(
+        pos=np.full((n, k_all, 3), np.nan),
+        conf=np.zeros((n, k_all)),
+        stamps=np.full(n, np.nan),
+        frame_no=np.full(n, np.nan),
+    )
+    for i, frame in enumerate(frames):
+        if isinstance(frame, dict):
+            for key, scale in _STAMP_KEYS:
+                if key in frame:
+                    out.stamps[i] = _num(frame[key]) * scale
+                    out.stamp_scale = scale
+                    break
+            for key in ("frame", "frame_index", "frame_idx"):
+                if key in frame:
+                    out.frame_no[i] = _num(frame[key])
+                    break
+        lms, multi = _landmark_list(frame)
+        out.several += multi
+        for j, lm in enumerate(lms[:k_all]):
+            parsed = _landmark(lm, j)
+            if parsed is not None:
+                k, x, y, z, c = parsed
+                out.pos[i, k] = (x, y, z)
+                out.conf[i, k] = c if math.isfinite(c) else 0.0
+    return out
+
+
+def _landmark(lm: Any, j: int) -> tuple[int, float, float, float, float] | None:
+    """(landmark index, x, y, z, confidence) of one landmark (a dict or a list)."""
+    if isinstance(lm, dict):
+        k = j
+        name = lm.get("name")
+        if isinstance(name, str) and name.lower() in LANDMARK_NAMES:
+            k = LANDMARK_NAMES.index(name.lower())
+        c = _num(lm.get("visibility", lm.get("presence", 1.0)))
+        return k, _num(lm.get("x")), _num(lm.get("y")), _num(lm.get("z", 0.0)), c
+    if isinstance(lm, list) and len(lm) >= 2:
+        z = _num(lm[2]) if len(lm) > 2 else 0.0
+        c = _num(lm[3]) if len(lm) > 3 else 1.0
+        return j, _num(lm[0]), _num(lm[1]), z, c
+    return None

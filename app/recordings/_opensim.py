@@ -22,7 +22,7 @@ from app.recordings._common import (
     scalar_channel,
     unique_name,
 )
-from app.recordings._table import Layout, head_lines, read_table, split_fields, to_float
+from app.recordings._table import Layout, Table, head_lines, read_table, split_fields, to_float
 from app.recordings.types import Channel, ChannelKind, Recording
 
 
@@ -160,6 +160,38 @@ def read_mot(src: Source, opts: Options, *, fmt: str = "mot") -> Recording:
         if "=" in text:
             k, _, v = text.partition("=")
             header[k.strip()] = v.strip()
+    table, names_line = _mot_table(src, data, lines, end)
+    in_degrees = header.get("inDegrees", "no").strip().lower() == "yes"
+    tcol = next((c for c in table.numeric if c.strip().lower() == "time"), None)
+    rate, start, times = _mot_timing(src, opts, table, tcol, names_line)
+    channels: dict[str, Channel] = {}
+    for column in table.numeric:
+        if column == tcol:
+            continue
+        kind, unit = _mot_kind(column, fmt, in_degrees)
+        name = unique_name(column, channels)
+        channels[name] = scalar_channel(
+            name, table.finite(column), rate=rate, unit=unit, kind=kind, src=src, start=start,
+            time=times,
+        )  # fmt: skip
+    if not channels:
+        raise src.error("has no data columns", line=names_line, expected="coordinates")
+    metadata: dict[str, Any] = {
+        "header": header,
+        "in_degrees": in_degrees,
+        "actual_rows": table.n_rows,
+        "title": lines[0].text.strip(" ,\t"),
+    }
+    declared = to_float(header.get("nRows", "")) if header.get("nRows") else None
+    if declared is not None:
+        metadata["declared_rows"] = int(declared)
+        if int(declared) != table.n_rows:
+            src.warn(f"header says nRows={int(declared)}, the file holds {table.n_rows} rows")
+    return Recording(channels=channels, source=src.name, format=fmt, metadata=metadata)
+
+
+def _mot_table(src: Source, data: bytes, lines: list[Any], end: int) -> tuple[Table, int]:
+    """(the data table, line number of the column names) after ``endheader``."""
     names_idx = next((i for i in range(end + 1, len(lines)) if lines[i].text.strip(" ,\t")), None)
     if names_idx is None:
         raise src.error(
@@ -187,57 +219,36 @@ def read_mot(src: Source, opts: Options, *, fmt: str = "mot") -> Recording:
             line=layout.first_data_line,
             expected="at least 2 rows",
         )
-    in_degrees = header.get("inDegrees", "no").strip().lower() == "yes"
-    tcol = next((c for c in table.numeric if c.strip().lower() == "time"), None)
+    return table, names_line.number
+
+
+def _mot_timing(
+    src: Source, opts: Options, table: Table, tcol: str | None, names_line: int
+) -> tuple[float, float, F64 | None]:
+    """(rate, start, explicit times) from the rate option or the time column."""
     if opts.rate is not None:
-        rate, start, times = check_rate(opts.rate, src=src, what="rate option"), 0.0, None
-    elif tcol is not None:
-        t = table.finite(tcol)
-        rate, start, times = rate_from_times(
-            t, src=src, channel=tcol, first_line=layout.first_data_line
-        )
-        rate = check_rate(rate, src=src, what="rate from the time column")
-    else:
+        return check_rate(opts.rate, src=src, what="rate option"), 0.0, None
+    if tcol is None:
         raise src.error(
-            "has no time column",
-            line=names_line.number,
-            expected="a 'time' column or the rate option",
+            "has no time column", line=names_line, expected="a 'time' column or the rate option"
         )
-    channels: dict[str, Channel] = {}
-    for column in table.numeric:
-        if column == tcol:
-            continue
-        lower = column.lower()
-        values = table.finite(column)
-        kind: ChannelKind
-        if lower.endswith("_moment") or lower.endswith("_torque"):
-            kind, unit = "other", "N*m"
-        elif lower.endswith("_force"):
-            kind, unit = "other", "N"
-        elif fmt == "sto" and not in_degrees:
-            kind, unit = "other", ""
-        elif _ROTATION_EXCLUDE.search(column):
-            kind, unit = "other", "m"
-        else:
-            kind, unit = "angle", "deg" if in_degrees else "rad"
-        name = unique_name(column, channels)
-        channels[name] = scalar_channel(
-            name, values, rate=rate, unit=unit, kind=kind, src=src, start=start, time=times
-        )
-    if not channels:
-        raise src.error("has no data columns", line=names_line.number, expected="coordinates")
-    metadata: dict[str, Any] = {
-        "header": header,
-        "in_degrees": in_degrees,
-        "actual_rows": table.n_rows,
-        "title": lines[0].text.strip(" ,\t"),
-    }
-    declared = to_float(header.get("nRows", "")) if header.get("nRows") else None
-    if declared is not None:
-        metadata["declared_rows"] = int(declared)
-        if int(declared) != table.n_rows:
-            src.warn(f"header says nRows={int(declared)}, the file holds {table.n_rows} rows")
-    return Recording(channels=channels, source=src.name, format=fmt, metadata=metadata)
+    rate, start, times = rate_from_times(
+        table.finite(tcol), src=src, channel=tcol, first_line=table.layout.first_data_line
+    )
+    return check_rate(rate, src=src, what="rate from the time column"), start, times
+
+
+def _mot_kind(column: str, fmt: str, in_degrees: bool) -> tuple[ChannelKind, str]:
+    lower = column.lower()
+    if lower.endswith(("_moment", "_torque")):
+        return "other", "N*m"
+    if lower.endswith("_force"):
+        return "other", "N"
+    if fmt == "sto" and not in_degrees:
+        return "other", ""
+    if _ROTATION_EXCLUDE.search(column):
+        return "other", "m"
+    return "angle", "deg" if in_degrees else "rad"
 
 
 def read_sto(src: Source, opts: Options) -> Recording:

@@ -27,9 +27,10 @@ from app.recordings._edf import read_edf
 from app.recordings._mat import read_mat
 from app.recordings._mediapipe import read_mediapipe_csv, read_mediapipe_json
 from app.recordings._opensim import read_mot, read_sto, read_trc
-from app.recordings._sniff import FORMATS, SNIFF_BYTES, sniff_bytes
+from app.recordings._sniff import FORMATS, SNIFF_BYTES, SUPPORTED, sniff_bytes
+from app.recordings._vendors import read_delsys, read_qualisys
 from app.recordings.muscles import parse_site
-from app.recordings.types import Channel, DatalogSensor, Recording, RecordingError
+from app.recordings.types import Channel, DatalogSensor, RateCheck, Recording, RecordingError
 
 Reader = Callable[[Source, Options], Recording]
 
@@ -46,6 +47,8 @@ READERS: dict[str, Reader] = {
     "trc": read_trc,
     "mot": read_mot,
     "sto": read_sto,
+    "delsys_csv": read_delsys,
+    "qualisys_tsv": read_qualisys,
 }
 
 _LONGEST_PLAUSIBLE_S = 24 * 3600.0
@@ -62,6 +65,7 @@ def read_recording(
     frame_rate: float | None = None,
     datalog_sensors: Sequence[DatalogSensor] | None = None,
     name: str | None = None,
+    sidecars: Mapping[str, bytes] | None = None,
 ) -> Recording:
     """Read any supported recording file into a :class:`Recording` with SI units.
 
@@ -91,6 +95,9 @@ def read_recording(
         datalog_sensors: column definitions for a Biometrics DataLOG export.
         name: the user's file name for messages and ``Recording.source`` (default: the
             path's name).
+        sidecars: file name -> bytes of files that belong to this one (BIDS
+            ``<stem>_channels.tsv`` and ``<stem>_emg.json`` of an EDF, a DataLOG ``.json``);
+            without them, sidecars are looked for beside ``path``.
 
     Returns:
         The recording; ``metadata["warnings"]`` is always a list of strings.
@@ -100,7 +107,7 @@ def read_recording(
             the line or channel, and what was expected.
     """
     p = Path(path)
-    src = Source(name=name or p.name, path=p)
+    src = Source(name=name or p.name, path=p, sidecars=dict(sidecars or {}))
     if not p.is_file():
         raise src.error("file not found", expected="an existing file")
     return _read(
@@ -122,14 +129,16 @@ def read_bytes(
     frame_rate: float | None = None,
     datalog_sensors: Sequence[DatalogSensor] | None = None,
     name: str | None = None,
+    sidecars: Mapping[str, bytes] | None = None,
 ) -> Recording:
     """:func:`read_recording` for bytes already in memory (uploads).
 
     ``filename`` is the user's file name (used in messages and as an extension hint). Only
     pyedflib needs a real file: EDF bytes go to a temporary file that is removed afterwards.
-    Sidecar files (BIDS, DataLOG JSON) are not available for bytes.
+    Sidecar files (BIDS ``_channels.tsv``/``_emg.json``, DataLOG JSON) uploaded with the file
+    come in ``sidecars`` (file name -> bytes).
     """
-    src = Source(name=name or filename, content=bytes(data))
+    src = Source(name=name or filename, content=bytes(data), sidecars=dict(sidecars or {}))
     return _read(
         src,
         format,
@@ -191,6 +200,8 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
         fmt = format
     else:
         raise src.error(f"unknown format {format!r}", expected=f"one of {', '.join(FORMATS)}")
+    if fmt not in READERS:
+        raise src.error(f"format {fmt!r} has no reader", expected=SUPPORTED)
     if is_blank(src.data()):
         raise src.error("file is empty", expected="a recording")
     try:
@@ -207,7 +218,7 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
         ) from exc
     _apply_muscle_map(rec, src, opts)
     _apply_emg_rate(rec, src, opts)
-    _check_channels(rec, src)
+    _check_channels(rec, src, _user_mapped(rec, opts))
     _check_plausibility(rec, src)
     rec.source = src.name
     warnings = list(rec.metadata.get("warnings", []))
@@ -273,7 +284,19 @@ def _apply_emg_rate(rec: Recording, src: Source, opts: Options) -> None:
         ch.time = None  # the stored times were computed from the wrong rate
 
 
-def _check_channels(rec: Recording, src: Source) -> None:
+def _user_mapped(rec: Recording, opts: Options) -> set[str]:
+    """Names of the channels the user's muscle map sends to a site."""
+    out: set[str] = set()
+    for label, value in (opts.muscle_map or {}).items():
+        ch = _find_channel(rec, label)
+        if ch is not None and str(value).strip().lower() != "none":
+            out.add(ch.name)
+    return out
+
+
+def _check_channels(rec: Recording, src: Source, user_mapped: set[str] | None = None) -> None:
+    """Rates, sample counts, finite EMG; constant channels are noted and left unmapped (a
+    constant channel the user mapped to a site is an error: that muscle carries no signal)."""
     if not rec.channels:
         raise src.error("has no channels", expected="at least one signal")
     flat: list[Channel] = []
@@ -302,12 +325,15 @@ def _check_channels(rec: Recording, src: Source) -> None:
                 continue
             lo, hi = float(np.min(ch.data[finite])), float(np.max(ch.data[finite]))
         if lo == hi:
-            if ch.site is not None:
+            if ch.site is not None and ch.name in (user_mapped or set()):
                 raise src.error(
                     f"is constant ({lo:g} {ch.unit}) but mapped to the {ch.site} site",
                     channel=ch.name,
                     expected="a signal that varies (is the sensor connected?)",
                 )
+            if ch.site is not None:
+                src.warn(f"channel {ch.name!r} is constant: not used as the {ch.site} site")
+                ch.site = None
             flat.append(ch)
     if (
         scalars
@@ -321,6 +347,7 @@ def _check_channels(rec: Recording, src: Source) -> None:
             expected="at least one signal that varies",
         )
     if flat:
+        rec.metadata["flat_channels"] = [c.name for c in flat]
         names = ", ".join(repr(c.name) for c in flat[:10]) + (" ..." if len(flat) > 10 else "")
         src.warn(f"{len(flat)} constant channel(s) (zero variance, probably unused): {names}")
 
@@ -344,12 +371,20 @@ def _check_plausibility(rec: Recording, src: Source) -> None:
         rec.metadata["suggested_emg_rate"] = suggested
         names = ", ".join(repr(ch.name) for ch, _ in members[:6])
         names += " ..." if len(members) > 6 else ""
-        src.warn(
+        reason = (
             f"EMG spectral median {median:.0f} Hz at {rate:g} Hz is implausible (surface EMG is"
             f" typically 50-150 Hz) for {names}; at {suggested:g} Hz it would be"
-            f" {median * suggested / rate:.0f} Hz - pass emg_rate={suggested:g} if that is the"
-            " true rate"
+            f" {median * suggested / rate:.0f} Hz - give emg_rate={suggested:g}"
+            f" (--emg-rate {suggested:g}) if that is the true rate"
         )
+        rec.metadata["rate_check"] = RateCheck(
+            stored_rate=rate,
+            suggested_rate=suggested,
+            median_frequency=median,
+            channels=tuple(ch.name for ch, _ in members),
+            reason=reason,
+        ).to_dict()
+        src.warn(reason)
     _check_durations(rec, src)
 
 

@@ -9,6 +9,7 @@ from app.recordings._common import to_utf8
 from app.recordings._csv import sniff_vicon
 from app.recordings._mediapipe import landmark_column
 from app.recordings._table import detect_delimiter, head_lines, is_comment, split_fields
+from app.recordings._vendors import sniff_delsys, sniff_qualisys
 from app.recordings.types import RecordingError
 
 FORMATS: tuple[str, ...] = (
@@ -24,11 +25,29 @@ FORMATS: tuple[str, ...] = (
     "trc",
     "mot",
     "sto",
+    "delsys_csv",
+    "qualisys_tsv",
 )
 
 SNIFF_BYTES = 1 << 16
 _HDF5 = b"\x89HDF\r\n\x1a\n"
 _INT = re.compile(r"^[-+]?\d+$")
+
+
+#: What a user may upload, for messages about files of other formats.
+SUPPORTED = (
+    "one of: C3D; EDF/BDF (with BIDS _channels.tsv/_emg.json sidecars); MATLAB .mat; CSV/TSV/TXT"
+    " exports (generic, Noraxon MR3, Delsys EMGworks/Trigno, Vicon, Qualisys TSV, Biometrics"
+    " DataLOG); OpenSim TRC/MOT/STO; MediaPipe landmark CSV/JSON; video (mp4, mov, avi)"
+)
+VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".m4v", ".mkv", ".webm")
+
+
+def _is_video(head: bytes) -> bool:
+    """ISO media (mp4/mov: an ``ftyp`` or ``moov`` box first) or AVI (RIFF....AVI )."""
+    return head[4:8] in (b"ftyp", b"moov", b"mdat", b"wide") or (
+        head[:4] == b"RIFF" and head[8:12] == b"AVI "
+    )
 
 
 def _is_c3d(head: bytes) -> bool:
@@ -54,17 +73,26 @@ def sniff_bytes(head: bytes, filename: str) -> str:
         return "c3d"
     if head[:2] in (b"\xff\xfe", b"\xfe\xff"):  # UTF-16 text (Windows "Unicode" export)
         head = to_utf8(head[: len(head) // 2 * 2])
+    if _is_video(head) or ext in VIDEO_SUFFIXES:
+        raise RecordingError(
+            "is a video, not a recording: its pose is extracted first (bioplan analyze VIDEO,"
+            " or app.recordings.extract_pose)",
+            file=filename,
+            expected=SUPPORTED,
+        )
     if b"\x00" in head[:4096]:
         raise RecordingError(
-            "is a binary file of unknown format",
-            file=filename,
-            expected="C3D, EDF/BDF, MATLAB .mat or a text export",
+            "is a binary file of unknown format", file=filename, expected=SUPPORTED
         )
     lines = head_lines(head, limit=len(head))
     texts = [ln.text for ln in lines]
     first = next((t.strip() for t in texts if t.strip()), "")
     if first[:1] in "{[":
         return "mediapipe_json"
+    if sniff_qualisys(first):
+        return "qualisys_tsv"
+    if sniff_delsys(texts):
+        return "delsys_csv"
     if first.startswith("PathFileType"):
         return "trc"
     if any(t.strip(" ,\t").lower() == "endheader" for t in texts[:80]):

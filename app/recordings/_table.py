@@ -358,10 +358,6 @@ def read_table(
     end: int | None = None,
 ) -> Table:
     """Parse the data block of ``data`` (from ``layout.data_offset`` to ``end``) with pyarrow."""
-    import pyarrow as pa
-    import pyarrow.compute as pc
-    import pyarrow.csv as pcsv
-
     n = layout.n_fields
     cols = unique_names(names or layout.names or [f"column{i + 1}" for i in range(n)])
     if len(cols) != n:
@@ -371,8 +367,24 @@ def read_table(
             expected="one name per column",
         )
     keys = [f"c{i}" for i in range(n)]
-    buf = pa.py_buffer(data)
-    block = buf.slice(
+    table, bad_rows = _parse_block(data, layout, src, keys, end)
+    out = Table(src=src, data=data, layout=layout, names=cols, n_rows=table.num_rows)
+    if bad_rows:
+        _raise_bad_row(data, layout, src, bad_rows[0])
+    for key, name in zip(keys, cols, strict=True):
+        _add_column(out, name, table.column(key))
+    return out
+
+
+def _parse_block(
+    data: bytes, layout: Layout, src: Source, keys: list[str], end: int | None
+) -> tuple[Any, list[tuple[int, int, str | None]]]:
+    """(pyarrow table, rows with the wrong number of fields) of the data block."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    n = len(keys)
+    block = pa.py_buffer(data).slice(
         layout.data_offset, (end if end is not None else len(data)) - layout.data_offset
     )
     bad_rows: list[tuple[int, int, str | None]] = []
@@ -406,7 +418,7 @@ def read_table(
                     column_types=forced,
                 ),
             )
-            break
+            return table, bad_rows
         except pa.ArrowInvalid as exc:
             # A column typed from the first block meets text further down: read it as text to
             # find the exact line below.
@@ -414,46 +426,55 @@ def read_table(
             if not m or int(m.group(1)) >= n or forced.get(keys[int(m.group(1))]) == pa.string():
                 raise src.error(f"cannot be parsed: {exc}", expected="delimited numbers") from None
             forced[keys[int(m.group(1))]] = pa.string()
-    else:  # pragma: no cover - every column forced to text cannot fail conversion
-        raise src.error("cannot be parsed", expected="delimited numbers")
+    raise src.error("cannot be parsed", expected="delimited numbers")  # pragma: no cover
 
-    out = Table(src=src, data=data, layout=layout, names=cols, n_rows=table.num_rows)
-    if bad_rows:
-        expected, actual, text = bad_rows[0]
-        line = None
-        if text is not None:
-            at = data.find(text.encode("utf-8", "replace"), layout.data_offset)
-            if at >= 0:
-                line = data.count(b"\n", 0, at) + 1
-        raise src.error(
-            f"row has {actual} field(s), not {expected}",
-            line=line,
-            expected=f"{expected} fields separated by {layout.delimiter!r} in every row",
+
+def _raise_bad_row(
+    data: bytes, layout: Layout, src: Source, bad: tuple[int, int, str | None]
+) -> None:
+    expected, actual, text = bad
+    line = None
+    if text is not None:
+        at = data.find(text.encode("utf-8", "replace"), layout.data_offset)
+        if at >= 0:
+            line = data.count(b"\n", 0, at) + 1
+    raise src.error(
+        f"row has {actual} field(s), not {expected}",
+        line=line,
+        expected=f"{expected} fields separated by {layout.delimiter!r} in every row",
+    )
+
+
+_NUMBER_CELL = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
+
+
+def _add_column(out: Table, name: str, col: Any) -> None:
+    """A parsed column into ``out``: numbers, empty, or text (mostly-numeric text is an error
+    naming the first cell that is not a number)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    typ = col.type
+    if pa.types.is_integer(typ) or pa.types.is_floating(typ):
+        arr = pc.cast(col, pa.float64()).to_numpy()
+        if col.null_count:
+            arr = np.where(pc.is_null(col).to_numpy(zero_copy_only=False), np.nan, arr)
+        out.numeric[name] = np.ascontiguousarray(arr, dtype=np.float64)
+        return
+    if pa.types.is_null(typ) or col.null_count == len(col):
+        out.empty.append(name)
+        return
+    strings = pc.cast(col, pa.string())
+    looks = pc.match_substring_regex(strings, _NUMBER_CELL.pattern)
+    n_num = pc.sum(looks).as_py() or 0
+    n_filled = len(strings) - strings.null_count
+    if n_num and 2 * n_num > n_filled:
+        bad = pc.and_(pc.invert(pc.fill_null(looks, True)), pc.is_valid(strings))
+        row = int(np.flatnonzero(bad.to_numpy(zero_copy_only=False))[0])
+        raise out.src.error(
+            f"text {strings[row].as_py()!r} in a numeric column",
+            line=out.line_of_row(row),
+            channel=name,
+            expected="a number",
         )
-    number = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
-    for key, name in zip(keys, cols, strict=True):
-        col = table.column(key)
-        typ = col.type
-        if pa.types.is_integer(typ) or pa.types.is_floating(typ):
-            arr = pc.cast(col, pa.float64()).to_numpy()
-            if col.null_count:
-                arr = np.where(pc.is_null(col).to_numpy(zero_copy_only=False), np.nan, arr)
-            out.numeric[name] = np.ascontiguousarray(arr, dtype=np.float64)
-        elif pa.types.is_null(typ) or col.null_count == len(col):
-            out.empty.append(name)
-        else:
-            strings = pc.cast(col, pa.string())
-            looks = pc.match_substring_regex(strings, number.pattern)
-            n_num = pc.sum(looks).as_py() or 0
-            n_filled = len(strings) - strings.null_count
-            if n_num and 2 * n_num > n_filled:
-                bad = pc.and_(pc.invert(pc.fill_null(looks, True)), pc.is_valid(strings))
-                row = int(np.flatnonzero(bad.to_numpy(zero_copy_only=False))[0])
-                raise src.error(
-                    f"text {strings[row].as_py()!r} in a numeric column",
-                    line=out.line_of_row(row),
-                    channel=name,
-                    expected="a number",
-                )
-            out.text[name] = strings
-    return out
+    out.text[name] = strings

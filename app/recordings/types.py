@@ -154,3 +154,49 @@ class DatalogSensor:
     physical_range: float
     unit: str
     counts_range: float = field(default=4000.0, kw_only=True)
+
+
+@dataclass(frozen=True)
+class RateCheck:
+    """An EMG sampling rate that looks wrong, and the rate that would fit (upload-time data).
+
+    Attributes:
+        stored_rate: the rate the file states [Hz].
+        suggested_rate: the rate at which the EMG's spectrum looks like surface EMG [Hz].
+        median_frequency: the EMG's spectral median at the stored rate [Hz].
+        channels: the EMG channels the verdict covers.
+        reason: one sentence for the user.
+    """
+
+    stored_rate: float
+    suggested_rate: float
+    median_frequency: float
+    channels: tuple[str, ...]
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "stored_rate_hz": self.stored_rate,
+            "suggested_rate_hz": self.suggested_rate,
+            "median_frequency_hz": self.median_frequency,
+            "channels": list(self.channels),
+            "reason": self.reason,
+        }
+
+
+def rate_check(recording: Recording) -> RateCheck | None:
+    """The reader's verdict on the recording's EMG rate (None when it looks plausible).
+
+    Readers store it in ``metadata["rate_check"]``; with ``emg_rate`` given when reading, the
+    check runs on the corrected rate.
+    """
+    data = recording.metadata.get("rate_check")
+    if not isinstance(data, dict):
+        return None
+    return RateCheck(
+        stored_rate=float(data["stored_rate_hz"]),
+        suggested_rate=float(data["suggested_rate_hz"]),
+        median_frequency=float(data["median_frequency_hz"]),
+        channels=tuple(data["channels"]),
+        reason=str(data["reason"]),
+    )

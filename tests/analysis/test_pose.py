@@ -230,3 +230,17 @@ def test_angles_from_joint_angle_channels() -> None:
     assert a.wrist_acceleration.shape == (len(t), 0)
     no_elbow = Recording({"pro_sup": rec.channels["pro_sup"]}, "x.mot", "mot")
     assert angles_from_channels(no_elbow) is None
+
+
+@pytest.mark.parametrize(("n", "deriv"), [(50, 1), (5000, 1), (5000, 2), (4001, 0)])
+def test_fft_savgol_matches_scipy(n: int, deriv: int) -> None:
+    """The overlap-add Savitzky-Golay gives scipy's ``mode="interp"`` numbers, ends included."""
+    from scipy.signal import savgol_filter
+
+    from app.analysis.pose import savgol
+
+    rng = np.random.default_rng(n)
+    y = np.cumsum(rng.standard_normal((n, 2)), axis=0)
+    ref = savgol_filter(y, 31, 3, deriv=deriv, delta=0.01, axis=0, mode="interp")
+    got = savgol(y, 31, 3, deriv=deriv, delta=0.01)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * float(np.max(np.abs(ref))))

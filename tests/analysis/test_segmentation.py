@@ -30,17 +30,48 @@ def _time_at(level: float, t0: float, rising: bool) -> float:
     return t0 + (phase if rising else DUR - phase)
 
 
+#: Speed of the raised cosine: AMP pi / DUR sin(2 pi tau), so it is 5 % of its peak at
+#: tau = asin(0.05) / (2 pi) after the start and before the top (and mirrored on the way down).
+SLOW = DUR * np.arcsin(0.05) / (2 * np.pi)
+
+
 def test_lifts_of_raised_cosine_curls() -> None:
     t, y = _curls()
     lifts = detect_lifts(y, t)
     assert len(lifts) == len(STARTS)
     for lift, t0 in zip(lifts, STARTS, strict=True):
         assert lift.source == "angle"
-        assert lift.top == pytest.approx(t0 + DUR / 2, abs=0.011)
-        # Start/end: within 5 % of the amplitude of rest.
-        assert lift.start == pytest.approx(_time_at(BASE + 0.05 * AMP, t0, True), abs=0.011)
-        assert lift.end == pytest.approx(_time_at(BASE + 0.05 * AMP, t0, False), abs=0.011)
-        assert lift.top_angle == pytest.approx(BASE + AMP, abs=1e-3)
+        # Boundaries where the speed is 5 % of its peak (one 10 ms sample of slack).
+        assert lift.start == pytest.approx(t0 + SLOW, abs=0.011)
+        assert lift.top == pytest.approx(t0 + DUR / 2 - SLOW, abs=0.011)
+        assert lift.eccentric[0] == pytest.approx(t0 + DUR / 2 + SLOW, abs=0.011)
+        assert lift.end == pytest.approx(t0 + DUR - SLOW, abs=0.011)
+        assert lift.top_angle == pytest.approx(BASE + AMP, abs=np.deg2rad(0.1))
+        # The old rule (within 5 % of the amplitude of rest) started when the elbow already
+        # moved at about 44 % of its peak speed; the speed rule starts 0.13 s earlier.
+        assert lift.start < _time_at(BASE + 0.05 * AMP, t0, True) - 0.1
+
+
+def test_a_hold_at_the_top_is_its_own_part_not_phase_c() -> None:
+    """A curl that rises in 1 s, holds 1.5 s at 140 deg and lowers in 1 s: the top is the
+    first arrival (t0 + 1 s, less the 5 %-speed margin), lowering starts after the hold, and
+    concentric C ends at the top while eccentric C starts at the lowering."""
+    rate, t0, rise, hold = 200.0, 1.0, 1.0, 1.5
+    t = np.arange(int(6 * rate)) / rate
+    up = np.clip((t - t0) / rise, 0, 1)
+    down = np.clip((t - t0 - rise - hold) / rise, 0, 1)
+    y = BASE + AMP * ((1 - np.cos(np.pi * up)) / 2 - (1 - np.cos(np.pi * down)) / 2)
+    (lift,) = detect_lifts(y, t)
+    margin = rise * np.arcsin(0.05) / np.pi  # half-cosine speed: 5 % of peak
+    assert lift.top == pytest.approx(t0 + rise - margin, abs=0.006)
+    assert lift.hold[1] == pytest.approx(t0 + rise + hold + margin, abs=0.006)
+    assert lift.hold[1] - lift.hold[0] > hold
+    phases = split_phases(y, t, lift)
+    conc_c = next(p for p in phases if p.part == "concentric" and p.name == "C")
+    ecc_c = next(p for p in phases if p.part == "eccentric" and p.name == "C")
+    assert conc_c.end == lift.top
+    assert ecc_c.start == lift.hold[1]
+    assert all(p.end <= lift.top or p.start >= lift.hold[1] for p in phases)
 
 
 def test_noise_and_small_wiggles_do_not_make_lifts() -> None:
@@ -76,7 +107,7 @@ def test_phases_by_elbow_angle_match_closed_form_crossings() -> None:
     expected = [
         _time_at(b1, t0, True),
         _time_at(b2, t0, True),
-        t0 + DUR / 2,
+        lift.top,
         _time_at(b2, t0, False),
         _time_at(b1, t0, False),
     ]

@@ -86,11 +86,11 @@ CASES: dict[str, tuple[Callable[[], bytes], dict[str, object], str, int | None, 
         80,
         "time",
     ),
-    "constant channel mapped to a site": (
+    "constant channel the user maps to a site": (
         lambda: "\n".join(
             [r if i == 0 else ",".join([*r.split(",")[:2], "0"]) for i, r in enumerate(_emg_csv())]
         ).encode(),
-        {},
+        {"muscle_map": {"triceps": "triceps"}},
         "is constant .* mapped to the triceps site",
         None,
         "triceps",
@@ -188,6 +188,18 @@ def test_bad_input_names_file_and_place(case: str) -> None:
     if channel is not None:
         assert e.channel is not None and e.channel.startswith(channel)
     assert "/" not in str(e).split(":")[0]  # never a server path
+
+
+def test_a_constant_channel_mapped_by_its_name_is_left_out_with_a_note() -> None:
+    """The same all-zero triceps column, mapped automatically from its name: not an error
+    (an unused input of the amplifier), unmapped and named in a warning."""
+    data = "\n".join(
+        [r if i == 0 else ",".join([*r.split(",")[:2], "0"]) for i, r in enumerate(_emg_csv())]
+    ).encode()
+    rec = read_bytes(data, "flat.csv")
+    assert rec.channels["triceps"].site is None
+    assert rec.metadata["flat_channels"] == ["triceps"]
+    assert any("'triceps' is constant" in w for w in rec.metadata["warnings"])
 
 
 def test_errors_name_the_user_file_not_the_storage_path(tmp_path: Path) -> None:

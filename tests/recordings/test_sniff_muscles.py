@@ -40,7 +40,7 @@ REAL = {
 
 
 def test_every_format_has_a_reader() -> None:
-    assert set(FORMATS) == set(READERS) and len(FORMATS) == 12
+    assert set(FORMATS) == set(READERS) and len(FORMATS) == 14
 
 
 @pytest.mark.parametrize(("relative", "fmt"), sorted(REAL.items()))
@@ -127,8 +127,15 @@ def test_sniff_rejects_empty_and_unknown_binary(tmp_path: Path) -> None:
         sniff_format(empty)
     blob = tmp_path / "video.mp4"
     blob.write_bytes(b"\x00\x00\x00\x18ftypmp42" + bytes(range(256)) * 4)
-    with pytest.raises(RecordingError, match=r"video\.mp4: is a binary file of unknown format"):
+    with pytest.raises(RecordingError, match=r"video\.mp4: is a video, not a recording"):
         sniff_format(blob)
+    other = tmp_path / "scan.bin"
+    other.write_bytes(b"\x00\x01BLOB" + bytes(range(256)) * 4)
+    with pytest.raises(RecordingError, match=r"scan\.bin: is a binary file of unknown") as err:
+        sniff_format(other)
+    # The message names the formats that are supported.
+    for name in ("C3D", "EDF", "Delsys", "Qualisys", "OpenSim", "MediaPipe", "mp4"):
+        assert name in str(err.value)
     with pytest.raises(RecordingError, match=r"missing\.csv: cannot be read"):
         sniff_format(tmp_path / "missing.csv")
 
