@@ -111,6 +111,12 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     work = root / "checkout"
     work.mkdir()
     (work / ".venv").symlink_to(Path(sys.prefix), target_is_directory=True)
+    # What a checkout has beside its code that the examples use: the docs' example files and
+    # the pose environment `make` creates (found as ./.venv-pose, as in a checkout).
+    (work / "docs").symlink_to(REPO_ROOT / "docs", target_is_directory=True)
+    pose_env = REPO_ROOT / ".venv-pose"
+    if pose_env.is_dir():
+        (work / ".venv-pose").symlink_to(pose_env, target_is_directory=True)
     return work
 
 
