@@ -155,6 +155,37 @@ def _check_options(
     return lo, hi
 
 
+def _initial_swarm(
+    rng: np.random.Generator,
+    box: tuple[FloatArray, FloatArray],
+    particles: int,
+    v_max: FloatArray,
+    initial: ArrayLike | None,
+) -> tuple[FloatArray, FloatArray]:
+    """Positions (P, D) uniform in the box (particle 0 at ``initial``) and velocities (P, D)."""
+    lo, hi = box
+    x = lo + rng.random((particles, lo.size)) * (hi - lo)
+    if initial is not None:
+        x0 = _check_vector("initial", initial)
+        if x0.shape != lo.shape:
+            raise BioPlanError(f"initial must have shape {lo.shape}, got {x0.shape}")
+        x[0] = np.clip(x0, lo, hi)
+    v = (2.0 * rng.random((particles, lo.size)) - 1.0) * v_max
+    return x, v
+
+
+def _significant(
+    old_cost: float, old_viol: float, new_cost: float, new_viol: float, tol: float
+) -> bool:
+    """Whether the incumbent moved enough to reset the stagnation count (see ``pso_minimize``)."""
+    gain = old_cost - new_cost
+    return new_viol < old_viol or (
+        new_viol == old_viol
+        and gain > 0.0
+        and (not np.isfinite(old_cost) or gain > tol * abs(old_cost))
+    )
+
+
 def pso_minimize(
     fn: CostFunction,
     lower: ArrayLike,
@@ -233,16 +264,8 @@ def pso_minimize(
 
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
-    n_dim = lo.size
-    span = hi - lo
-    v_max = velocity_clamp * span
-    x = lo + rng.random((particles, n_dim)) * span
-    if initial is not None:
-        x0 = _check_vector("initial", initial)
-        if x0.shape != lo.shape:
-            raise BioPlanError(f"initial must have shape {lo.shape}, got {x0.shape}")
-        x[0] = np.clip(x0, lo, hi)
-    v = (2.0 * rng.random((particles, n_dim)) - 1.0) * v_max
+    v_max = velocity_clamp * (hi - lo)
+    x, v = _initial_swarm(rng, (lo, hi), particles, v_max, initial)
 
     cost, viol = _evaluate(fn, x)
     p_x, p_cost, p_viol = x.copy(), cost, viol
@@ -268,12 +291,7 @@ def pso_minimize(
         p_viol = np.where(improved, viol, p_viol)
         g = int(np.lexsort((p_cost, p_viol))[0])
         new_cost, new_viol = float(p_cost[g]), float(p_viol[g])
-        gain = g_cost - new_cost
-        significant = new_viol < g_viol or (
-            new_viol == g_viol
-            and gain > 0.0
-            and (not np.isfinite(g_cost) or gain > stagnation_tol * abs(g_cost))
-        )
+        significant = _significant(g_cost, g_viol, new_cost, new_viol, stagnation_tol)
         if new_viol < g_viol or (new_viol == g_viol and new_cost < g_cost):
             g_x, g_cost, g_viol = p_x[g].copy(), new_cost, new_viol
         done = it + 1
