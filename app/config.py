@@ -115,11 +115,13 @@ class Settings(BaseSettings):
 
     @model_validator(mode="after")
     def _refuse_open_bind(self) -> Settings:
-        if not is_loopback(self.host) and self.api_token is None:
-            raise ValueError(
-                f"refusing to bind to non-loopback host {self.host!r} without an API token: "
-                "set BIOPLAN_API_TOKEN (or bind to 127.0.0.1)"
-            )
+        # The viewer streams every plan's poses: it is as open as the API, so the same rule.
+        for name, host in (("BIOPLAN_HOST", self.host), ("BIOPLAN_VIEWER_HOST", self.viewer_host)):
+            if not is_loopback(host) and self.api_token is None:
+                raise ValueError(
+                    f"refusing to bind to non-loopback host {host!r} ({name}) without an API "
+                    "token: set BIOPLAN_API_TOKEN (or bind to 127.0.0.1)"
+                )
         return self
 
     @property

@@ -31,6 +31,17 @@ def test_non_loopback_bind_needs_a_token(monkeypatch: pytest.MonkeyPatch) -> Non
     assert "s3cret" not in repr(s)  # a secret, never printed
 
 
+def test_a_viewer_on_every_interface_needs_a_token(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The viewer streams plans' poses: ``BIOPLAN_VIEWER_HOST=0.0.0.0`` alone was accepted."""
+    monkeypatch.delenv("BIOPLAN_HOST", raising=False)
+    monkeypatch.delenv("BIOPLAN_API_TOKEN", raising=False)
+    monkeypatch.setenv("BIOPLAN_VIEWER_HOST", "0.0.0.0")
+    with pytest.raises(ValidationError, match="BIOPLAN_VIEWER_HOST"):
+        Settings()
+    monkeypatch.setenv("BIOPLAN_API_TOKEN", "s3cret")
+    assert Settings().viewer_host == "0.0.0.0"
+
+
 def test_settings_defaults_and_parsing(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv("BIOPLAN_DATA_DIR", str(tmp_path))
     monkeypatch.setenv("BIOPLAN_CORS_ORIGINS", "http://a.example, http://b.example")
