@@ -14,9 +14,12 @@ from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from app.names import (
+    HUMAN_CONSTRAINTS,
     JOB_STATES,
+    METHODS,
     MUSCLE_COLOURS,
     OBJECTIVES,
+    OPTIMAL_INTERVALS,
     PHASE_BOUNDS_DEG,
     PSO_DEFAULTS,
     MethodInfo,
@@ -29,11 +32,15 @@ if TYPE_CHECKING:
     Objective = str
     Site = str
     JobState = str
+    MethodName = str
+    HumanConstraint = str
 else:
     # The allowed values come from ``app.names`` (one home); OpenAPI lists them as enums.
     Objective = Literal[OBJECTIVES]
     Site = Literal[tuple(MUSCLE_COLOURS)]
     JobState = Literal[JOB_STATES]
+    MethodName = Literal[tuple(METHODS)]
+    HumanConstraint = Literal[HUMAN_CONSTRAINTS]
 JobKind = Literal["analysis", "plan", "simulation", "sweep"]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
@@ -288,6 +295,33 @@ class _RobotTask(BaseModel):
     template_analysis_id: int | None = Field(
         default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
     )
+    # ---- planning methods (issue 10) --------------------------------------------------------
+    methods: list[MethodName] = Field(
+        default=list(METHODS),
+        min_length=1,
+        max_length=len(METHODS),
+        description="methods to plan, as `bioplan plan --method` (default: all five, like the "
+        "CLI; the quintic always runs: it is every saving's reference)",
+    )
+    human_constraint: HumanConstraint = Field(
+        default="peak", description="human_optimal's constraint: peak, phases or none"
+    )
+    no_reversal: bool = Field(
+        default=True, description="the optimal-control methods never move a joint backwards"
+    )
+    n_intervals: int = Field(
+        default=OPTIMAL_INTERVALS,
+        ge=8,
+        le=400,
+        description="constant-jerk intervals of the optimal-control transcription",
+    )
+
+    @field_validator("methods")
+    @classmethod
+    def _distinct_methods(cls, v: list[str]) -> list[str]:
+        if len(set(v)) != len(v):
+            raise ValueError("methods must not repeat")
+        return v
 
 
 class PlanRequest(_RobotTask):
@@ -371,6 +405,29 @@ class PlanComparison(BaseModel):
 # ----------------------------------------------------------------------------------- robots
 
 
+class RobotJoint(BaseModel):
+    """One movable joint of a robot's URDF."""
+
+    name: str
+    kind: str = Field(description="revolute, continuous or prismatic")
+    unit: str = Field(description="rad or m")
+    lower: float | None = Field(description="[rad or m]; null = unbounded")
+    upper: float | None = Field(description="[rad or m]; null = unbounded")
+    velocity: float | None = Field(description="[rad/s or m/s]")
+    effort: float | None = Field(description="[Nm or N]")
+    locked: bool
+    lock_value: float | None = Field(description="[rad or m] when locked")
+    role: str | None = Field(description="shoulder, elbow or null")
+
+
+class RobotFile(BaseModel):
+    """A file of an uploaded robot package."""
+
+    path: str = Field(description="relative to the package")
+    bytes: int
+    role: str = Field(description="urdf, mjcf, sidecar, mesh or other")
+
+
 class RobotInfo(BaseModel):
     name: str
     builtin: bool
@@ -383,3 +440,18 @@ class RobotInfo(BaseModel):
     has_mjcf: bool
     urdf_name: str | None = None
     mjcf_name: str | None = None
+    # ---- onboarding (issue 12); None for robots stored before these fields existed ----------
+    shoulder_joint: str | None = Field(default=None, description="joint human shoulder maps to")
+    elbow_joint: str | None = Field(default=None, description="joint human elbow maps to")
+    locks: dict[str, float] = Field(default={}, description="locked joints [rad, or m]")
+    all_joint_names: list[str] | None = Field(default=None, description="free and locked")
+    joints: list[RobotJoint] | None = Field(default=None, description="every movable joint")
+    motors_modelled: bool | None = Field(
+        default=None, description="false: electrical metrics are reported as not modelled"
+    )
+    default_start_deg: list[float] | None = Field(default=None, description="curl task start")
+    default_goal_deg: list[float] | None = Field(default=None, description="curl task goal")
+    files: list[RobotFile] | None = Field(default=None, description="stored files (uploads)")
+    package_dirs: list[str] | None = Field(
+        default=None, description="folders package:// mesh paths resolve in (uploads)"
+    )

@@ -174,8 +174,35 @@ def builtin_robots() -> list[str]:
     return sorted(_entry("app.planning.robots", "BUILTIN_ROBOTS"))
 
 
+def _joint_rows(robot: Any) -> list[dict[str, Any]]:
+    """Every movable joint of the robot's URDF: name, kind, limits, free or locked (SI)."""
+    parse_urdf = _entry("app.planning.robots._urdf", "parse_urdf")
+    model = parse_urdf(Path(robot.urdf_path))
+    roles = {robot.shoulder_joint_name: "shoulder", robot.elbow_joint_name: "elbow"}
+    rows = []
+    for joint in model.joints:
+        if joint.name not in robot.all_joint_names:
+            continue  # a mimic follower or a joint the reduced model drops
+        rows.append(
+            {
+                "name": joint.name,
+                "kind": joint.kind,
+                "unit": "m" if joint.kind == "prismatic" else "rad",
+                "lower": joint.lower,
+                "upper": joint.upper,
+                "velocity": joint.velocity,
+                "effort": joint.effort,
+                "locked": joint.name in robot.locks,
+                "lock_value": robot.locks.get(joint.name),
+                "role": roles.get(joint.name),
+            }
+        )
+    return rows
+
+
 def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
-    """Joints and limits of a robot (SI units: rad, rad/s, Nm; payload in kg).
+    """Joints, limits, roles, locks, motors and default task of a robot (SI units: rad, rad/s,
+    Nm; payload in kg; ``*_deg`` in degrees).
 
     Raises:
         RobotError: the model cannot be loaded; one-line message.
@@ -191,6 +218,14 @@ def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
                 "tau_max": np.asarray(robot.tau_max, float),
                 "payload": float(getattr(robot.payload, "mass", robot.payload) or 0.0),
                 "has_mjcf": robot.mjcf_path is not None,
+                "shoulder_joint": robot.shoulder_joint_name,
+                "elbow_joint": robot.elbow_joint_name,
+                "locks": dict(robot.locks),
+                "all_joint_names": list(robot.all_joint_names),
+                "joints": _joint_rows(robot),
+                "motors_modelled": bool(robot.motors_modelled),
+                "default_start_deg": np.degrees(np.asarray(robot.default_start, float)),
+                "default_goal_deg": np.degrees(np.asarray(robot.default_goal, float)),
             }
         )
     return described
@@ -231,9 +266,25 @@ def _arrays_of(result: Any) -> dict[str, Any] | None:
     return {k: np.asarray(v, dtype=np.float64) for k, v in arrays().items()}
 
 
+def _method_options(payload: dict[str, Any]) -> dict[str, Any]:
+    """The methods and their options (``methods``, ``human_constraint``, ``no_reversal``,
+    ``n_intervals``) of a job payload; absent keys keep the library's defaults."""
+    out: dict[str, Any] = {}
+    if payload.get("methods") is not None:
+        out["methods"] = [str(m) for m in payload["methods"]]
+    if payload.get("human_constraint") is not None:
+        out["human_constraint"] = str(payload["human_constraint"])
+    if payload.get("no_reversal") is not None:
+        out["no_reversal"] = bool(payload["no_reversal"])
+    if payload.get("n_intervals") is not None:
+        out["n_intervals"] = int(payload["n_intervals"])
+    return out
+
+
 def _planning_options(robot: Any, payload: dict[str, Any]) -> dict[str, Any]:
     """The keyword options ``plan`` and ``simulate_comparison`` share, from a job payload."""
     return {
+        **_method_options(payload),
         "task": _task(robot, payload.get("start_deg"), payload.get("goal_deg")),
         "duration": float(payload["duration"]),
         "objective": payload.get("objective", "abs_work"),
@@ -250,12 +301,16 @@ def plan(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[st
 
     Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
     ``seed``, ``particles``, ``iterations``, ``n_samples``, ``peak_angle_deg``, ``start_deg``,
-    ``goal_deg``, ``template`` (HumanTemplate dict or None).
+    ``goal_deg``, ``template`` (HumanTemplate dict or None), ``methods``,
+    ``human_constraint``, ``no_reversal``, ``n_intervals``.
 
     Returns:
-        ``{"result": PlanResult.to_dict(), "arrays": PlanResult.arrays()}``.
+        ``{"result": PlanResult.to_dict() + "motion", "arrays": PlanResult.arrays()}``; the
+        ``motion`` block (``plan_motion(result, robot).to_dict()``) holds every method's exact
+        knots, so the stored result can be exported at any rate.
     """
     run_plan = _entry("app.planning", "plan")
+    plan_motion = _entry("app.planning.export", "plan_motion")
     with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
         result = run_plan(
             robot,
@@ -263,7 +318,9 @@ def plan(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[st
             progress=progress,
             **_planning_options(robot, payload),
         )
-    return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
+        out = json_safe(result.to_dict())
+        out["motion"] = plan_motion(result, robot).to_dict()
+    return {"result": out, "arrays": _arrays_of(result)}
 
 
 def simulate(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
@@ -272,12 +329,44 @@ def simulate(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dic
     Payload: as for :func:`plan` but without ``n_samples`` (the simulation grid is used).
 
     Returns:
-        ``{"result": SimulationResult.to_dict(), "arrays": SimulationResult.arrays()}``.
+        ``{"result": SimulationResult.to_dict() + "motion", "arrays":
+        SimulationResult.arrays()}`` (the motion block of the simulated plan).
     """
     simulate_comparison = _entry("app.simulation", "simulate_comparison")
+    plan_motion = _entry("app.planning.export", "plan_motion")
     with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
         result = simulate_comparison(robot, progress=progress, **_planning_options(robot, payload))
-    return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
+        out = json_safe(result.to_dict())
+        out["motion"] = plan_motion(result.plan, robot).to_dict()
+    return {"result": out, "arrays": _arrays_of(result)}
+
+
+def export_trajectory(
+    spec: dict[str, Any],
+    result: dict[str, Any],
+    fmt: str,
+    *,
+    method: str | None = None,
+    rate: float | None = None,
+) -> bytes:
+    """One method of a stored plan or simulation as an export file's bytes.
+
+    Args:
+        spec: the robot's spec (as for a job); loaded with the payload the result was planned
+            with, and checked against the result's torques (a changed robot is refused).
+        result: the stored result (with its ``motion`` block).
+        fmt, method, rate: as ``app.planning.export.export_bytes``.
+
+    Raises:
+        ExportError: no motion block, an unknown format or method, a bad rate.
+    """
+    export_result = _entry("app.planning.export", "export_result")
+    motion_of_result = _entry("app.planning.export", "motion_of_result")
+    motion = motion_of_result(result)  # refuse a result without motion before loading a robot
+    payload = motion.conditions.get("payload")
+    with robot_from_spec(spec, None if payload is None else float(payload)) as robot:
+        data: bytes = export_result(result, fmt, method=method, rate=rate, robot=robot)
+    return data
 
 
 def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:

@@ -22,7 +22,7 @@ def test_simulation_equals_the_library(shared_client: TestClient) -> None:
     from app.simulation import simulate_comparison
 
     body = {"robot": "human_arm_2dof", "duration": 1.0, "seed": 2, "particles": 8,
-            "iterations": 5, "payload": 6.0}  # fmt: skip
+            "iterations": 5, "payload": 6.0, "methods": ["quintic", "paper"]}  # fmt: skip
     r = shared_client.post("/api/simulations", json=body)
     assert r.status_code == 202, r.text
     done = wait_job(shared_client, r.json()["id"])
