@@ -149,16 +149,25 @@ class ChannelRecord(Base):
 
 
 class RobotRecord(Base):
-    """An uploaded robot model (URDF, optional MJCF), files in the blob store."""
+    """An uploaded robot model (URDF and/or MJCF, or a package zip with meshes, a sidecar),
+    files in the blob store."""
 
     __tablename__ = "robots"
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)
-    urdf_sha256: Mapped[str] = mapped_column(String(64))
-    urdf_name: Mapped[str] = mapped_column(String(255))
+    urdf_sha256: Mapped[str | None] = mapped_column(String(64))
+    urdf_name: Mapped[str | None] = mapped_column(String(255))
     mjcf_sha256: Mapped[str | None] = mapped_column(String(64))
     mjcf_name: Mapped[str | None] = mapped_column(String(255))
+    #: a zip of the robot's folder (model files, meshes, sidecar), checked member by member.
+    package_sha256: Mapped[str | None] = mapped_column(String(64))
+    package_name: Mapped[str | None] = mapped_column(String(255))
+    sidecar_sha256: Mapped[str | None] = mapped_column(String(64))
+    sidecar_name: Mapped[str | None] = mapped_column(String(255))
+    #: ``shoulder_joint``, ``elbow_joint``, ``locks`` (display units) and the package members
+    #: ``urdf_member``/``mjcf_member``/``sidecar_member`` (``app.jobs.tasks.robot_from_spec``).
+    options: Mapped[dict[str, Any] | None] = mapped_column(JSON)
     payload: Mapped[float | None] = mapped_column(Float)
     #: joint names and limits as read by the planning package (JSON-ready).
     description: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)

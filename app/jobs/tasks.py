@@ -138,35 +138,158 @@ def analyse(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict
 # ----------------------------------------------------------------------------------- robots
 
 
+#: Fixed file names of uploaded single files in a robot's folder (the user's names are never
+#: used as paths).
+UPLOAD_NAMES = {"urdf": "robot.urdf", "mjcf": "robot.xml", "sidecar": "robot.yaml"}
+
+
+def _member(root: Path, relative: str | None, what: str) -> Path | None:
+    """``root/relative`` when ``relative`` names a file inside ``root`` (a package member)."""
+    from app.planning.robots import RobotError
+
+    if relative is None:
+        return None
+    path = (root / relative).resolve()
+    if not path.is_relative_to(root.resolve()) or not path.is_file():
+        raise RobotError(f"{what} '{relative}' is not a file of the robot package")
+    return path
+
+
+def _robot_files(spec: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """Write a spec's files into ``folder`` (a package zip extracted safely, single files under
+    fixed names); the ``load_robot`` file arguments and the package's folders."""
+    from app.planning.robots import open_robot_package
+
+    package_dirs: tuple[Path, ...] = ()
+    root = folder
+    if spec.get("package") is not None:
+        archive = folder.parent / f"{folder.name}.zip"
+        archive.write_bytes(spec["package"])
+        try:
+            package = open_robot_package(archive, folder)  # refuses ../, absolute, links
+        finally:
+            archive.unlink(missing_ok=True)
+        root, package_dirs = package.root, package.package_dirs
+    else:
+        folder.mkdir(parents=True, exist_ok=True)
+    files: dict[str, Path | None] = {}
+    for key in ("urdf", "mjcf", "sidecar"):
+        if spec.get(key) is not None:
+            path = root / UPLOAD_NAMES[key]
+            path.write_bytes(spec[key])
+            files[key] = path
+        else:
+            files[key] = _member(root, spec.get(f"{key}_member"), key)
+    return {**files, "package_dirs": package_dirs}
+
+
+def _load_uploaded(spec: dict[str, Any], files: dict[str, Any], payload: float | None) -> Any:
+    """``load_robot`` of an uploaded robot's files with its roles and locks (display units)."""
+    from app.planning.robots import RobotError, load_robot, locks_from_display
+
+    urdf, mjcf = files["urdf"], files["mjcf"]
+    if urdf is None and mjcf is None:
+        raise RobotError("the robot has no URDF and no MJCF: expected at least one model file")
+    locks = spec.get("locks") or {}
+    if locks:
+        if urdf is None:
+            from app.planning.robots._mjcf_urdf import urdf_from_mjcf
+
+            locks = locks_from_display(urdf_from_mjcf(mjcf), locks)
+        else:
+            locks = locks_from_display(urdf, locks)
+    return load_robot(
+        str(urdf if urdf is not None else mjcf),
+        payload=payload,
+        mjcf=None if urdf is None or mjcf is None else str(mjcf),
+        shoulder_joint=spec.get("shoulder_joint"),
+        elbow_joint=spec.get("elbow_joint"),
+        locks=locks or None,
+        sidecar=files["sidecar"],
+        package_dirs=files["package_dirs"],
+    )
+
+
 @contextmanager
-def robot_from_spec(spec: dict[str, Any], payload_kg: float | None = None) -> Iterator[Any]:
-    """Load the robot of a job's spec; uploaded files are written to a temporary folder.
+def robot_from_spec(
+    spec: dict[str, Any], payload_kg: float | None = None, *, folder: Path | None = None
+) -> Iterator[Any]:
+    """Load the robot of a job's spec; uploaded files are written to a folder first.
+
+    This is the one function that reads uploaded robot files (URDF, MJCF, package zip,
+    sidecar): every upload is checked through it before it is stored.
 
     Args:
-        spec: ``{"name"}`` for a built-in robot, or ``{"name", "urdf", "mjcf", "payload"}``
-            with the uploaded files' bytes.
+        spec: ``{"name"}`` for a built-in robot, or an uploaded one: ``{"name", "urdf",
+            "mjcf", "sidecar", "package"}`` (bytes or None; a package is a zip with meshes),
+            ``urdf_member``/``mjcf_member``/``sidecar_member`` (files inside the package),
+            ``shoulder_joint``, ``elbow_joint`` (names or None), ``locks`` (name -> degrees,
+            or metres for prismatic joints) and ``payload`` [kg].
         payload_kg: payload [kg]; None takes the spec's, then the model's default.
+        folder: where to keep the files (kept after the context, e.g. for the viewer's meshes;
+            reused when it exists); None: a temporary folder removed afterwards.
 
     Yields:
         The loaded ``app.planning.robots.Robot`` (its files exist while the context is open).
 
     Raises:
-        RobotError: the model cannot be loaded (a ``BioPlanError``).
+        RobotError: the model cannot be loaded, or the package is refused (a ``BioPlanError``).
     """
     load_robot = _entry("app.planning.robots", "load_robot")
     payload = payload_kg if payload_kg is not None else spec.get("payload")
-    if spec.get("urdf") is None:
+    uploaded = any(spec.get(k) is not None for k in ("urdf", "mjcf", "package"))
+    if not uploaded:
         yield load_robot(spec["name"], payload=payload)
         return
+    if folder is not None:
+        ready = folder / ".complete"
+        if not ready.exists():
+            with tempfile.TemporaryDirectory(prefix=".partial-", dir=folder.parent) as tmp:
+                files = _robot_files(spec, Path(tmp) / "robot")
+                _load_uploaded(spec, files, payload)  # refuse before keeping anything
+                try:
+                    Path(tmp, "robot").rename(folder)
+                except OSError:
+                    if not ready.exists():  # not another request that kept it meanwhile
+                        raise
+                ready.touch()
+        yield _load_uploaded(spec, _robot_files_in(spec, folder), payload)
+        return
     with tempfile.TemporaryDirectory(prefix="bioplan-robot-") as tmp:
-        # Fixed names: the user's file names are never used as paths.
-        urdf = Path(tmp) / "robot.urdf"
-        urdf.write_bytes(spec["urdf"])
-        mjcf = None
-        if spec.get("mjcf") is not None:
-            mjcf = Path(tmp) / "robot.xml"
-            mjcf.write_bytes(spec["mjcf"])
-        yield load_robot(str(urdf), payload=payload, mjcf=None if mjcf is None else str(mjcf))
+        yield _load_uploaded(spec, _robot_files(spec, Path(tmp) / "robot"), payload)
+
+
+def _robot_files_in(spec: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """The file arguments of a robot folder written earlier by :func:`_robot_files`."""
+    from app.planning.robots._package import _package_dirs
+
+    files: dict[str, Any] = {}
+    for key in ("urdf", "mjcf", "sidecar"):
+        if spec.get(key) is not None:
+            files[key] = folder / UPLOAD_NAMES[key]
+        else:
+            files[key] = _member(folder, spec.get(f"{key}_member"), key)
+    has_package = spec.get("package") is not None
+    files["package_dirs"] = _package_dirs(folder.resolve()) if has_package else ()
+    return files
+
+
+def package_members(data: bytes) -> list[dict[str, Any]]:
+    """Files of a robot package zip: relative path, size [bytes] and role (names only; the
+    zip is checked and extracted by :func:`robot_from_spec`)."""
+    import io
+    import zipfile
+
+    roles = {".urdf": "urdf", ".xml": "mjcf", ".mjcf": "mjcf", ".yaml": "sidecar"}
+    roles.update({".yml": "sidecar", ".stl": "mesh", ".dae": "mesh", ".obj": "mesh"})
+    out = []
+    with zipfile.ZipFile(io.BytesIO(data)) as archive:
+        for info in archive.infolist():
+            if info.is_dir():
+                continue
+            role = roles.get(Path(info.filename).suffix.lower(), "other")
+            out.append({"path": info.filename, "bytes": info.file_size, "role": role})
+    return out
 
 
 def builtin_robots() -> list[str]:
@@ -200,14 +323,18 @@ def _joint_rows(robot: Any) -> list[dict[str, Any]]:
     return rows
 
 
-def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
+def describe_robot(spec: dict[str, Any], folder: Path | None = None) -> dict[str, Any]:
     """Joints, limits, roles, locks, motors and default task of a robot (SI units: rad, rad/s,
     Nm; payload in kg; ``*_deg`` in degrees).
+
+    Args:
+        spec: the robot's spec (:func:`robot_from_spec`).
+        folder: keep an uploaded robot's files there (see :func:`robot_from_spec`).
 
     Raises:
         RobotError: the model cannot be loaded; one-line message.
     """
-    with robot_from_spec(spec) as robot:
+    with robot_from_spec(spec, folder=folder) as robot:
         described: dict[str, Any] = json_safe(
             {
                 "name": spec["name"],
