@@ -243,3 +243,26 @@ def test_a_plan_the_planner_refuses_fails_its_job_with_one_line(
     job = wait_job(shared_client, r.json()["id"])
     assert job["state"] == "failed"
     assert "outside the elbow's stroke" in job["error"] and "\n" not in job["error"]
+
+
+def test_the_comparison_shows_any_two_planned_methods(shared_client: TestClient) -> None:
+    """``methods=a,b`` on the Compare page's data: a's curves as standard, b's as optimized."""
+    out = _run(shared_client, seed=6, methods=["quintic", "paper", "bound"], n_intervals=16)
+    url = f"/api/viewer/comparisons/plan/{out['id']}"
+    arrays = shared_client.get(f"/api/plans/{out['id']}/arrays", params={"points": 50}).json()
+    default = shared_client.get(url, params={"points": 50}).json()
+    assert default["methods"] == {"standard": "quintic", "optimized": "paper"}
+    np.testing.assert_allclose(default["curves"]["optimized"]["q"], arrays["arrays"]["paper_q"])
+    chosen = shared_client.get(url, params={"points": 50, "methods": "paper,bound"}).json()
+    assert chosen["methods"] == {"standard": "paper", "optimized": "bound"}
+    curves = chosen["curves"]
+    np.testing.assert_allclose(curves["standard"]["q"], arrays["arrays"]["paper_q"])
+    np.testing.assert_allclose(curves["optimized"]["q"], arrays["arrays"]["bound_q"])
+    np.testing.assert_allclose(curves["optimized"]["energy"], arrays["arrays"]["bound_energy"])
+    assert "methods=paper,bound" in chosen["exports"]["report"]
+    report = shared_client.get(chosen["exports"]["report"])
+    assert report.status_code == 200
+    for bad in ("bound", "bound,bound", "quintic,warp"):
+        assert_problem(shared_client.get(url, params={"methods": bad}), 422, field="methods")
+    r = shared_client.get(url, params={"methods": "quintic,human_optimal"})
+    assert "not planned" in assert_problem(r, 422, field="methods")["detail"]

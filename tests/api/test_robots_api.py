@@ -134,6 +134,10 @@ def test_ur5_package_upload_plan_simulate_export(client: TestClient) -> None:
     r = client.get(f"/api/plans/{plan['id']}/trajectory", params={"format": "script"})
     assert r.status_code == 200, r.text
     assert b"servoj" in r.content
+    # The viewer loads the uploaded URDF with its meshes (package:// paths in the zip).
+    services = client.app.state.services  # type: ignore[attr-defined]
+    prepared = services.comparisons("plan", plan["id"])
+    assert len(prepared.meshes) >= 7 and all(m.faces.size for m in prepared.meshes)
     sim = _finished(client, "/api/simulations", body)
     r = client.get(f"/api/simulations/{sim['id']}/trajectory", params={"format": "csv"})
     assert r.status_code == 200 and "shoulder_lift_joint" in r.text.splitlines()[0]
@@ -217,3 +221,25 @@ def test_bad_onboarding_is_refused_naming_the_field(
     ]
     assert any(j in detail for j in builtin.joint_names), detail
     assert [x["builtin"] for x in client.get("/api/robots").json()] == [True, True]
+
+
+def test_a_sidecar_models_the_motors_and_a_bad_one_is_refused(client: TestClient) -> None:
+    """UR5 with the documented sidecar: motors modelled; a negative gear ratio: 422 naming it."""
+    from pathlib import Path
+
+    from tests.utils.example_robots import UR5, robot_file
+
+    urdf = ("ur5.urdf", robot_file(UR5).read_bytes())
+    sidecar = Path(__file__).parents[2] / "docs" / "examples" / "ur5.sidecar.yaml"
+    text = sidecar.read_text()
+    files = {"urdf": urdf, "sidecar": ("ur5.yaml", text.encode())}
+    r = client.post("/api/robots", data={"name": "ur5m"}, files=files)
+    assert r.status_code == 201, r.text
+    assert r.json()["motors_modelled"] is True
+    plain = client.post("/api/robots", data={"name": "ur5p"}, files={"urdf": urdf}).json()
+    assert plain["motors_modelled"] is False
+    assert "gear_ratio: 101" in text
+    bad = text.replace("gear_ratio: 101", "gear_ratio: -101", 1)
+    files = {"urdf": urdf, "sidecar": ("ur5.yaml", bad.encode())}
+    r = client.post("/api/robots", data={"name": "ur5b"}, files=files)
+    assert "gear" in assert_problem(r, 422, field="sidecar")["detail"]
