@@ -352,7 +352,34 @@ class SweepRequest(BaseModel):
     seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     particles: int | None = Field(default=None, ge=2, le=1000, description="default: sweep's")
     iterations: int | None = Field(default=None, ge=1, le=10000, description="default: sweep's")
-    workers: int = Field(default=1, ge=1, le=64, description="processes inside the job")
+    workers: int | None = Field(
+        default=None,
+        ge=1,
+        le=64,
+        description="processes for the cells on the local runner (default: the runner's "
+        "workers); on Dask every cell is a task on the cluster",
+    )
+    # ---- methods and convergence check (issue 10) -------------------------------------------
+    methods: list[MethodName] = Field(
+        default=list(METHODS),
+        min_length=1,
+        max_length=len(METHODS),
+        description="methods per cell, as `bioplan sweep --method` (default: all five)",
+    )
+    check_seed: int = Field(
+        default=-1,
+        ge=-1,
+        le=2**32 - 1,
+        description="seed of the second PSO run that checks each cell's verdict (-1: seed + 1)",
+    )
+    no_check: bool = Field(default=False, description="skip the convergence check")
+
+    @field_validator("methods")
+    @classmethod
+    def _distinct_methods(cls, v: list[str]) -> list[str]:
+        if len(set(v)) != len(v):
+            raise ValueError("methods must not repeat")
+        return v
 
     @field_validator("durations")
     @classmethod

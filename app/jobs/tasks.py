@@ -500,12 +500,22 @@ def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
     """Savings over a grid of durations, payloads and objectives (``bioplan sweep``).
 
     Payload: ``robot`` (spec), ``durations`` [s], ``payloads`` [kg], ``objectives``, ``seed``,
-    ``particles``/``iterations`` (None: the sweep's defaults), ``workers`` (processes inside
-    the job).
+    ``particles``/``iterations`` (None: the sweep's defaults), ``methods``, ``check_seed``,
+    ``no_check``, ``workers`` (processes for the cells), and ``cell_executor``: set by the
+    runner to ``"dask"`` when the job runs on a Dask worker, so that every cell becomes a task
+    of its own on the cluster (submitted from this task through ``worker_client``); otherwise
+    the cells run in a local pool of ``workers`` processes. Progress is reported per cell.
     """
     run_sweep = _entry("app.simulation", "run_sweep")
     budget = {k: int(payload[k]) for k in ("particles", "iterations") if payload.get(k)}
-    with robot_from_spec(payload["robot"]) as robot:
+    options: dict[str, Any] = {}
+    if payload.get("methods") is not None:
+        options["methods"] = [str(m) for m in payload["methods"]]
+    if payload.get("no_check"):
+        options["check_seed"] = None
+    elif payload.get("check_seed") is not None:
+        options["check_seed"] = int(payload["check_seed"])
+    with robot_from_spec(payload["robot"]) as robot, _cell_executor(payload) as executor:
         result = run_sweep(
             robot=robot,
             durations=[float(d) for d in payload["durations"]],
@@ -514,9 +524,25 @@ def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
             seed=int(payload.get("seed", 0)),
             progress=progress,
             workers=payload.get("workers"),
+            executor=executor,
             **budget,
+            **options,
         )
     return {"result": json_safe(result.to_dict())}
+
+
+@contextmanager
+def _cell_executor(payload: dict[str, Any]) -> Iterator[Any]:
+    """Where a sweep job's cells run: ``"local"``, or (on a Dask worker) a client that submits
+    them to the same cluster while this task steps out of the worker's thread pool."""
+    if payload.get("cell_executor") != "dask":
+        yield "local"
+        return
+    import importlib
+
+    distributed = importlib.import_module("distributed")
+    with distributed.worker_client() as client:
+        yield client
 
 
 TASKS: dict[str, TaskFn] = {
