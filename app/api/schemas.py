@@ -41,7 +41,7 @@ else:
     JobState = Literal[JOB_STATES]
     MethodName = Literal[tuple(METHODS)]
     HumanConstraint = Literal[HUMAN_CONSTRAINTS]
-JobKind = Literal["analysis", "plan", "simulation", "sweep"]
+JobKind = Literal["analysis", "plan", "simulation", "sweep", "profiles"]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
 T = TypeVar("T")
@@ -394,6 +394,42 @@ class SweepRequest(BaseModel):
         if any(not 0 <= p <= 10000 for p in v):
             raise ValueError("payloads must lie in [0, 10000] kg")
         return v
+
+
+class ProfilesRequest(BaseModel):
+    """Classical profiles, minimum torque change and the planning methods on one task
+    (``bioplan profiles``)."""
+
+    model_config = _strict
+
+    robot: str = Field(
+        default="curtain_wall_6dof", pattern=ROBOT_NAME, description="built-in or uploaded robot"
+    )
+    duration: float = Field(default=1.0, gt=0, le=600, description="motion time [s]")
+    payload: float | None = Field(
+        default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
+    )
+    start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="start joint angles (default: the curl task's)"
+    )
+    goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="goal joint angles (default: the curl task's)"
+    )
+    min_torque_change: bool = Field(
+        default=True, description="also solve the minimum-torque-change baseline (IPOPT)"
+    )
+    mtc_intervals: int = Field(
+        default=100, ge=8, le=400, description="intervals of the minimum-torque-change solve"
+    )
+    methods: list[MethodName] = Field(
+        default=list(METHODS),
+        max_length=len(METHODS),
+        description="planning methods listed beside the profiles ([] = none; default: all)",
+    )
+    objective: Objective = Field(default="abs_work", description="the planning methods' one")
+    seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
+    particles: int = Field(default=PSO_DEFAULTS.particles, ge=2, le=1000)
+    iterations: int = Field(default=PSO_DEFAULTS.iterations, ge=1, le=10000)
 
 
 class ResultOut(BaseModel):

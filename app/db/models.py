@@ -44,7 +44,7 @@ NAMING_CONVENTION = {
 #: Job states and the ones a job never leaves (one home: ``app.names``).
 JOB_STATES = _names.JOB_STATES
 TERMINAL_STATES = _names.TERMINAL_JOB_STATES
-JOB_KINDS = ("analysis", "plan", "simulation", "sweep")
+JOB_KINDS = ("analysis", "plan", "simulation", "sweep", "profiles")
 
 
 def utcnow() -> datetime:
@@ -249,9 +249,23 @@ class Sweep(_ResultMixin, Base):
     job: Mapped[JobRecord] = relationship()
 
 
-RESULT_MODELS: dict[str, type[Analysis] | type[Plan] | type[Simulation] | type[Sweep]] = {
+class Profiles(_ResultMixin, Base):
+    """Classical profiles (and the planning methods) on one task (``bioplan profiles``)."""
+
+    __tablename__ = "profiles"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+
+    job: Mapped[JobRecord] = relationship()
+
+
+RESULT_MODELS: dict[
+    str, type[Analysis] | type[Plan] | type[Simulation] | type[Sweep] | type[Profiles]
+] = {
     "analysis": Analysis,
     "plan": Plan,
     "simulation": Simulation,
     "sweep": Sweep,
+    "profiles": Profiles,
 }

@@ -545,11 +545,55 @@ def _cell_executor(payload: dict[str, Any]) -> Iterator[Any]:
         yield client
 
 
+def profiles(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
+    """Classical profiles and the minimum-torque-change baseline on one task, with the planning
+    methods beside them (``bioplan profiles --json``).
+
+    Payload: ``robot`` (spec), ``payload`` [kg], ``duration`` [s], ``start_deg``, ``goal_deg``,
+    ``min_torque_change``, ``mtc_intervals``, ``methods`` ([] = none), ``objective``, ``seed``,
+    ``particles``, ``iterations``.
+    """
+    compare_profiles = _entry("app.planning.comparison", "compare_profiles")
+    run_plan = _entry("app.planning", "plan")
+    within = _entry("app.progress", "within")
+    with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
+        task = _task(robot, payload.get("start_deg"), payload.get("goal_deg"))
+        duration = float(payload["duration"])
+        report(progress, "profiles", 0, 1, fraction=0.0, message="classical profiles")
+        result = compare_profiles(
+            robot,
+            task=task,
+            duration=duration,
+            include_min_torque_change=bool(payload.get("min_torque_change", True)),
+            mtc_intervals=int(payload.get("mtc_intervals", 100)),
+        )
+        out: dict[str, Any] = json_safe(result.to_dict())
+        methods = payload.get("methods")
+        if methods is None or methods:
+            planned = run_plan(
+                robot,
+                task=task,
+                duration=duration,
+                objective=payload.get("objective", "abs_work"),
+                seed=int(payload.get("seed", PSO_DEFAULTS.seed)),
+                particles=int(payload.get("particles", PSO_DEFAULTS.particles)),
+                iterations=int(payload.get("iterations", PSO_DEFAULTS.iterations)),
+                progress=within(progress, 0.3, 1.0),
+                **({} if methods is None else {"methods": [str(m) for m in methods]}),
+            ).to_dict()
+            out["objective"] = planned["conditions"]["objective"]
+            out["methods"] = planned["methods"]
+            out["share_of_achievable_pct"] = planned["share_of_achievable_pct"]
+    report(progress, "done", 1, 1, message="profiles compared")
+    return {"result": json_safe(out)}
+
+
 TASKS: dict[str, TaskFn] = {
     "analysis": analyse,
     "plan": plan,
     "simulation": simulate,
     "sweep": sweep,
+    "profiles": profiles,
 }
 
 

@@ -266,3 +266,38 @@ def test_the_comparison_shows_any_two_planned_methods(shared_client: TestClient)
         assert_problem(shared_client.get(url, params={"methods": bad}), 422, field="methods")
     r = shared_client.get(url, params={"methods": "quintic,human_optimal"})
     assert "not planned" in assert_problem(r, 422, field="methods")["detail"]
+
+
+def test_profiles_by_rest_are_the_library_comparison(shared_client: TestClient) -> None:
+    """``POST /api/profiles``: the classical profiles and methods, as ``bioplan profiles``."""
+    from app.db.crud import json_safe
+    from app.planning import load_robot
+    from app.planning.comparison import compare_profiles
+
+    body = {"robot": "human_arm_2dof", "duration": 1.2, "mtc_intervals": 16,
+            "methods": ["quintic", "paper"], "particles": 8, "iterations": 5}  # fmt: skip
+    r = shared_client.post("/api/profiles", json=body)
+    assert r.status_code == 202, r.text
+    job = wait_job(shared_client, r.json()["id"])
+    assert job["state"] == "succeeded", job
+    assert job["result_url"] == f"/api/profiles/{job['id']}"
+    result = shared_client.get(job["result_url"]).json()["result"]
+    ref = json_safe(
+        compare_profiles(load_robot("human_arm_2dof"), duration=1.2, mtc_intervals=16).to_dict()
+    )
+    assert result["profiles"] == ref["profiles"]
+    assert result["floors"] == ref["floors"]
+    assert set(result["methods"]) == {"quintic", "paper"}
+    listed = shared_client.get("/api/profiles", params={"robot": "human_arm_2dof"}).json()
+    assert job["id"] in [p["id"] for p in listed["items"]]
+    # Options change the result: no minimum-torque-change solve, no planning methods.
+    r = shared_client.post(
+        "/api/profiles", json={**body, "min_torque_change": False, "methods": []}
+    )
+    job = wait_job(shared_client, r.json()["id"])
+    other = shared_client.get(job["result_url"]).json()["result"]
+    assert "min_torque_change" in result["profiles"]
+    assert "min_torque_change" not in other["profiles"] and "methods" not in other
+    r = shared_client.post("/api/profiles", json={**body, "start_deg": [1.0]})
+    assert_problem(r, 422, field="start_deg")
+    assert_problem(shared_client.post("/api/profiles", json={**body, "robot": "x"}), 422)

@@ -171,3 +171,23 @@ def test_run_sweep_on_dask_equals_the_local_pool_and_uses_both_workers(cluster: 
         assert a.change_pct == b.change_pct
     with pytest.raises(BioPlanError, match="executor"):
         run_sweep(robot=robot, executor="spark://x", **grid)
+
+
+def test_cli_sweep_executor(cluster: Any, capsys: pytest.CaptureFixture[str]) -> None:
+    """``bioplan sweep --executor dask://HOST:PORT`` runs the cells on that cluster."""
+    import json
+
+    from app.cli import main
+
+    address = cluster.scheduler_address.replace("tcp://", "dask://")
+    args = ["sweep", "--robot", "human_arm_2dof", "--durations", "0.8,1.2", "--payloads", "0",
+            "--particles", "6", "--iterations", "4", "--method", "quintic,paper",
+            "--json"]  # fmt: skip
+    assert main([*args, "--executor", address]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["conditions"]["executor"] == address
+    assert sum(data["conditions"]["cells_per_worker"].values()) == 2
+    assert set(data["conditions"]["cells_per_worker"]) <= set(cluster.scheduler_info["workers"])
+    assert main([*args, "--executor", "yarn://x"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "yarn://x" in err and len(err.splitlines()) == 1
