@@ -243,3 +243,21 @@ def test_a_sidecar_models_the_motors_and_a_bad_one_is_refused(client: TestClient
     files = {"urdf": urdf, "sidecar": ("ur5.yaml", bad.encode())}
     r = client.post("/api/robots", data={"name": "ur5b"}, files=files)
     assert "gear" in assert_problem(r, 422, field="sidecar")["detail"]
+
+
+def test_an_mjcf_alone_is_a_robot(client: TestClient) -> None:
+    """An MJCF without a URDF: its joints and limits as the library reads it, and it plans."""
+    from app.planning import load_robot
+
+    builtin = load_robot("human_arm_2dof")
+    files = {"mjcf": ("arm.xml", builtin.mjcf_path.read_bytes())}
+    r = client.post("/api/robots", data={"name": "mj_arm"}, files=files)
+    assert r.status_code == 201, r.text
+    info = r.json()
+    ref = load_robot(builtin.mjcf_path)
+    assert info["has_mjcf"] and info["urdf_name"] is None and info["mjcf_name"] == "arm.xml"
+    assert info["joint_names"] == list(ref.joint_names)
+    np.testing.assert_allclose(info["q_max"], ref.q_max)
+    body = {"robot": "mj_arm", "methods": ["quintic"], "particles": 4, "iterations": 2}
+    plan = _finished(client, "/api/plans", body)
+    assert isinstance(plan["result"], dict) and "quintic" in plan["result"]["methods"]
