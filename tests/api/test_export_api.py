@@ -33,6 +33,20 @@ def _finished(client: TestClient, path: str, body: dict[str, Any]) -> dict[str, 
     return out
 
 
+def test_the_api_knows_every_export_format_and_the_rate_limit() -> None:
+    """The route's media types and rate bound are the library's formats and MAX_RATE_HZ."""
+    from app.api.routes._common import EXPORT_MEDIA_TYPES, MAX_EXPORT_RATE_HZ
+    from app.names import HUMAN_CONSTRAINTS, OPTIMAL_INTERVALS
+    from app.planning.export import FORMATS, MAX_RATE_HZ
+    from app.planning.optimal import DEFAULT_INTERVALS
+    from app.planning.optimal import HUMAN_CONSTRAINTS as LIBRARY_CONSTRAINTS
+
+    assert set(EXPORT_MEDIA_TYPES) == set(FORMATS)
+    assert all(f.extension == f".{name}" for name, f in FORMATS.items())  # the file names
+    assert MAX_EXPORT_RATE_HZ == MAX_RATE_HZ
+    assert HUMAN_CONSTRAINTS == LIBRARY_CONSTRAINTS and OPTIMAL_INTERVALS == DEFAULT_INTERVALS
+
+
 @pytest.fixture(scope="module")
 def planned(shared_client: TestClient) -> dict[str, Any]:
     return _finished(shared_client, "/api/plans", BODY)

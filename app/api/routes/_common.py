@@ -200,8 +200,7 @@ def trajectory_out(
     except BioPlanError as exc:
         raise ApiError(422, str(exc), field=_export_field(str(exc))) from None
     chosen = method or row.result["motion"]["default_method"]
-    extension = "script" if fmt == "script" else fmt
-    filename = f"{kind}-{result_id}-{chosen}.{extension}"
+    filename = f"{kind}-{result_id}-{chosen}.{fmt}"  # each format's extension is its name
     return Response(
         content=data,
         media_type=EXPORT_MEDIA_TYPES[fmt],
