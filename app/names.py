@@ -134,6 +134,13 @@ METHODS: dict[str, MethodInfo] = {
     )
 }
 
+#: ``human_optimal``'s human-likeness constraints (``app.planning.optimal.HUMAN_CONSTRAINTS``):
+#: the elbow fastest at the template's angle, the A/B/C phase shares, or none.
+HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "none")
+#: Constant-jerk intervals of the optimal-control transcription by default
+#: (``app.planning.optimal.DEFAULT_INTERVALS``).
+OPTIMAL_INTERVALS = 40
+
 #: Muscle sites of the paper's EMG set-up, with their plot colours.
 MUSCLE_COLOURS: dict[str, str] = {
     "deltoid": "#8250df",

@@ -10,6 +10,7 @@ from app.api.routes import (
     jobs,
     meta,
     plans,
+    profiles,
     recordings,
     robots,
     simulations,
@@ -23,6 +24,7 @@ api_router.include_router(analyses.router)
 api_router.include_router(plans.router)
 api_router.include_router(simulations.router)
 api_router.include_router(sweeps.router)
+api_router.include_router(profiles.router)
 api_router.include_router(jobs.router)
 api_router.include_router(robots.router)
 api_router.include_router(dashboard.router)

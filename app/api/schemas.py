@@ -14,9 +14,12 @@ from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from app.names import (
+    HUMAN_CONSTRAINTS,
     JOB_STATES,
+    METHODS,
     MUSCLE_COLOURS,
     OBJECTIVES,
+    OPTIMAL_INTERVALS,
     PHASE_BOUNDS_DEG,
     PSO_DEFAULTS,
     MethodInfo,
@@ -29,12 +32,16 @@ if TYPE_CHECKING:
     Objective = str
     Site = str
     JobState = str
+    MethodName = str
+    HumanConstraint = str
 else:
     # The allowed values come from ``app.names`` (one home); OpenAPI lists them as enums.
     Objective = Literal[OBJECTIVES]
     Site = Literal[tuple(MUSCLE_COLOURS)]
     JobState = Literal[JOB_STATES]
-JobKind = Literal["analysis", "plan", "simulation", "sweep"]
+    MethodName = Literal[tuple(METHODS)]
+    HumanConstraint = Literal[HUMAN_CONSTRAINTS]
+JobKind = Literal["analysis", "plan", "simulation", "sweep", "profiles"]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
 T = TypeVar("T")
@@ -288,6 +295,33 @@ class _RobotTask(BaseModel):
     template_analysis_id: int | None = Field(
         default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
     )
+    # ---- planning methods (issue 10) --------------------------------------------------------
+    methods: list[MethodName] = Field(
+        default=list(METHODS),
+        min_length=1,
+        max_length=len(METHODS),
+        description="methods to plan, as `bioplan plan --method` (default: all five, like the "
+        "CLI; the quintic always runs: it is every saving's reference)",
+    )
+    human_constraint: HumanConstraint = Field(
+        default="peak", description="human_optimal's constraint: peak, phases or none"
+    )
+    no_reversal: bool = Field(
+        default=True, description="the optimal-control methods never move a joint backwards"
+    )
+    n_intervals: int = Field(
+        default=OPTIMAL_INTERVALS,
+        ge=8,
+        le=400,
+        description="constant-jerk intervals of the optimal-control transcription",
+    )
+
+    @field_validator("methods")
+    @classmethod
+    def _distinct_methods(cls, v: list[str]) -> list[str]:
+        if len(set(v)) != len(v):
+            raise ValueError("methods must not repeat")
+        return v
 
 
 class PlanRequest(_RobotTask):
@@ -318,7 +352,34 @@ class SweepRequest(BaseModel):
     seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     particles: int | None = Field(default=None, ge=2, le=1000, description="default: sweep's")
     iterations: int | None = Field(default=None, ge=1, le=10000, description="default: sweep's")
-    workers: int = Field(default=1, ge=1, le=64, description="processes inside the job")
+    workers: int | None = Field(
+        default=None,
+        ge=1,
+        le=64,
+        description="processes for the cells on the local runner (default: the runner's "
+        "workers); on Dask every cell is a task on the cluster",
+    )
+    # ---- methods and convergence check (issue 10) -------------------------------------------
+    methods: list[MethodName] = Field(
+        default=list(METHODS),
+        min_length=1,
+        max_length=len(METHODS),
+        description="methods per cell, as `bioplan sweep --method` (default: all five)",
+    )
+    check_seed: int = Field(
+        default=-1,
+        ge=-1,
+        le=2**32 - 1,
+        description="seed of the second PSO run that checks each cell's verdict (-1: seed + 1)",
+    )
+    no_check: bool = Field(default=False, description="skip the convergence check")
+
+    @field_validator("methods")
+    @classmethod
+    def _distinct_methods(cls, v: list[str]) -> list[str]:
+        if len(set(v)) != len(v):
+            raise ValueError("methods must not repeat")
+        return v
 
     @field_validator("durations")
     @classmethod
@@ -333,6 +394,42 @@ class SweepRequest(BaseModel):
         if any(not 0 <= p <= 10000 for p in v):
             raise ValueError("payloads must lie in [0, 10000] kg")
         return v
+
+
+class ProfilesRequest(BaseModel):
+    """Classical profiles, minimum torque change and the planning methods on one task
+    (``bioplan profiles``)."""
+
+    model_config = _strict
+
+    robot: str = Field(
+        default="curtain_wall_6dof", pattern=ROBOT_NAME, description="built-in or uploaded robot"
+    )
+    duration: float = Field(default=1.0, gt=0, le=600, description="motion time [s]")
+    payload: float | None = Field(
+        default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
+    )
+    start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="start joint angles (default: the curl task's)"
+    )
+    goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="goal joint angles (default: the curl task's)"
+    )
+    min_torque_change: bool = Field(
+        default=True, description="also solve the minimum-torque-change baseline (IPOPT)"
+    )
+    mtc_intervals: int = Field(
+        default=100, ge=8, le=400, description="intervals of the minimum-torque-change solve"
+    )
+    methods: list[MethodName] = Field(
+        default=list(METHODS),
+        max_length=len(METHODS),
+        description="planning methods listed beside the profiles ([] = none; default: all)",
+    )
+    objective: Objective = Field(default="abs_work", description="the planning methods' one")
+    seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
+    particles: int = Field(default=PSO_DEFAULTS.particles, ge=2, le=1000)
+    iterations: int = Field(default=PSO_DEFAULTS.iterations, ge=1, le=10000)
 
 
 class ResultOut(BaseModel):
@@ -371,6 +468,29 @@ class PlanComparison(BaseModel):
 # ----------------------------------------------------------------------------------- robots
 
 
+class RobotJoint(BaseModel):
+    """One movable joint of a robot's URDF."""
+
+    name: str
+    kind: str = Field(description="revolute, continuous or prismatic")
+    unit: str = Field(description="rad or m")
+    lower: float | None = Field(description="[rad or m]; null = unbounded")
+    upper: float | None = Field(description="[rad or m]; null = unbounded")
+    velocity: float | None = Field(description="[rad/s or m/s]")
+    effort: float | None = Field(description="[Nm or N]")
+    locked: bool
+    lock_value: float | None = Field(description="[rad or m] when locked")
+    role: str | None = Field(description="shoulder, elbow or null")
+
+
+class RobotFile(BaseModel):
+    """A file of an uploaded robot package."""
+
+    path: str = Field(description="relative to the package")
+    bytes: int
+    role: str = Field(description="urdf, mjcf, sidecar, mesh or other")
+
+
 class RobotInfo(BaseModel):
     name: str
     builtin: bool
@@ -383,3 +503,18 @@ class RobotInfo(BaseModel):
     has_mjcf: bool
     urdf_name: str | None = None
     mjcf_name: str | None = None
+    # ---- onboarding (issue 12); None for robots stored before these fields existed ----------
+    shoulder_joint: str | None = Field(default=None, description="joint human shoulder maps to")
+    elbow_joint: str | None = Field(default=None, description="joint human elbow maps to")
+    locks: dict[str, float] = Field(default={}, description="locked joints [rad, or m]")
+    all_joint_names: list[str] | None = Field(default=None, description="free and locked")
+    joints: list[RobotJoint] | None = Field(default=None, description="every movable joint")
+    motors_modelled: bool | None = Field(
+        default=None, description="false: electrical metrics are reported as not modelled"
+    )
+    default_start_deg: list[float] | None = Field(default=None, description="curl task start")
+    default_goal_deg: list[float] | None = Field(default=None, description="curl task goal")
+    files: list[RobotFile] | None = Field(default=None, description="stored files (uploads)")
+    package_dirs: list[str] | None = Field(
+        default=None, description="folders package:// mesh paths resolve in (uploads)"
+    )

@@ -69,6 +69,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         methods=args.method.split(","),
         check_seed=None if args.no_check else args.check_seed,
         workers=args.workers,
+        executor=args.executor,
         progress=progress_printer(not args.json),
     )
     emit(args, json_safe(result.to_dict()), result.summary())
@@ -109,6 +110,12 @@ def register(sub: Any) -> None:
     p.add_argument("--particles", type=int, default=SWEEP_PARTICLES, help="PSO swarm per cell")
     p.add_argument("--iterations", type=int, default=SWEEP_ITERATIONS, help="PSO iterations")
     p.add_argument("--workers", type=int, default=None, help="processes (default: up to 2)")
+    p.add_argument(
+        "--executor",
+        default="local",
+        help="where the cells run: local (a pool of --workers processes) or dask://HOST:PORT "
+        "(one task per cell on that Dask scheduler's workers)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     p.set_defaults(handler=cmd_sweep)

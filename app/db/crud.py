@@ -291,8 +291,13 @@ def get_channels(
 def referenced_hashes(*, session: Session) -> set[str]:
     """SHA-256 of every blob some row refers to."""
     refs = set(session.scalars(select(RecordingFile.sha256)))
-    refs |= set(session.scalars(select(RobotRecord.urdf_sha256)))
-    refs |= {h for h in session.scalars(select(RobotRecord.mjcf_sha256)) if h}
+    for column in (
+        RobotRecord.urdf_sha256,
+        RobotRecord.mjcf_sha256,
+        RobotRecord.package_sha256,
+        RobotRecord.sidecar_sha256,
+    ):
+        refs |= {h for h in session.scalars(select(column)) if h}
     return refs
 
 
@@ -335,19 +340,31 @@ def create_robot(
     session: Session,
     blobs: BlobStore,
     name: str,
-    urdf: tuple[str, bytes],
+    urdf: tuple[str, bytes] | None,
     mjcf: tuple[str, bytes] | None,
     payload: float | None,
     description: dict[str, Any],
+    package: tuple[str, bytes] | None = None,
+    sidecar: tuple[str, bytes] | None = None,
+    options: dict[str, Any] | None = None,
 ) -> RobotRecord:
     """Store an uploaded robot (files by hash, row in one transaction)."""
+
+    def name_of(f: tuple[str, bytes] | None) -> str | None:
+        return None if f is None else f[0][:255]
+
     with blobs.lock:
         row = RobotRecord(
             name=name,
-            urdf_name=urdf[0][:255],
-            urdf_sha256=blobs.put(urdf[1]),
-            mjcf_name=None if mjcf is None else mjcf[0][:255],
+            urdf_name=name_of(urdf),
+            urdf_sha256=None if urdf is None else blobs.put(urdf[1]),
+            mjcf_name=name_of(mjcf),
             mjcf_sha256=None if mjcf is None else blobs.put(mjcf[1]),
+            package_name=name_of(package),
+            package_sha256=None if package is None else blobs.put(package[1]),
+            sidecar_name=name_of(sidecar),
+            sidecar_sha256=None if sidecar is None else blobs.put(sidecar[1]),
+            options=json_safe(options or {}),
             payload=payload,
             description=json_safe(description),
             created_at=utcnow(),
@@ -374,7 +391,11 @@ def delete_robot(*, session: Session, blobs: BlobStore, name: str) -> bool:
         row = get_robot(session=session, name=name)
         if row is None:
             return False
-        hashes = {row.urdf_sha256, *([row.mjcf_sha256] if row.mjcf_sha256 else [])}
+        hashes = {
+            h
+            for h in (row.urdf_sha256, row.mjcf_sha256, row.package_sha256, row.sidecar_sha256)
+            if h
+        }
         session.delete(row)
         session.commit()
         refs = referenced_hashes(session=session)

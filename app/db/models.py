@@ -44,7 +44,7 @@ NAMING_CONVENTION = {
 #: Job states and the ones a job never leaves (one home: ``app.names``).
 JOB_STATES = _names.JOB_STATES
 TERMINAL_STATES = _names.TERMINAL_JOB_STATES
-JOB_KINDS = ("analysis", "plan", "simulation", "sweep")
+JOB_KINDS = ("analysis", "plan", "simulation", "sweep", "profiles")
 
 
 def utcnow() -> datetime:
@@ -149,16 +149,25 @@ class ChannelRecord(Base):
 
 
 class RobotRecord(Base):
-    """An uploaded robot model (URDF, optional MJCF), files in the blob store."""
+    """An uploaded robot model (URDF and/or MJCF, or a package zip with meshes, a sidecar),
+    files in the blob store."""
 
     __tablename__ = "robots"
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)
-    urdf_sha256: Mapped[str] = mapped_column(String(64))
-    urdf_name: Mapped[str] = mapped_column(String(255))
+    urdf_sha256: Mapped[str | None] = mapped_column(String(64))
+    urdf_name: Mapped[str | None] = mapped_column(String(255))
     mjcf_sha256: Mapped[str | None] = mapped_column(String(64))
     mjcf_name: Mapped[str | None] = mapped_column(String(255))
+    #: a zip of the robot's folder (model files, meshes, sidecar), checked member by member.
+    package_sha256: Mapped[str | None] = mapped_column(String(64))
+    package_name: Mapped[str | None] = mapped_column(String(255))
+    sidecar_sha256: Mapped[str | None] = mapped_column(String(64))
+    sidecar_name: Mapped[str | None] = mapped_column(String(255))
+    #: ``shoulder_joint``, ``elbow_joint``, ``locks`` (display units) and the package members
+    #: ``urdf_member``/``mjcf_member``/``sidecar_member`` (``app.jobs.tasks.robot_from_spec``).
+    options: Mapped[dict[str, Any] | None] = mapped_column(JSON)
     payload: Mapped[float | None] = mapped_column(Float)
     #: joint names and limits as read by the planning package (JSON-ready).
     description: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
@@ -240,9 +249,23 @@ class Sweep(_ResultMixin, Base):
     job: Mapped[JobRecord] = relationship()
 
 
-RESULT_MODELS: dict[str, type[Analysis] | type[Plan] | type[Simulation] | type[Sweep]] = {
+class Profiles(_ResultMixin, Base):
+    """Classical profiles (and the planning methods) on one task (``bioplan profiles``)."""
+
+    __tablename__ = "profiles"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+
+    job: Mapped[JobRecord] = relationship()
+
+
+RESULT_MODELS: dict[
+    str, type[Analysis] | type[Plan] | type[Simulation] | type[Sweep] | type[Profiles]
+] = {
     "analysis": Analysis,
     "plan": Plan,
     "simulation": Simulation,
     "sweep": Sweep,
+    "profiles": Profiles,
 }

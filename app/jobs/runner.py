@@ -296,6 +296,9 @@ class LocalRunner(JobRunner):
         self._thread.start()
 
     def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
+        if kind == "sweep" and payload.get("workers") is None:
+            # A sweep fans its cells out over as many processes as the runner runs jobs.
+            payload = {**payload, "workers": self.max_workers}
         with self._lock:
             self._pending.append(_Pending(job_id, kind, payload))
         self._wake()
@@ -558,9 +561,9 @@ class DaskRunner(JobRunner):
     def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
         key = f"bioplan-job-{job_id}-{uuid.uuid4().hex[:8]}"
         if kind == "sweep":
-            # Dask worker processes are daemonic and cannot start a pool of their own: the
-            # cluster is the parallelism.
-            payload = {**payload, "workers": 1}
+            # Child tasks: the sweep job submits one task per cell to this cluster (Dask worker
+            # processes are daemonic and cannot start a pool of their own).
+            payload = {**payload, "workers": 1, "cell_executor": "dask"}
         # Large inputs (raw recordings) go to the cluster once, not inside the task graph.
         [data] = self._client.scatter([payload], hash=False)
         future = self._client.submit(

@@ -138,35 +138,158 @@ def analyse(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict
 # ----------------------------------------------------------------------------------- robots
 
 
+#: Fixed file names of uploaded single files in a robot's folder (the user's names are never
+#: used as paths).
+UPLOAD_NAMES = {"urdf": "robot.urdf", "mjcf": "robot.xml", "sidecar": "robot.yaml"}
+
+
+def _member(root: Path, relative: str | None, what: str) -> Path | None:
+    """``root/relative`` when ``relative`` names a file inside ``root`` (a package member)."""
+    from app.planning.robots import RobotError
+
+    if relative is None:
+        return None
+    path = (root / relative).resolve()
+    if not path.is_relative_to(root.resolve()) or not path.is_file():
+        raise RobotError(f"{what} '{relative}' is not a file of the robot package")
+    return path
+
+
+def _robot_files(spec: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """Write a spec's files into ``folder`` (a package zip extracted safely, single files under
+    fixed names); the ``load_robot`` file arguments and the package's folders."""
+    from app.planning.robots import open_robot_package
+
+    package_dirs: tuple[Path, ...] = ()
+    root = folder
+    if spec.get("package") is not None:
+        archive = folder.parent / f"{folder.name}.zip"
+        archive.write_bytes(spec["package"])
+        try:
+            package = open_robot_package(archive, folder)  # refuses ../, absolute, links
+        finally:
+            archive.unlink(missing_ok=True)
+        root, package_dirs = package.root, package.package_dirs
+    else:
+        folder.mkdir(parents=True, exist_ok=True)
+    files: dict[str, Path | None] = {}
+    for key in ("urdf", "mjcf", "sidecar"):
+        if spec.get(key) is not None:
+            path = root / UPLOAD_NAMES[key]
+            path.write_bytes(spec[key])
+            files[key] = path
+        else:
+            files[key] = _member(root, spec.get(f"{key}_member"), key)
+    return {**files, "package_dirs": package_dirs}
+
+
+def _load_uploaded(spec: dict[str, Any], files: dict[str, Any], payload: float | None) -> Any:
+    """``load_robot`` of an uploaded robot's files with its roles and locks (display units)."""
+    from app.planning.robots import RobotError, load_robot, locks_from_display
+
+    urdf, mjcf = files["urdf"], files["mjcf"]
+    if urdf is None and mjcf is None:
+        raise RobotError("the robot has no URDF and no MJCF: expected at least one model file")
+    locks = spec.get("locks") or {}
+    if locks:
+        if urdf is None:
+            from app.planning.robots._mjcf_urdf import urdf_from_mjcf
+
+            locks = locks_from_display(urdf_from_mjcf(mjcf), locks)
+        else:
+            locks = locks_from_display(urdf, locks)
+    return load_robot(
+        str(urdf if urdf is not None else mjcf),
+        payload=payload,
+        mjcf=None if urdf is None or mjcf is None else str(mjcf),
+        shoulder_joint=spec.get("shoulder_joint"),
+        elbow_joint=spec.get("elbow_joint"),
+        locks=locks or None,
+        sidecar=files["sidecar"],
+        package_dirs=files["package_dirs"],
+    )
+
+
 @contextmanager
-def robot_from_spec(spec: dict[str, Any], payload_kg: float | None = None) -> Iterator[Any]:
-    """Load the robot of a job's spec; uploaded files are written to a temporary folder.
+def robot_from_spec(
+    spec: dict[str, Any], payload_kg: float | None = None, *, folder: Path | None = None
+) -> Iterator[Any]:
+    """Load the robot of a job's spec; uploaded files are written to a folder first.
+
+    This is the one function that reads uploaded robot files (URDF, MJCF, package zip,
+    sidecar): every upload is checked through it before it is stored.
 
     Args:
-        spec: ``{"name"}`` for a built-in robot, or ``{"name", "urdf", "mjcf", "payload"}``
-            with the uploaded files' bytes.
+        spec: ``{"name"}`` for a built-in robot, or an uploaded one: ``{"name", "urdf",
+            "mjcf", "sidecar", "package"}`` (bytes or None; a package is a zip with meshes),
+            ``urdf_member``/``mjcf_member``/``sidecar_member`` (files inside the package),
+            ``shoulder_joint``, ``elbow_joint`` (names or None), ``locks`` (name -> degrees,
+            or metres for prismatic joints) and ``payload`` [kg].
         payload_kg: payload [kg]; None takes the spec's, then the model's default.
+        folder: where to keep the files (kept after the context, e.g. for the viewer's meshes;
+            reused when it exists); None: a temporary folder removed afterwards.
 
     Yields:
         The loaded ``app.planning.robots.Robot`` (its files exist while the context is open).
 
     Raises:
-        RobotError: the model cannot be loaded (a ``BioPlanError``).
+        RobotError: the model cannot be loaded, or the package is refused (a ``BioPlanError``).
     """
     load_robot = _entry("app.planning.robots", "load_robot")
     payload = payload_kg if payload_kg is not None else spec.get("payload")
-    if spec.get("urdf") is None:
+    uploaded = any(spec.get(k) is not None for k in ("urdf", "mjcf", "package"))
+    if not uploaded:
         yield load_robot(spec["name"], payload=payload)
         return
+    if folder is not None:
+        ready = folder / ".complete"
+        if not ready.exists():
+            with tempfile.TemporaryDirectory(prefix=".partial-", dir=folder.parent) as tmp:
+                files = _robot_files(spec, Path(tmp) / "robot")
+                _load_uploaded(spec, files, payload)  # refuse before keeping anything
+                try:
+                    Path(tmp, "robot").rename(folder)
+                except OSError:
+                    if not ready.exists():  # not another request that kept it meanwhile
+                        raise
+                ready.touch()
+        yield _load_uploaded(spec, _robot_files_in(spec, folder), payload)
+        return
     with tempfile.TemporaryDirectory(prefix="bioplan-robot-") as tmp:
-        # Fixed names: the user's file names are never used as paths.
-        urdf = Path(tmp) / "robot.urdf"
-        urdf.write_bytes(spec["urdf"])
-        mjcf = None
-        if spec.get("mjcf") is not None:
-            mjcf = Path(tmp) / "robot.xml"
-            mjcf.write_bytes(spec["mjcf"])
-        yield load_robot(str(urdf), payload=payload, mjcf=None if mjcf is None else str(mjcf))
+        yield _load_uploaded(spec, _robot_files(spec, Path(tmp) / "robot"), payload)
+
+
+def _robot_files_in(spec: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """The file arguments of a robot folder written earlier by :func:`_robot_files`."""
+    from app.planning.robots._package import _package_dirs
+
+    files: dict[str, Any] = {}
+    for key in ("urdf", "mjcf", "sidecar"):
+        if spec.get(key) is not None:
+            files[key] = folder / UPLOAD_NAMES[key]
+        else:
+            files[key] = _member(folder, spec.get(f"{key}_member"), key)
+    has_package = spec.get("package") is not None
+    files["package_dirs"] = _package_dirs(folder.resolve()) if has_package else ()
+    return files
+
+
+def package_members(data: bytes) -> list[dict[str, Any]]:
+    """Files of a robot package zip: relative path, size [bytes] and role (names only; the
+    zip is checked and extracted by :func:`robot_from_spec`)."""
+    import io
+    import zipfile
+
+    roles = {".urdf": "urdf", ".xml": "mjcf", ".mjcf": "mjcf", ".yaml": "sidecar"}
+    roles.update({".yml": "sidecar", ".stl": "mesh", ".dae": "mesh", ".obj": "mesh"})
+    out = []
+    with zipfile.ZipFile(io.BytesIO(data)) as archive:
+        for info in archive.infolist():
+            if info.is_dir():
+                continue
+            role = roles.get(Path(info.filename).suffix.lower(), "other")
+            out.append({"path": info.filename, "bytes": info.file_size, "role": role})
+    return out
 
 
 def builtin_robots() -> list[str]:
@@ -174,13 +297,44 @@ def builtin_robots() -> list[str]:
     return sorted(_entry("app.planning.robots", "BUILTIN_ROBOTS"))
 
 
-def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
-    """Joints and limits of a robot (SI units: rad, rad/s, Nm; payload in kg).
+def _joint_rows(robot: Any) -> list[dict[str, Any]]:
+    """Every movable joint of the robot's URDF: name, kind, limits, free or locked (SI)."""
+    parse_urdf = _entry("app.planning.robots._urdf", "parse_urdf")
+    model = parse_urdf(Path(robot.urdf_path))
+    roles = {robot.shoulder_joint_name: "shoulder", robot.elbow_joint_name: "elbow"}
+    rows = []
+    for joint in model.joints:
+        if joint.name not in robot.all_joint_names:
+            continue  # a mimic follower or a joint the reduced model drops
+        rows.append(
+            {
+                "name": joint.name,
+                "kind": joint.kind,
+                "unit": "m" if joint.kind == "prismatic" else "rad",
+                "lower": joint.lower,
+                "upper": joint.upper,
+                "velocity": joint.velocity,
+                "effort": joint.effort,
+                "locked": joint.name in robot.locks,
+                "lock_value": robot.locks.get(joint.name),
+                "role": roles.get(joint.name),
+            }
+        )
+    return rows
+
+
+def describe_robot(spec: dict[str, Any], folder: Path | None = None) -> dict[str, Any]:
+    """Joints, limits, roles, locks, motors and default task of a robot (SI units: rad, rad/s,
+    Nm; payload in kg; ``*_deg`` in degrees).
+
+    Args:
+        spec: the robot's spec (:func:`robot_from_spec`).
+        folder: keep an uploaded robot's files there (see :func:`robot_from_spec`).
 
     Raises:
         RobotError: the model cannot be loaded; one-line message.
     """
-    with robot_from_spec(spec) as robot:
+    with robot_from_spec(spec, folder=folder) as robot:
         described: dict[str, Any] = json_safe(
             {
                 "name": spec["name"],
@@ -191,6 +345,14 @@ def describe_robot(spec: dict[str, Any]) -> dict[str, Any]:
                 "tau_max": np.asarray(robot.tau_max, float),
                 "payload": float(getattr(robot.payload, "mass", robot.payload) or 0.0),
                 "has_mjcf": robot.mjcf_path is not None,
+                "shoulder_joint": robot.shoulder_joint_name,
+                "elbow_joint": robot.elbow_joint_name,
+                "locks": dict(robot.locks),
+                "all_joint_names": list(robot.all_joint_names),
+                "joints": _joint_rows(robot),
+                "motors_modelled": bool(robot.motors_modelled),
+                "default_start_deg": np.degrees(np.asarray(robot.default_start, float)),
+                "default_goal_deg": np.degrees(np.asarray(robot.default_goal, float)),
             }
         )
     return described
@@ -231,9 +393,25 @@ def _arrays_of(result: Any) -> dict[str, Any] | None:
     return {k: np.asarray(v, dtype=np.float64) for k, v in arrays().items()}
 
 
+def _method_options(payload: dict[str, Any]) -> dict[str, Any]:
+    """The methods and their options (``methods``, ``human_constraint``, ``no_reversal``,
+    ``n_intervals``) of a job payload; absent keys keep the library's defaults."""
+    out: dict[str, Any] = {}
+    if payload.get("methods") is not None:
+        out["methods"] = [str(m) for m in payload["methods"]]
+    if payload.get("human_constraint") is not None:
+        out["human_constraint"] = str(payload["human_constraint"])
+    if payload.get("no_reversal") is not None:
+        out["no_reversal"] = bool(payload["no_reversal"])
+    if payload.get("n_intervals") is not None:
+        out["n_intervals"] = int(payload["n_intervals"])
+    return out
+
+
 def _planning_options(robot: Any, payload: dict[str, Any]) -> dict[str, Any]:
     """The keyword options ``plan`` and ``simulate_comparison`` share, from a job payload."""
     return {
+        **_method_options(payload),
         "task": _task(robot, payload.get("start_deg"), payload.get("goal_deg")),
         "duration": float(payload["duration"]),
         "objective": payload.get("objective", "abs_work"),
@@ -250,12 +428,16 @@ def plan(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[st
 
     Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
     ``seed``, ``particles``, ``iterations``, ``n_samples``, ``peak_angle_deg``, ``start_deg``,
-    ``goal_deg``, ``template`` (HumanTemplate dict or None).
+    ``goal_deg``, ``template`` (HumanTemplate dict or None), ``methods``,
+    ``human_constraint``, ``no_reversal``, ``n_intervals``.
 
     Returns:
-        ``{"result": PlanResult.to_dict(), "arrays": PlanResult.arrays()}``.
+        ``{"result": PlanResult.to_dict() + "motion", "arrays": PlanResult.arrays()}``; the
+        ``motion`` block (``plan_motion(result, robot).to_dict()``) holds every method's exact
+        knots, so the stored result can be exported at any rate.
     """
     run_plan = _entry("app.planning", "plan")
+    plan_motion = _entry("app.planning.export", "plan_motion")
     with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
         result = run_plan(
             robot,
@@ -263,7 +445,9 @@ def plan(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[st
             progress=progress,
             **_planning_options(robot, payload),
         )
-    return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
+        out = json_safe(result.to_dict())
+        out["motion"] = plan_motion(result, robot).to_dict()
+    return {"result": out, "arrays": _arrays_of(result)}
 
 
 def simulate(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
@@ -272,24 +456,66 @@ def simulate(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dic
     Payload: as for :func:`plan` but without ``n_samples`` (the simulation grid is used).
 
     Returns:
-        ``{"result": SimulationResult.to_dict(), "arrays": SimulationResult.arrays()}``.
+        ``{"result": SimulationResult.to_dict() + "motion", "arrays":
+        SimulationResult.arrays()}`` (the motion block of the simulated plan).
     """
     simulate_comparison = _entry("app.simulation", "simulate_comparison")
+    plan_motion = _entry("app.planning.export", "plan_motion")
     with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
         result = simulate_comparison(robot, progress=progress, **_planning_options(robot, payload))
-    return {"result": json_safe(result.to_dict()), "arrays": _arrays_of(result)}
+        out = json_safe(result.to_dict())
+        out["motion"] = plan_motion(result.plan, robot).to_dict()
+    return {"result": out, "arrays": _arrays_of(result)}
+
+
+def export_trajectory(
+    spec: dict[str, Any],
+    result: dict[str, Any],
+    fmt: str,
+    *,
+    method: str | None = None,
+    rate: float | None = None,
+) -> bytes:
+    """One method of a stored plan or simulation as an export file's bytes.
+
+    Args:
+        spec: the robot's spec (as for a job); loaded with the payload the result was planned
+            with, and checked against the result's torques (a changed robot is refused).
+        result: the stored result (with its ``motion`` block).
+        fmt, method, rate: as ``app.planning.export.export_bytes``.
+
+    Raises:
+        ExportError: no motion block, an unknown format or method, a bad rate.
+    """
+    export_result = _entry("app.planning.export", "export_result")
+    motion_of_result = _entry("app.planning.export", "motion_of_result")
+    motion = motion_of_result(result)  # refuse a result without motion before loading a robot
+    payload = motion.conditions.get("payload")
+    with robot_from_spec(spec, None if payload is None else float(payload)) as robot:
+        data: bytes = export_result(result, fmt, method=method, rate=rate, robot=robot)
+    return data
 
 
 def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
     """Savings over a grid of durations, payloads and objectives (``bioplan sweep``).
 
     Payload: ``robot`` (spec), ``durations`` [s], ``payloads`` [kg], ``objectives``, ``seed``,
-    ``particles``/``iterations`` (None: the sweep's defaults), ``workers`` (processes inside
-    the job).
+    ``particles``/``iterations`` (None: the sweep's defaults), ``methods``, ``check_seed``,
+    ``no_check``, ``workers`` (processes for the cells), and ``cell_executor``: set by the
+    runner to ``"dask"`` when the job runs on a Dask worker, so that every cell becomes a task
+    of its own on the cluster (submitted from this task through ``worker_client``); otherwise
+    the cells run in a local pool of ``workers`` processes. Progress is reported per cell.
     """
     run_sweep = _entry("app.simulation", "run_sweep")
     budget = {k: int(payload[k]) for k in ("particles", "iterations") if payload.get(k)}
-    with robot_from_spec(payload["robot"]) as robot:
+    options: dict[str, Any] = {}
+    if payload.get("methods") is not None:
+        options["methods"] = [str(m) for m in payload["methods"]]
+    if payload.get("no_check"):
+        options["check_seed"] = None
+    elif payload.get("check_seed") is not None:
+        options["check_seed"] = int(payload["check_seed"])
+    with robot_from_spec(payload["robot"]) as robot, _cell_executor(payload) as executor:
         result = run_sweep(
             robot=robot,
             durations=[float(d) for d in payload["durations"]],
@@ -298,9 +524,68 @@ def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
             seed=int(payload.get("seed", 0)),
             progress=progress,
             workers=payload.get("workers"),
+            executor=executor,
             **budget,
+            **options,
         )
     return {"result": json_safe(result.to_dict())}
+
+
+@contextmanager
+def _cell_executor(payload: dict[str, Any]) -> Iterator[Any]:
+    """Where a sweep job's cells run: ``"local"``, or (on a Dask worker) a client that submits
+    them to the same cluster while this task steps out of the worker's thread pool."""
+    if payload.get("cell_executor") != "dask":
+        yield "local"
+        return
+    import importlib
+
+    distributed = importlib.import_module("distributed")
+    with distributed.worker_client() as client:
+        yield client
+
+
+def profiles(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
+    """Classical profiles and the minimum-torque-change baseline on one task, with the planning
+    methods beside them (``bioplan profiles --json``).
+
+    Payload: ``robot`` (spec), ``payload`` [kg], ``duration`` [s], ``start_deg``, ``goal_deg``,
+    ``min_torque_change``, ``mtc_intervals``, ``methods`` ([] = none), ``objective``, ``seed``,
+    ``particles``, ``iterations``.
+    """
+    compare_profiles = _entry("app.planning.comparison", "compare_profiles")
+    run_plan = _entry("app.planning", "plan")
+    within = _entry("app.progress", "within")
+    with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
+        task = _task(robot, payload.get("start_deg"), payload.get("goal_deg"))
+        duration = float(payload["duration"])
+        report(progress, "profiles", 0, 1, fraction=0.0, message="classical profiles")
+        result = compare_profiles(
+            robot,
+            task=task,
+            duration=duration,
+            include_min_torque_change=bool(payload.get("min_torque_change", True)),
+            mtc_intervals=int(payload.get("mtc_intervals", 100)),
+        )
+        out: dict[str, Any] = json_safe(result.to_dict())
+        methods = payload.get("methods")
+        if methods is None or methods:
+            planned = run_plan(
+                robot,
+                task=task,
+                duration=duration,
+                objective=payload.get("objective", "abs_work"),
+                seed=int(payload.get("seed", PSO_DEFAULTS.seed)),
+                particles=int(payload.get("particles", PSO_DEFAULTS.particles)),
+                iterations=int(payload.get("iterations", PSO_DEFAULTS.iterations)),
+                progress=within(progress, 0.3, 1.0),
+                **({} if methods is None else {"methods": [str(m) for m in methods]}),
+            ).to_dict()
+            out["objective"] = planned["conditions"]["objective"]
+            out["methods"] = planned["methods"]
+            out["share_of_achievable_pct"] = planned["share_of_achievable_pct"]
+    report(progress, "done", 1, 1, message="profiles compared")
+    return {"result": json_safe(out)}
 
 
 TASKS: dict[str, TaskFn] = {
@@ -308,6 +593,7 @@ TASKS: dict[str, TaskFn] = {
     "plan": plan,
     "simulation": simulate,
     "sweep": sweep,
+    "profiles": profiles,
 }
 
 

@@ -11,7 +11,7 @@ from sqlalchemy.orm import Session, sessionmaker, undefer
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
 from app.jobs.tasks import robot_from_spec
-from app.services.errors import ConflictError, NotFoundError
+from app.services.errors import ConflictError, NotFoundError, ServiceError
 from app.services.robots import RobotCatalog
 from app.viewer.comparison import KINDS, Comparison, comparison_from_arrays
 
@@ -19,15 +19,21 @@ if TYPE_CHECKING:
     from app.planning.robots import Robot
 
 
-def load_robot_spec(spec: dict[str, Any], payload: float | None) -> tuple[Robot, str]:
-    """Load a robot from a job spec: ``{"name"}`` (built in) or uploaded URDF/MJCF bytes.
+def load_robot_spec(
+    spec: dict[str, Any], payload: float | None, folder: Path | None = None
+) -> tuple[Robot, str]:
+    """Load a robot from a job spec: ``{"name"}`` (built in) or an uploaded robot's files.
+
+    Args:
+        spec: the robot's spec (``RobotCatalog.spec``).
+        payload: [kg], or None for the robot's default.
+        folder: where an uploaded robot's files are kept (``RobotCatalog.folder``), so the
+            viewer can read its URDF and meshes later; None: a temporary folder.
 
     Returns:
         The robot (with ``payload`` kg, or its default when None) and its URDF text.
     """
-    with robot_from_spec(spec, payload) as robot:
-        if spec.get("urdf") is not None:
-            return robot, bytes(spec["urdf"]).decode("utf-8")
+    with robot_from_spec(spec, payload, folder=folder) as robot:
         return robot, Path(robot.urdf_path).read_text(encoding="utf-8")
 
 
@@ -43,12 +49,20 @@ class ComparisonLoader:
         self.sessions = sessions
         self.robots = robots
 
-    def __call__(self, kind: str, result_id: int) -> Comparison:
+    def __call__(
+        self, kind: str, result_id: int, methods: tuple[str, str] | None = None
+    ) -> Comparison:
         """The comparison of plan or simulation ``result_id``.
+
+        Args:
+            kind: ``plan`` or ``simulation``.
+            result_id: its id.
+            methods: the two planned methods to show (None: quintic and paper).
 
         Raises:
             NotFoundError: unknown kind or id.
             ConflictError: the job has not succeeded (no result or arrays yet).
+            ServiceError: a method that this result did not plan (``field`` = methods).
         """
         if kind not in KINDS:
             raise NotFoundError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
@@ -66,6 +80,24 @@ class ComparisonLoader:
             result = dict(row.result)
             arrays = decode_arrays(row.arrays)
             spec = self.robots.spec(session, row.robot)
+        planned = list(result.get("methods") or ("quintic", "paper"))
+        for method in methods or ():
+            if method not in planned:
+                raise ServiceError(
+                    f"method '{method}' was not planned in {kind} {result_id}: expected two of "
+                    f"{', '.join(planned)}",
+                    field="methods",
+                )
         payload = (result.get("conditions") or {}).get("payload")
-        robot, urdf = load_robot_spec(spec, None if payload is None else float(payload))
-        return comparison_from_arrays(kind, result_id, arrays, result, robot, urdf=urdf)
+        folder = self.robots.folder(spec)
+        robot, urdf = load_robot_spec(spec, None if payload is None else float(payload), folder)
+        return comparison_from_arrays(
+            kind,
+            result_id,
+            arrays,
+            result,
+            robot,
+            urdf=urdf,
+            methods=methods,
+            allowed_roots=None if folder is None else (folder,),
+        )

@@ -110,7 +110,7 @@ def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Se
     if removed:
         logger.warning("removed %d stored files no row referred to (interrupted writes)", removed)
     broker = JobBroker()
-    robots = RobotCatalog(blobs=blobs)
+    robots = RobotCatalog(blobs=blobs, files_dir=settings.data_dir / "robots")
     jobs = JobService(
         sessions=sessions,
         blobs=blobs,

@@ -44,6 +44,7 @@ KIND_PATHS = {
     "plan": "plans",
     "simulation": "simulations",
     "sweep": "sweeps",
+    "profiles": "profiles",
 }
 
 #: Structured progress of a job that has not reported any yet.

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import threading
+from pathlib import Path
 from typing import Any
 
 from sqlalchemy.orm import Session
@@ -20,6 +21,16 @@ from app.errors import BioPlanError
 from app.jobs import tasks
 from app.services.errors import ConflictError, NotFoundError, ServiceError, UnknownRobotError
 
+#: The uploaded robot's options kept with it (``app.jobs.tasks.robot_from_spec``).
+_OPTION_KEYS = (
+    "shoulder_joint",
+    "elbow_joint",
+    "locks",
+    "urdf_member",
+    "mjcf_member",
+    "sidecar_member",
+)
+
 
 def uploaded_robot(row: RobotRecord) -> dict[str, Any]:
     """The JSON form of an uploaded robot (``app.api.schemas.RobotInfo``)."""
@@ -28,11 +39,61 @@ def uploaded_robot(row: RobotRecord) -> dict[str, Any]:
         name=row.name,
         builtin=False,
         payload=row.payload if row.payload is not None else out.get("payload"),
-        has_mjcf=row.mjcf_sha256 is not None,
+        has_mjcf=row.mjcf_sha256 is not None or bool((row.options or {}).get("mjcf_member")),
         urdf_name=row.urdf_name,
         mjcf_name=row.mjcf_name,
     )
     return out
+
+
+#: Largest lock value accepted [deg or m]; anything larger is a typing error.
+_LOCK_LIMIT = 1e6
+
+
+def parse_locks(entries: list[str]) -> dict[str, float]:
+    """``NAME=VALUE`` entries (degrees, or metres for prismatic joints) as a dict.
+
+    Raises:
+        ServiceError: an entry without ``=``, a value that is not a finite number, a repeat.
+    """
+    import math
+
+    out: dict[str, float] = {}
+    for entry in entries:
+        name, sep, value = entry.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise ServiceError(f"lock {entry!r}: expected NAME=VALUE", field="lock")
+        try:
+            number = float(value)
+        except ValueError:
+            raise ServiceError(
+                f"lock {entry!r}: expected a number after '='", field="lock"
+            ) from None
+        if not math.isfinite(number) or abs(number) > _LOCK_LIMIT:
+            raise ServiceError(f"lock {entry!r}: expected a finite number", field="lock")
+        if name in out:
+            raise ServiceError(f"lock {name!r} is given twice", field="lock")
+        out[name] = number
+    return out
+
+
+def _field_of(message: str) -> str | None:
+    """The upload field a robot loader's message is about."""
+    for needle, name in (
+        ("shoulder joint '", "shoulder_joint"),
+        ("elbow joint '", "elbow_joint"),
+        ("shoulder and elbow", "elbow_joint"),
+        ("lock", "lock"),
+        ("robot.yaml", "sidecar"),
+        ("sidecar", "sidecar"),
+        ("member", "package"),
+        ("archive", "package"),
+        ("zip", "package"),
+    ):
+        if needle in message:
+            return name
+    return None
 
 
 class RobotCatalog:
@@ -42,8 +103,10 @@ class RobotCatalog:
         blobs: the file store that keeps uploaded models.
     """
 
-    def __init__(self, *, blobs: BlobStore) -> None:
+    def __init__(self, *, blobs: BlobStore, files_dir: Path | None = None) -> None:
         self.blobs = blobs
+        #: where uploaded robots' folders are kept (meshes for the viewer); in the data folder.
+        self.files_dir = files_dir if files_dir is not None else blobs.root.parent / "robots"
         self._described: dict[str, dict[str, Any]] = {}
         self._lock = threading.Lock()
 
@@ -109,59 +172,149 @@ class RobotCatalog:
         row = crud.get_robot(session=session, name=name)
         if row is None:
             raise self._unknown(session, name)
+        options = row.options or {}
+
+        def blob(sha: str | None) -> bytes | None:
+            return None if sha is None else self.blobs.get(sha)
+
         return {
             "name": row.name,
-            "urdf": self.blobs.get(row.urdf_sha256),
+            "urdf": blob(row.urdf_sha256),
             "urdf_name": row.urdf_name,
-            "mjcf": None if row.mjcf_sha256 is None else self.blobs.get(row.mjcf_sha256),
+            "mjcf": blob(row.mjcf_sha256),
             "mjcf_name": row.mjcf_name,
+            "package": blob(row.package_sha256),
+            "sidecar": blob(row.sidecar_sha256),
             "payload": row.payload,
+            **{k: options.get(k) for k in _OPTION_KEYS},
         }
+
+    def folder(self, spec: dict[str, Any]) -> Path | None:
+        """The kept folder of an uploaded robot's files (None for a built-in robot).
+
+        Named by a digest of the files and options, so the same upload reuses it and a
+        different one never sees stale files.
+        """
+        import hashlib
+        import json
+
+        if all(spec.get(k) is None for k in ("urdf", "mjcf", "package")):
+            return None
+        digest = hashlib.sha256()
+        for key in ("urdf", "mjcf", "package", "sidecar"):
+            digest.update(key.encode() + hashlib.sha256(spec.get(key) or b"").digest())
+        options = {k: spec.get(k) for k in _OPTION_KEYS}
+        digest.update(json.dumps(options, sort_keys=True).encode())
+        self.files_dir.mkdir(parents=True, exist_ok=True)
+        return self.files_dir / digest.hexdigest()[:24]
 
     def upload(
         self,
         session: Session,
         *,
         name: str,
-        urdf: tuple[str, bytes],
+        urdf: tuple[str, bytes] | None,
         mjcf: tuple[str, bytes] | None,
         payload: float | None,
+        package: tuple[str, bytes] | None = None,
+        sidecar: tuple[str, bytes] | None = None,
+        options: dict[str, Any] | None = None,
     ) -> dict[str, Any]:
         """Store a robot model after checking that the planning package can load it.
 
         Args:
             name: the name requests will use.
-            urdf, mjcf: (the user's file name, the bytes).
-            payload: default payload [kg], or None for the model's own.
+            urdf, mjcf, package, sidecar: (the user's file name, the bytes) or None; a
+                package is a zip of the robot's folder (model files, meshes, a sidecar).
+            payload: default payload [kg], or None for the sidecar's or the model's own.
+            options: ``shoulder_joint``, ``elbow_joint`` (names), ``locks`` (name -> degrees,
+                or metres for prismatic joints), ``urdf_member``, ``mjcf_member``,
+                ``sidecar_member`` (files inside the package).
 
         Raises:
             ConflictError: a robot of that name exists.
-            ServiceError: the model cannot be loaded (``file`` names the URDF).
+            ServiceError: no model, or the model cannot be loaded: the message names the file
+                and the joint, ``field`` the request field.
         """
         if name in self.builtin or crud.get_robot(session=session, name=name) is not None:
             raise ConflictError(f"a robot named {name!r} already exists", field="name")
+        opts = {k: v for k, v in (options or {}).items() if k in _OPTION_KEYS and v}
+        if package is not None:
+            opts = self._package_members(package, opts, urdf is None, mjcf is None)
+        elif urdf is None and mjcf is None:
+            raise ServiceError("give a urdf, an mjcf or a package (zip)", field="urdf")
         spec = {
             "name": name,
-            "urdf": urdf[1],
+            "urdf": None if urdf is None else urdf[1],
             "mjcf": None if mjcf is None else mjcf[1],
+            "package": None if package is None else package[1],
+            "sidecar": None if sidecar is None else sidecar[1],
             "payload": payload,
+            **{k: opts.get(k) for k in _OPTION_KEYS},
         }
+        main = next(f for f in (urdf, mjcf, package) if f is not None)[0]
         try:
-            description = tasks.describe_robot(spec)
+            description = tasks.describe_robot(spec, folder=self.folder(spec))
         except BioPlanError as exc:
             raise ServiceError(
-                f"{urdf[0]}: cannot load the robot model: {exc}", file=urdf[0]
+                f"{main}: cannot load the robot model: {exc}", file=main, field=_field_of(str(exc))
             ) from None
+        if package is not None:
+            description["files"] = tasks.package_members(package[1])
         row = crud.create_robot(
             session=session,
             blobs=self.blobs,
             name=name,
             urdf=urdf,
             mjcf=mjcf,
+            package=package,
+            sidecar=sidecar,
+            options=opts,
             payload=payload,
             description=description,
         )
         return uploaded_robot(row)
+
+    @staticmethod
+    def _package_members(
+        package: tuple[str, bytes], opts: dict[str, Any], need_urdf: bool, need_mjcf: bool
+    ) -> dict[str, Any]:
+        """The package's model and sidecar members: named ones, else its only URDF/MJCF/YAML."""
+        import zipfile
+
+        try:
+            members = tasks.package_members(package[1])
+        except (zipfile.BadZipFile, OSError) as exc:
+            raise ServiceError(
+                f"{package[0]}: not a readable zip archive ({exc})", file=package[0],
+                field="package",
+            ) from None  # fmt: skip
+        out = dict(opts)
+        urdfs = [m["path"] for m in members if m["role"] == "urdf"]
+        mjcfs = [
+            m["path"]
+            for m in members
+            if m["role"] == "mjcf" and m["path"].rsplit("/", 1)[-1] != "package.xml"
+        ]
+        if need_urdf and "urdf_member" not in out and len(urdfs) > 1:
+            raise ServiceError(
+                f"{package[0]} holds {len(urdfs)} URDF files {urdfs}: name one in urdf_member",
+                field="urdf_member",
+            )
+        if need_urdf and "urdf_member" not in out and urdfs:
+            out["urdf_member"] = urdfs[0]
+        # An MJCF is only guessed for an MJCF-only package; a sidecar is never guessed (a ROS
+        # package holds other YAML files).
+        if need_urdf and need_mjcf and not urdfs and "mjcf_member" not in out:
+            if len(mjcfs) != 1:
+                raise ServiceError(
+                    f"{package[0]} holds no URDF and {len(mjcfs)} MJCF files {mjcfs}: expected "
+                    "one robot model (name it in urdf_member or mjcf_member)",
+                    file=package[0],
+                    field="package",
+                )
+            out["mjcf_member"] = mjcfs[0]
+        return out
 
     def delete(self, session: Session, name: str) -> None:
         """Delete an uploaded robot.
@@ -172,5 +325,11 @@ class RobotCatalog:
         """
         if name in self.builtin:
             raise ConflictError(f"{name!r} is built in and cannot be deleted")
+        row = crud.get_robot(session=session, name=name)
+        folder = None if row is None else self.folder(self.spec(session, name))
         if not crud.delete_robot(session=session, blobs=self.blobs, name=name):
             raise NotFoundError(f"robot {name!r} does not exist")
+        if folder is not None and folder.exists():
+            import shutil
+
+            shutil.rmtree(folder, ignore_errors=True)

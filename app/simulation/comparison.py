@@ -383,6 +383,8 @@ def simulate_comparison(
     peak_angle_deg: float | None = None,
     methods: Sequence[str] | None = None,
     human_constraint: str = "peak",
+    no_reversal: bool = True,
+    n_intervals: int | None = None,
     timestep: float = DEFAULT_TIMESTEP,
     feedforward: Feedforward = "pinocchio",
     natural_frequency_hz: float = DEFAULT_NATURAL_FREQUENCY_HZ,
@@ -407,6 +409,9 @@ def simulate_comparison(
         peak_angle_deg: overrides the template's elbow peak-velocity angle [deg].
         methods: methods to plan and simulate (None: ``plan``'s default, quintic and paper).
         human_constraint: ``human_optimal``'s constraint (``peak``, ``phases``, ``none``).
+        no_reversal: the optimal-control methods never move a joint against its stroke.
+        n_intervals: constant-jerk intervals of the optimal-control transcription (None:
+            ``plan``'s default).
         timestep: simulation step [s].
         feedforward: ``"pinocchio"``, ``"mujoco"`` or ``"none"``.
         natural_frequency_hz: PD bandwidth [Hz].
@@ -440,7 +445,9 @@ def simulate_comparison(
         peak_angle_deg=peak_angle_deg,
         methods=DEFAULT_METHODS if methods is None else methods,
         human_constraint=human_constraint,
+        no_reversal=no_reversal,
         progress=within(progress, 0.0, 0.85),
+        **({} if n_intervals is None else {"n_intervals": int(n_intervals)}),
     )
     report(progress, "simulate", 0, 1, fraction=0.85, message="simulating in MuJoCo")
     names_ = list(result.methods)

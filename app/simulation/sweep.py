@@ -432,6 +432,86 @@ def _cell_job(job: _CellJob) -> SweepCell:
     return _run_cell(job)
 
 
+def _cell_on_worker(robot: Robot, job: _CellJob) -> tuple[SweepCell, str]:
+    """One cell as a Dask task: the cell and the worker that ran it (its address).
+
+    The robot arrives pickled; when its files are not on this machine (a remote worker) it is
+    rebuilt from its spec (built-in robots are regenerated; a user robot's files must be
+    reachable at the same path).
+    """
+    from pathlib import Path
+
+    from app.planning.robots import load_robot_spec
+
+    if not Path(robot.urdf_path).exists() and robot.spec:
+        robot = load_robot_spec(robot.spec)
+    _init_worker(robot)
+    try:
+        cell = _cell_job(job)
+    finally:
+        _WORKER.clear()
+    try:
+        where = str(_distributed().get_worker().address)
+    except (ImportError, ValueError):
+        where = ""
+    return cell, where
+
+
+#: ``run_sweep``'s executors: a local process pool, or a Dask scheduler (``dask://HOST:PORT``
+#: or a ``distributed.Client``) that runs one task per cell.
+LOCAL_EXECUTOR = "local"
+
+
+def _distributed() -> Any:
+    """The ``distributed`` module (untyped, hence ``Any``), imported when a sweep uses Dask."""
+    import importlib
+
+    return importlib.import_module("distributed")
+
+
+def _dask_client(executor: Any) -> tuple[Any, bool]:
+    """A ``distributed.Client`` for ``dask://HOST:PORT`` (owned: closed after the sweep), or
+    the client given."""
+    if not isinstance(executor, str):
+        return executor, False
+    if not executor.startswith("dask://") or len(executor) <= len("dask://"):
+        raise SimulationError(
+            f"executor {executor!r}: expected 'local' or 'dask://HOST:PORT' (a Dask scheduler)"
+        )
+    distributed = _distributed()
+    address = executor.replace("dask://", "tcp://", 1)
+    try:
+        return distributed.Client(address, timeout=10, set_as_default=False), True
+    except OSError as exc:
+        raise SimulationError(
+            f"executor {executor}: cannot reach the Dask scheduler ({exc})"
+        ) from None
+
+
+def _run_on_dask(
+    clean: Robot, jobs: list[_CellJob], executor: Any, on_cell: Any
+) -> tuple[int, str, dict[str, int]]:
+    """One Dask task per cell; (workers on the cluster, note, cells per worker address)."""
+    distributed = _distributed()
+    client, owned = _dask_client(executor)
+    try:
+        [robot] = client.scatter([clean], broadcast=True, hash=False)
+        futures = [
+            client.submit(_cell_on_worker, robot, job, pure=False, key=f"bioplan-cell-{i}")
+            for i, job in enumerate(jobs)
+        ]
+        used: dict[str, int] = {}
+        for fut in distributed.as_completed(futures, loop=client.loop):
+            cell, where = fut.result()
+            used[where] = used.get(where, 0) + 1
+            on_cell(cell)
+        n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
+        return n_workers, "", used
+    finally:
+        if owned:
+            client.close()
+
+
 def _check_grid(
     durs: tuple[float, ...], pays: tuple[float, ...], objs: tuple[str, ...], methods: Sequence[str]
 ) -> tuple[str, ...]:
@@ -516,6 +596,7 @@ def run_sweep(
     workers: int | None = None,
     methods: Sequence[str] | None = None,
     check_seed: int | None = -1,
+    executor: Any = LOCAL_EXECUTOR,
     progress: ProgressFn | None = None,
 ) -> SweepResult:
     """Plan and simulate every (duration, payload, objective) cell; classify the changes.
@@ -539,6 +620,10 @@ def run_sweep(
         methods: methods per cell (None: quintic and paper; ``bioplan sweep`` asks for all).
         check_seed: seed of the convergence check of the paper's PSO (-1: ``seed + 1``;
             None: no check).
+        executor: ``"local"`` (a process pool of ``workers`` processes), ``"dask://HOST:PORT"``
+            (one task per cell on that Dask scheduler's workers; ``workers`` is ignored) or a
+            ``distributed.Client`` (e.g. from inside a Dask task). ``conditions["executor"]``
+            and ``conditions["cells_per_worker"]`` say where the cells ran.
         progress: called with a ``Progress`` (stage ``sweep``: cells done) as cells finish.
 
     Returns:
@@ -584,7 +669,14 @@ def run_sweep(
 
     report(progress, "sweep", 0, len(jobs), message=f"{len(jobs)} cells on {n_workers} worker(s)")
     # A copy without cached Pinocchio/MuJoCo objects, so it pickles to the workers.
-    n_workers, pool_note = _run_jobs(dataclasses.replace(robot), jobs, n_workers, on_cell)
+    clean = dataclasses.replace(robot)
+    used: dict[str, int] = {}
+    if isinstance(executor, str) and executor == LOCAL_EXECUTOR:
+        n_workers, pool_note = _run_jobs(clean, jobs, n_workers, on_cell)
+        where = LOCAL_EXECUTOR
+    else:
+        n_workers, pool_note, used = _run_on_dask(clean, jobs, executor, on_cell)
+        where = executor if isinstance(executor, str) else "dask"
     order = {(j.duration, j.payload, j.objective): i for i, j in enumerate(jobs)}
     cells = tuple(sorted(results, key=lambda c: order[(c.duration, c.payload, c.objective)]))
     return SweepResult(
@@ -602,6 +694,8 @@ def run_sweep(
             "timestep": float(timestep),
             "integrator": INTEGRATOR,
             "workers": n_workers,
+            "executor": where,
+            "cells_per_worker": used,
             "seconds": time.perf_counter() - started,
             "no_difference_pct": NO_DIFFERENCE_PCT,
             "at_floor_fraction": AT_FLOOR_FRACTION,

@@ -60,6 +60,12 @@ class Comparison:
         payload_com: (3,) payload centre in the payload body's frame [m].
         payload_size: (3,) payload box extents [m] (zeros: a point mass).
         result: the job's JSON result (the CLI's ``--json``).
+        methods: the planned methods shown as ``standard`` and ``optimized`` (in that order).
+        urdf_path: the robot's URDF file, so its meshes are found (None: ``urdf`` text only).
+        package_dirs: folders ``package://`` mesh paths resolve in.
+        allowed_roots: meshes outside these folders are not read (an uploaded robot's folder);
+            None: no confinement (built-in robots).
+        locks: locked joints -> values [rad or m] (drawn at their values).
     """
 
     kind: Kind
@@ -83,6 +89,11 @@ class Comparison:
     payload_com: FloatArray
     payload_size: FloatArray
     result: dict[str, Any] = field(default_factory=dict)
+    methods: tuple[str, str] = ("quintic", "paper")
+    urdf_path: Path | None = None
+    package_dirs: tuple[Path, ...] = ()
+    allowed_roots: tuple[Path, ...] | None = None
+    locks: dict[str, float] = field(default_factory=dict)
 
     @property
     def duration(self) -> float:
@@ -157,6 +168,7 @@ class Comparison:
                 for label, times in self.phase_times.items()
             },
             "phases": PHASES,
+            "methods": dict(zip(LABELS, self.methods, strict=True)),
         }
 
 
@@ -248,6 +260,8 @@ def comparison_from_arrays(
     robot: Robot,
     *,
     urdf: str | None = None,
+    methods: tuple[str, str] | None = None,
+    allowed_roots: tuple[Path, ...] | None = None,
 ) -> Comparison:
     """Build a :class:`Comparison` from a job's arrays and JSON result.
 
@@ -259,14 +273,20 @@ def comparison_from_arrays(
         result: the job's JSON result (``to_dict()``), for conditions and metrics.
         robot: the robot, with the payload the job used.
         urdf: the robot's URDF text (default: read from ``robot.urdf_path``).
+        methods: two planned methods to show as ``standard`` and ``optimized`` (their
+            ``<method>_*`` arrays); None: the quintic and the paper's method.
+        allowed_roots: folders meshes must lie in (an uploaded robot's folder).
 
     Raises:
-        ComparisonError: an array is missing or has the wrong shape.
+        ComparisonError: an array is missing or has the wrong shape, or a method was not
+            planned.
     """
     from app.planning.planner import elbow_flexion_deg
 
     if kind not in KINDS:
         raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
+    if methods is not None:
+        arrays = _method_arrays(arrays, methods)
     t = _get(arrays, "t")
     conditions = dict(result.get("conditions") or {})
     task, bounds = _task_and_bounds(conditions, robot)
@@ -305,4 +325,20 @@ def comparison_from_arrays(
         payload_com=np.asarray(payload.com, dtype=np.float64),
         payload_size=np.asarray(payload.size, dtype=np.float64),
         result=dict(result),
+        methods=methods if methods is not None else ("quintic", "paper"),
+        urdf_path=Path(robot.urdf_path),
+        package_dirs=tuple(Path(p) for p in robot.package_dirs),
+        allowed_roots=allowed_roots,
+        locks=dict(robot.locks),
     )
+
+
+def _method_arrays(arrays: Mapping[str, Any], methods: tuple[str, str]) -> dict[str, Any]:
+    """``arrays`` with the two methods' ``<method>_*`` arrays as ``standard_*``/``optimized_*``."""
+    out = {k: v for k, v in arrays.items() if not k.startswith(LABELS)}
+    for label, method in zip(LABELS, methods, strict=True):
+        mine = {k[len(method) + 1 :]: v for k, v in arrays.items() if k.startswith(f"{method}_")}
+        if f"{method}_q" not in arrays:
+            raise ComparisonError(f"method {method!r} was not planned in this result")
+        out.update({f"{label}_{name}": v for name, v in mine.items()})
+    return out

@@ -458,17 +458,32 @@ class PreparedCache:
     def __init__(self, loader: Callable[[str, int], Comparison], *, size: int = 8) -> None:
         self.loader = loader
         self.size = size
-        self._items: OrderedDict[tuple[str, int], PreparedComparison] = OrderedDict()
+        self._items: OrderedDict[tuple[str, int, Any], PreparedComparison] = OrderedDict()
         self._lock = threading.Lock()
 
-    def __call__(self, kind: str, result_id: int) -> PreparedComparison:
-        key = (kind, int(result_id))
+    def __call__(
+        self, kind: str, result_id: int, methods: tuple[str, str] | None = None
+    ) -> PreparedComparison:
+        """The prepared comparison; ``methods`` picks the two planned methods shown (None: the
+        quintic and the paper's); the robot's URDF file, package folders and locks come with
+        the comparison, so meshes show."""
+        key = (kind, int(result_id), methods)
         with self._lock:
             hit = self._items.get(key)
             if hit is not None:
                 self._items.move_to_end(key)
                 return hit
-        prepared = PreparedComparison(self.loader(kind, int(result_id)))
+        if methods is None:
+            comparison = self.loader(kind, int(result_id))
+        else:
+            comparison = self.loader(kind, int(result_id), methods)  # type: ignore[call-arg]
+        prepared = PreparedComparison(
+            comparison,
+            urdf_path=comparison.urdf_path,
+            package_dirs=comparison.package_dirs,
+            allowed_roots=comparison.allowed_roots,
+            locks=comparison.locks,
+        )
         with self._lock:
             self._items[key] = prepared
             while len(self._items) > self.size:

@@ -10,12 +10,27 @@ import pytest
 
 from tests.utils.api import TestClient, assert_problem, wait_job
 
-TINY = {"robot": "human_arm_2dof", "duration": 1.0, "particles": 8, "iterations": 5}
+TINY = {
+    "robot": "human_arm_2dof",
+    "duration": 1.0,
+    "particles": 8,
+    "iterations": 5,
+    "methods": ["quintic", "paper"],
+}
 
 
 def _without_timing(result: dict[str, Any]) -> dict[str, Any]:
-    out = dict(result)
-    out["optimizer"] = {k: v for k, v in result["optimizer"].items() if k != "seconds"}
+    """The result without wall-clock fields (PSO and IPOPT seconds) and the motion block."""
+    out = {k: v for k, v in result.items() if k != "motion"}
+    if out.get("optimizer"):
+        out["optimizer"] = {k: v for k, v in result["optimizer"].items() if k != "seconds"}
+    methods = {}
+    for name, m in result.get("methods", {}).items():
+        m = dict(m)
+        if isinstance(m.get("solver"), dict):
+            m["solver"] = {k: v for k, v in m["solver"].items() if k != "seconds"}
+        methods[name] = m
+    out["methods"] = methods
     return out
 
 
@@ -138,3 +153,151 @@ def test_template_and_angles_reach_the_planner(shared_client: TestClient) -> Non
     assert out["result"]["target_peak_velocity_angle_deg"] == pytest.approx(70.0)
     np.testing.assert_allclose(cond["start_deg"], [0.0, 10.0])
     np.testing.assert_allclose(cond["goal_deg"], [30.0, 140.0])
+
+
+def test_methods_and_their_options_reach_the_planner(shared_client: TestClient) -> None:
+    """Every method option of the request is the library's: the same plan, option by option."""
+    from app.db.crud import json_safe
+    from app.planning import load_robot, plan
+
+    options = {
+        "methods": ["quintic", "human_optimal", "bound"],
+        "human_constraint": "phases",
+        "no_reversal": False,
+        "n_intervals": 16,
+    }
+    out = _run(shared_client, seed=4, **options)
+    expected = plan(
+        load_robot("human_arm_2dof"),
+        duration=1.0,
+        seed=4,
+        particles=8,
+        iterations=5,
+        **options,  # type: ignore[arg-type]
+    )
+    result = out["result"]
+    assert _without_timing(result) == _without_timing(json_safe(expected.to_dict()))
+    assert set(result["methods"]) == {"quintic", "human_optimal", "bound"}
+    assert result["methods"]["bound"]["solver"]["n_intervals"] == 16
+    assert result["conditions"]["human_constraint"] == "phases"
+    assert result["conditions"]["no_reversal"] is False
+    # The bound captures the whole achievable saving by definition; the quintic none.
+    assert result["share_of_achievable_pct"]["bound"] == pytest.approx(100.0)
+    assert result["share_of_achievable_pct"]["quintic"] == pytest.approx(0.0)
+    # Issue 12: joint names, the task in degrees and the duration in every plan's JSON.
+    assert result["joint_names"] == list(load_robot("human_arm_2dof").joint_names)
+    assert result["duration"] == 1.0
+    np.testing.assert_allclose(result["task"]["goal_deg"], np.degrees(expected.task.goal))
+    arrays = shared_client.get(f"/api/plans/{out['id']}/arrays", params={"points": 20}).json()
+    for name in ("quintic", "human_optimal", "bound"):
+        assert {f"{name}_q", f"{name}_tau", f"{name}_power", f"{name}_energy"} <= set(
+            arrays["arrays"]
+        )
+    # A different constraint gives a different human-like optimum (the option is not ignored).
+    other = _run(shared_client, seed=4, **{**options, "human_constraint": "none"})
+    assert (
+        other["result"]["methods"]["human_optimal"]["objective_value"]
+        != result["methods"]["human_optimal"]["objective_value"]
+    )
+
+
+def test_infeasible_requests_are_422_before_a_job(shared_client: TestClient) -> None:
+    """Cheap checks name the field, the joint and the smallest feasible value; no job queued."""
+    from app.planning import load_robot
+
+    post = shared_client.post
+    before = shared_client.get("/api/jobs").json()["total"]
+    robot = load_robot("curtain_wall_6dof")
+    dq = np.abs(robot.default_goal - robot.default_start)
+    shortest = float(np.max(dq / robot.qd_max))  # no rest-to-rest motion averages more
+    r = post("/api/plans", json={**TINY, "robot": "curtain_wall_6dof", "duration": shortest * 0.9})
+    detail = assert_problem(r, 422, field="duration")["detail"]
+    assert f"at least {shortest:.3f} s" in detail, detail
+    assert robot.joint_names[int(np.argmax(dq / robot.qd_max))] in detail
+    r = post("/api/simulations", json={**TINY, "robot": "curtain_wall_6dof", "duration": 0.01})
+    assert_problem(r, 422, field="duration")
+    hi = float(np.degrees(load_robot("human_arm_2dof").q_max[1]))
+    r = post("/api/plans", json={**TINY, "goal_deg": [20.0, hi + 5.0]})
+    assert "outside its limits" in assert_problem(r, 422, field="goal_deg")["detail"]
+    r = post("/api/plans", json={**TINY, "start_deg": [0.0, 0.0], "goal_deg": [30.0, 0.0]})
+    assert "elbow" in assert_problem(r, 422, field="goal_deg")["detail"]
+    assert_problem(post("/api/plans", json={**TINY, "methods": ["warp"]}), 422, field="methods.0")
+    assert_problem(post("/api/plans", json={**TINY, "methods": []}), 422, field="methods")
+    r = post("/api/plans", json={**TINY, "human_constraint": "tight"})
+    assert_problem(r, 422, field="human_constraint")
+    assert_problem(post("/api/plans", json={**TINY, "n_intervals": 2}), 422, field="n_intervals")
+    assert shared_client.get("/api/jobs").json()["total"] == before
+    # Just above the shortest duration is accepted (202), so the bound is the right one.
+    r = post("/api/plans", json={**TINY, "robot": "curtain_wall_6dof", "duration": shortest * 1.05})
+    assert r.status_code == 202, r.text
+    shared_client.post(f"/api/jobs/{r.json()['id']}/cancel")
+
+
+def test_a_plan_the_planner_refuses_fails_its_job_with_one_line(
+    shared_client: TestClient,
+) -> None:
+    """What is not cheap to check (a peak angle outside the stroke) fails the job with the line."""
+    body = {**TINY, "peak_angle_deg": 179.0, "start_deg": [0, 10], "goal_deg": [20, 40]}
+    r = shared_client.post("/api/plans", json=body)
+    assert r.status_code == 202, r.text
+    job = wait_job(shared_client, r.json()["id"])
+    assert job["state"] == "failed"
+    assert "outside the elbow's stroke" in job["error"] and "\n" not in job["error"]
+
+
+def test_the_comparison_shows_any_two_planned_methods(shared_client: TestClient) -> None:
+    """``methods=a,b`` on the Compare page's data: a's curves as standard, b's as optimized."""
+    out = _run(shared_client, seed=6, methods=["quintic", "paper", "bound"], n_intervals=16)
+    url = f"/api/viewer/comparisons/plan/{out['id']}"
+    arrays = shared_client.get(f"/api/plans/{out['id']}/arrays", params={"points": 50}).json()
+    default = shared_client.get(url, params={"points": 50}).json()
+    assert default["methods"] == {"standard": "quintic", "optimized": "paper"}
+    np.testing.assert_allclose(default["curves"]["optimized"]["q"], arrays["arrays"]["paper_q"])
+    chosen = shared_client.get(url, params={"points": 50, "methods": "paper,bound"}).json()
+    assert chosen["methods"] == {"standard": "paper", "optimized": "bound"}
+    curves = chosen["curves"]
+    np.testing.assert_allclose(curves["standard"]["q"], arrays["arrays"]["paper_q"])
+    np.testing.assert_allclose(curves["optimized"]["q"], arrays["arrays"]["bound_q"])
+    np.testing.assert_allclose(curves["optimized"]["energy"], arrays["arrays"]["bound_energy"])
+    assert "methods=paper,bound" in chosen["exports"]["report"]
+    report = shared_client.get(chosen["exports"]["report"])
+    assert report.status_code == 200
+    for bad in ("bound", "bound,bound", "quintic,warp"):
+        assert_problem(shared_client.get(url, params={"methods": bad}), 422, field="methods")
+    r = shared_client.get(url, params={"methods": "quintic,human_optimal"})
+    assert "not planned" in assert_problem(r, 422, field="methods")["detail"]
+
+
+def test_profiles_by_rest_are_the_library_comparison(shared_client: TestClient) -> None:
+    """``POST /api/profiles``: the classical profiles and methods, as ``bioplan profiles``."""
+    from app.db.crud import json_safe
+    from app.planning import load_robot
+    from app.planning.comparison import compare_profiles
+
+    body = {"robot": "human_arm_2dof", "duration": 1.2, "mtc_intervals": 16,
+            "methods": ["quintic", "paper"], "particles": 8, "iterations": 5}  # fmt: skip
+    r = shared_client.post("/api/profiles", json=body)
+    assert r.status_code == 202, r.text
+    job = wait_job(shared_client, r.json()["id"])
+    assert job["state"] == "succeeded", job
+    assert job["result_url"] == f"/api/profiles/{job['id']}"
+    result = shared_client.get(job["result_url"]).json()["result"]
+    ref = json_safe(
+        compare_profiles(load_robot("human_arm_2dof"), duration=1.2, mtc_intervals=16).to_dict()
+    )
+    assert result["profiles"] == ref["profiles"]
+    assert result["floors"] == ref["floors"]
+    assert set(result["methods"]) == {"quintic", "paper"}
+    listed = shared_client.get("/api/profiles", params={"robot": "human_arm_2dof"}).json()
+    assert job["id"] in [p["id"] for p in listed["items"]]
+    # Options change the result: no minimum-torque-change solve, no planning methods.
+    r = shared_client.post(
+        "/api/profiles", json={**body, "min_torque_change": False, "methods": []}
+    )
+    job = wait_job(shared_client, r.json()["id"])
+    other = shared_client.get(job["result_url"]).json()["result"]
+    assert "min_torque_change" in result["profiles"]
+    assert "min_torque_change" not in other["profiles"] and "methods" not in other
+    r = shared_client.post("/api/profiles", json={**body, "start_deg": [1.0]})
+    assert_problem(r, 422, field="start_deg")
+    assert_problem(shared_client.post("/api/profiles", json={**body, "robot": "x"}), 422)

@@ -22,7 +22,7 @@ def test_simulation_equals_the_library(shared_client: TestClient) -> None:
     from app.simulation import simulate_comparison
 
     body = {"robot": "human_arm_2dof", "duration": 1.0, "seed": 2, "particles": 8,
-            "iterations": 5, "payload": 6.0}  # fmt: skip
+            "iterations": 5, "payload": 6.0, "methods": ["quintic", "paper"]}  # fmt: skip
     r = shared_client.post("/api/simulations", json=body)
     assert r.status_code == 202, r.text
     done = wait_job(shared_client, r.json()["id"])
@@ -54,7 +54,8 @@ def test_sweep_equals_the_library_and_reports_cells(shared_client: TestClient) -
     from app.simulation import run_sweep
 
     body = {"robot": "human_arm_2dof", "durations": [0.8, 1.0, 1.2, 1.5], "payloads": [0, 4, 8],
-            "objectives": ["abs_work"], "seed": 0, "particles": 10, "iterations": 30}  # fmt: skip
+            "objectives": ["abs_work"], "seed": 0, "particles": 10, "iterations": 30,
+            "methods": ["quintic", "paper"]}  # fmt: skip
     r = shared_client.post("/api/sweeps", json=body)
     assert r.status_code == 202, r.text
     events = read_sse(shared_client, r.json()["events_url"])

@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 
+from app.errors import BioPlanError
 from app.jobs.runner import DaskRunner
 from app.names import TERMINAL_JOB_STATES as TERMINAL
 from tests.utils.data import shared_file
@@ -102,14 +103,14 @@ def test_real_plan_and_analysis_jobs_through_the_api_on_dask(
     """The compose configuration without Docker: API + Dask cluster (+ PostgreSQL when set)."""
     from app.db.crud import json_safe
     from app.planning import load_robot, plan
-    from tests.utils.api import make_client, wait_job
+    from tests.utils.api import make_client, read_sse, wait_job
 
     address = cluster.scheduler_address.replace("tcp://", "dask://")
     with make_client(tmp_path, executor=address, db_kind=db_kind) as client:
         health = client.get("/api/health").json()
         assert health["executor"] == address and health["workers"] == 2
         body = {"robot": "human_arm_2dof", "duration": 1.2, "seed": 5, "particles": 8,
-                "iterations": 5}  # fmt: skip
+                "iterations": 5, "methods": ["quintic", "paper"]}  # fmt: skip
         job = client.post("/api/plans", json=body).json()
         done = wait_job(client, job["id"])
         assert done["state"] == "succeeded", done
@@ -122,14 +123,20 @@ def test_real_plan_and_analysis_jobs_through_the_api_on_dask(
         for key in ("standard", "optimized", "floors", "improvement_pct"):
             assert got[key] == ref[key]
 
-        # A sweep asking for a process pool still runs: Dask workers cannot fork one, so the
-        # runner runs its cells in the worker (the cluster is the parallelism).
-        sweep = {"robot": "human_arm_2dof", "durations": [0.8, 1.2], "payloads": [0, 5],
-                 "particles": 6, "iterations": 4, "workers": 2}  # fmt: skip
+        # A sweep fans out one Dask task per cell (the job submits them from its own task),
+        # reports per-cell progress, and both workers run cells.
+        sweep = {"robot": "human_arm_2dof", "durations": [0.8, 1.0, 1.2], "payloads": [0, 5],
+                 "particles": 6, "iterations": 4, "workers": 2,
+                 "methods": ["quintic", "paper"]}  # fmt: skip
         job = client.post("/api/sweeps", json=sweep).json()
-        done = wait_job(client, job["id"])
-        assert done["state"] == "succeeded", done
-        assert len(client.get(done["result_url"]).json()["result"]["cells"]) == 4
+        events = read_sse(client, job["events_url"])
+        assert events[-1][1]["state"] == "succeeded", events[-1]
+        assert any(e["stage"] == "sweep" and 0 < e["done"] < 6 for _, e in events), events
+        result = client.get(job["result_url"]).json()["result"]
+        assert len(result["cells"]) == 6
+        used = result["conditions"]["cells_per_worker"]
+        assert set(used) == set(cluster.scheduler_info["workers"]), used
+        assert sum(used.values()) == 6
 
         path = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
         rec = client.post(
@@ -139,3 +146,48 @@ def test_real_plan_and_analysis_jobs_through_the_api_on_dask(
         done = wait_job(client, job["id"])
         assert done["state"] == "succeeded", done
         assert client.get(f"/api/analyses/{job['id']}/template").json()["source"]
+
+
+def test_run_sweep_on_dask_equals_the_local_pool_and_uses_both_workers(cluster: Any) -> None:
+    """The library's executor: one task per cell on the cluster, the same cells as locally."""
+    from app.planning import load_robot
+    from app.simulation import run_sweep
+
+    grid = {"durations": [0.8, 1.2], "payloads": [0.0, 4.0, 8.0], "particles": 6,
+            "iterations": 4, "methods": ["quintic", "paper"], "seed": 1}  # fmt: skip
+    robot = load_robot("human_arm_2dof")
+    seen: list[int] = []
+    address = cluster.scheduler_address.replace("tcp://", "dask://")
+    on_dask = run_sweep(
+        robot=robot, executor=address, progress=lambda p: seen.append(p.done), **grid
+    )
+    local = run_sweep(robot=robot, workers=1, **grid)
+    assert on_dask.conditions["executor"] == address
+    used = on_dask.conditions["cells_per_worker"]
+    assert set(used) == set(cluster.scheduler_info["workers"]) and sum(used.values()) == 6
+    assert seen[-1] == 6 and sorted(seen) == seen  # per-cell progress, in order
+    for a, b in zip(on_dask.cells, local.cells, strict=True):
+        assert (a.duration, a.payload, a.status) == (b.duration, b.payload, b.status)
+        assert a.change_pct == b.change_pct
+    with pytest.raises(BioPlanError, match="executor"):
+        run_sweep(robot=robot, executor="spark://x", **grid)
+
+
+def test_cli_sweep_executor(cluster: Any, capsys: pytest.CaptureFixture[str]) -> None:
+    """``bioplan sweep --executor dask://HOST:PORT`` runs the cells on that cluster."""
+    import json
+
+    from app.cli import main
+
+    address = cluster.scheduler_address.replace("tcp://", "dask://")
+    args = ["sweep", "--robot", "human_arm_2dof", "--durations", "0.8,1.2", "--payloads", "0",
+            "--particles", "6", "--iterations", "4", "--method", "quintic,paper",
+            "--json"]  # fmt: skip
+    assert main([*args, "--executor", address]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["conditions"]["executor"] == address
+    assert sum(data["conditions"]["cells_per_worker"].values()) == 2
+    assert set(data["conditions"]["cells_per_worker"]) <= set(cluster.scheduler_info["workers"])
+    assert main([*args, "--executor", "yarn://x"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "yarn://x" in err and len(err.splitlines()) == 1

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
-from fastapi import Path
+from fastapi import Path, Query, Response
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, undefer
 
@@ -14,8 +14,10 @@ from app.api.errors import ApiError
 from app.api.schemas import Problem
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
+from app.errors import BioPlanError
+from app.names import METHODS
 from app.planning.jsonsafe import json_safe
-from app.services import job_to_dict
+from app.services import RobotCatalog, job_to_dict
 
 #: Ids in paths: positive and within a 32-bit integer, so no database overflows.
 IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
@@ -125,6 +127,85 @@ def arrays_out(
             arr = arr[idx]
         out[key] = json_safe(np.atleast_1d(arr).tolist())
     return {"id": result_id, "points": 0 if idx is None else len(idx), "arrays": out}
+
+
+#: Media type of each export format (``app.planning.export.FORMATS``).
+EXPORT_MEDIA_TYPES: dict[str, str] = {
+    "csv": "text/csv",
+    "json": "application/json",
+    "yaml": "application/yaml",
+    "mcap": "application/octet-stream",
+    "script": "text/plain",
+    "mot": "text/plain",
+}
+#: Highest export rate [Hz] (``app.planning.export.MAX_RATE_HZ``).
+MAX_EXPORT_RATE_HZ = 20_000.0
+
+if TYPE_CHECKING:
+    ExportFormatName = str
+    ExportMethod = str
+else:
+    ExportFormatName = Literal[tuple(EXPORT_MEDIA_TYPES)]
+    ExportMethod = Literal[tuple(METHODS)]
+
+FormatQuery = Annotated[ExportFormatName, Query(description="export format")]
+RateQuery = Annotated[
+    float | None,
+    Query(gt=0, le=MAX_EXPORT_RATE_HZ, description="sample rate [Hz] (default: the format's)"),
+]
+MethodQuery = Annotated[
+    ExportMethod | None, Query(description="method to export (default: the optimised one)")
+]
+
+
+def _export_field(message: str) -> str | None:
+    """The request field an ``ExportError`` is about (its message names it)."""
+    for needle, name in (("method", "method"), ("rate", "rate"), ("format", "format")):
+        if needle in message:
+            return name
+    return None
+
+
+def trajectory_out(
+    session: Session,
+    robots: RobotCatalog,
+    kind: str,
+    result_id: int,
+    *,
+    fmt: str,
+    rate: float | None,
+    method: str | None,
+) -> Response:
+    """The bytes of ``app.planning.export.export_bytes`` for a stored plan or simulation."""
+    from app.jobs.tasks import export_trajectory
+
+    row = get_result_row(session, kind, result_id)
+    if row.result is None:
+        state = job_of(session, result_id)["state"]
+        raise ApiError(409, f"{kind} {result_id} has no result (job state {state})")
+    if "motion" not in row.result:
+        raise ApiError(
+            409, f"{kind} {result_id} was stored without its motion block: plan it again"
+        )
+    planned = row.result["motion"].get("methods") or {}
+    if method is not None and method not in planned:
+        raise ApiError(
+            422,
+            f"method '{method}' is not in {kind} {result_id}: expected one of {', '.join(planned)}",
+            field="method",
+        )
+    spec = robots.spec(session, row.robot)
+    try:
+        data = export_trajectory(spec, row.result, fmt, method=method, rate=rate)
+    except BioPlanError as exc:
+        raise ApiError(422, str(exc), field=_export_field(str(exc))) from None
+    chosen = method or row.result["motion"]["default_method"]
+    filename = f"{kind}-{result_id}-{chosen}.{fmt}"  # each format's extension is its name
+    return Response(
+        content=data,
+        media_type=EXPORT_MEDIA_TYPES[fmt],
+        headers={"Content-Disposition": f'attachment; filename="{filename}"'},
+    )
 
 
 def utc(value: datetime | None, field: str) -> datetime | None:

@@ -58,16 +58,45 @@ def plotly_js(request: Request) -> Response:
     return FileResponse(path, media_type="text/javascript", headers=headers)
 
 
+MethodsQuery = Annotated[
+    str | None,
+    Query(
+        max_length=100,
+        description="two planned methods shown as standard,optimized (default: quintic,paper)",
+        examples=["quintic,bound"],
+    ),
+]
+
+
+def method_pair(methods: str | None) -> tuple[str, str] | None:
+    """``"a,b"`` as two distinct method names (``app.names.METHODS``), or a 422 naming it."""
+    from app.names import METHODS
+
+    if methods is None:
+        return None
+    pair = tuple(m.strip() for m in methods.split(","))
+    if len(pair) != 2 or pair[0] == pair[1] or any(m not in METHODS for m in pair):
+        raise ApiError(
+            422,
+            f"methods={methods!r}: expected two different methods a,b of {', '.join(METHODS)}",
+            field="methods",
+        )
+    return pair[0], pair[1]
+
+
 @router.get("/comparisons/{kind}/{result_id}", response_model=dict[str, Any])
 def comparison(
     services: ServicesDep,
     kind: ComparisonKind,
     result_id: IdPath,
     points: Annotated[int, Query(ge=2, le=20000, description="samples per curve")] = 400,
+    methods: MethodsQuery = None,
 ) -> dict[str, Any]:
     """A finished plan's or simulation's curves per joint (SI units), phases, metrics, floors,
-    and where the 3-D viewer shows it."""
-    c = services.comparisons(kind, result_id).comparison
+    and where the 3-D viewer shows it. ``methods=a,b`` shows any two planned methods as
+    ``standard`` (a) and ``optimized`` (b); ``summary.methods`` says which."""
+    pair = method_pair(methods)
+    c = services.comparisons(kind, result_id, pair).comparison
     out = c.summary()
     out["curves"] = c.curves(points=points)
     out["result"] = c.result
@@ -83,8 +112,9 @@ def comparison(
         if viewer is not None and viewer.running
         else {"enabled": False}
     )
+    suffix = "" if pair is None else f"&methods={pair[0]},{pair[1]}"
     out["exports"] = {
-        fmt: f"/api/viewer/comparisons/{kind}/{result_id}/export?format={fmt}"
+        fmt: f"/api/viewer/comparisons/{kind}/{result_id}/export?format={fmt}{suffix}"
         for fmt in ("scene", "report")
     }
     return out
@@ -104,9 +134,10 @@ def export(
         Query(description="scene: 3-D animation (viser); report: curves and metrics (Plotly)"),
     ] = "scene",
     layout: Literal["ghost", "side_by_side"] = "ghost",
+    methods: MethodsQuery = None,
 ) -> Response:
     """A file that opens without the server: the recorded 3-D comparison, or the report."""
-    prepared = services.comparisons(kind, result_id)
+    prepared = services.comparisons(kind, result_id, method_pair(methods))
     if format == "scene":
         page = scene_html(prepared, layout=layout)
     else:

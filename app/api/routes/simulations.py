@@ -6,13 +6,17 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
 
-from app.api.deps import ServicesDep, SessionDep, WriteAccess
+from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import (
     PROBLEM_RESPONSES,
+    FormatQuery,
     IdPath,
+    MethodQuery,
+    RateQuery,
     arrays_out,
     list_results,
     result_out,
+    trajectory_out,
 )
 from app.api.routes.plans import check_task
 from app.api.schemas import ArraysOut, Job, JobState, Page, ResultOut, SimulationRequest
@@ -60,3 +64,23 @@ def get_simulation_arrays(
     name: Annotated[list[str] | None, Query(description="array names (default: all)")] = None,
 ) -> dict[str, Any]:
     return arrays_out(session, "simulation", simulation_id, points=points, names=name)
+
+
+@router.get(
+    "/{simulation_id}/trajectory",
+    response_class=Response,
+    responses={200: {"description": "the export file", "content": {"text/csv": {}}}},
+)
+def get_simulation_trajectory(
+    session: SessionDep,
+    robots: RobotsDep,
+    simulation_id: IdPath,
+    format: FormatQuery,
+    rate: RateQuery = None,
+    method: MethodQuery = None,
+) -> Response:
+    """One method's trajectory as a file (``bioplan export``): csv, json, yaml (ROS 2
+    JointTrajectory), mcap (rosbag2), script (URScript) or mot (OpenSim); ``docs/export.md``."""
+    return trajectory_out(
+        session, robots, "simulation", simulation_id, fmt=format, rate=rate, method=method
+    )
