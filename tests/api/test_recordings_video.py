@@ -192,3 +192,21 @@ def test_a_cancelled_pose_job_leaves_nothing_half_stored(
     assert_problem(api.post(f"/api/recordings/{rid}/pose"), 409)
     api.post(f"/api/jobs/{job2['id']}/cancel")
     assert wait_job(api, job2["id"])["state"] == "cancelled"
+
+
+def test_a_video_without_a_person_fails_its_job_and_stores_nothing(
+    api: TestClient, tmp_path: Path
+) -> None:
+    import numpy as np
+
+    from tests.recordings.test_video import _write_video
+
+    blank = _write_video(tmp_path / "empty.mp4", [np.full((120, 160, 3), 90)] * 12)
+    rec = _send(api, "empty.mp4", blank.read_bytes()).json()
+    (job,) = rec["pose_jobs"]
+    ended = wait_job(api, job["id"])
+    assert ended["state"] == "failed" and "no person detected" in ended["error"], ended
+    detail = api.get(f"/api/recordings/{rec['id']}").json()
+    assert [f["role"] for f in detail["files"]] == ["video"] and detail["frames_url"] is None
+    assert detail["files"][0]["pose"]["job"]["state"] == "failed"
+    assert api.get("/api/analyses", params={"recording_id": rec["id"]}).json()["total"] == 0
