@@ -378,6 +378,10 @@ class JobService:
                 if job.kind == "pose":
                     if recordings.store_pose(session, self.blobs, ev.job_id, out):
                         analyse = int(job.params["recording_id"])
+                    else:  # cancelled meanwhile (left as it is) or its video deleted
+                        vanished = "its video was deleted before the landmarks were stored"
+                        self._set_state(ev.job_id, "failed", error=vanished)
+                        return
                 else:
                     crud.store_result(
                         session=session,

@@ -156,6 +156,11 @@ def test_video_to_pose_to_analysis_end_to_end(api: TestClient, video: Path) -> N
     assert analysed["result"]["files"][0]["format"] == "mediapipe_json"
     assert analysed["summary"]["session"] == "separate"
 
+    # Deleting the recording takes its video, landmarks and frames along.
+    assert api.delete(f"/api/recordings/{rid}").status_code == 204
+    assert_problem(api.get(f"/api/recordings/{rid}/frames"), 404)
+    assert api.get(job["result_url"]).json()["recording_id"] is None
+
 
 def test_a_cancelled_pose_job_leaves_nothing_half_stored(
     api: TestClient, video: Path, folder: Path
