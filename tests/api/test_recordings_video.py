@@ -215,3 +215,12 @@ def test_a_video_without_a_person_fails_its_job_and_stores_nothing(
     assert [f["role"] for f in detail["files"]] == ["video"] and detail["frames_url"] is None
     assert detail["files"][0]["pose"]["job"]["state"] == "failed"
     assert api.get("/api/analyses", params={"recording_id": rec["id"]}).json()["total"] == 0
+
+
+def test_deleting_a_recording_cancels_its_pose_job(api: TestClient, video: Path) -> None:
+    rec = _send(api, video.name, video.read_bytes()).json()
+    (job,) = rec["pose_jobs"]
+    assert api.delete(f"/api/recordings/{rec['id']}").status_code == 204
+    ended = wait_job(api, job["id"])
+    assert ended["state"] == "cancelled", ended
+    assert_problem(api.get(f"/api/recordings/{rec['id']}"), 404)

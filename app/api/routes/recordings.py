@@ -4,6 +4,7 @@ for plotting, raw files, a video's skeleton frames and pose extraction, delete."
 
 from __future__ import annotations
 
+import contextlib
 import json
 from datetime import datetime
 from pathlib import PurePosixPath
@@ -456,6 +457,12 @@ def get_raw_file(
 
 @router.delete("/{recording_id}", status_code=204, dependencies=[WriteAccess])
 def delete_recording(services: ServicesDep, session: SessionDep, recording_id: IdPath) -> Response:
+    """Delete a recording with its files, landmarks and skeleton frames; its pose jobs still
+    queued or running are cancelled first (their workers stop; nothing of them is stored)."""
+    for job in crud.pose_jobs(session=session, recording_id=recording_id).values():
+        if job.state in ("queued", "running"):
+            with contextlib.suppress(ConflictError):  # it ended meanwhile
+                services.jobs.cancel(job.id)
     deleted = crud.delete_recording(
         session=session, blobs=services.blobs, recording_id=recording_id
     )
