@@ -15,6 +15,8 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
+from app.names import MAX_VIDEO_SECONDS
+
 _DASK_ADDRESS = re.compile(r"^(dask|tcp|tls)://[^\s/:]+:\d{1,5}$")
 
 #: The dashboard's pages as shipped inside the installed package (``app/frontend``).
@@ -52,6 +54,8 @@ class Settings(BaseSettings):
         viewer_host, viewer_port: where the viewer binds (viser takes the next free port when
             this one is busy; ``GET /api/viewer`` reports the real one).
         frontend_dir: the dashboard's pages (default: those shipped inside the package).
+        max_video_seconds: longest uploaded video turned into pose [s] (refused at upload when
+            its container states a longer duration; the pose job stops at it otherwise).
         log_level: the server's log level.
     """
 
@@ -71,6 +75,7 @@ class Settings(BaseSettings):
     viewer_host: str = "127.0.0.1"
     viewer_port: int = Field(default=8080, ge=1, le=65535)
     frontend_dir: Path | None = None
+    max_video_seconds: float = Field(default=MAX_VIDEO_SECONDS, gt=0, le=86400)  # F2: videos
     log_level: Literal["debug", "info", "warning", "error"] = "info"
 
     @field_validator("cors_origins", mode="before")

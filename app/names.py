@@ -182,6 +182,15 @@ class EmgDefaults:
 
 EMG_DEFAULTS = EmgDefaults()
 
+#: Longest video turned into pose by default [s] (``bioplan analyze --max-video-seconds``,
+#: ``BIOPLAN_MAX_VIDEO_SECONDS``).
+MAX_VIDEO_SECONDS = 600.0
+#: Frames of a video returned with the detected skeleton drawn, for the user to check the fit.
+SKELETON_FRAMES = 4
+#: How files uploaded together relate: separate trials (each on its own clock, the default) or
+#: one session recorded at the same time (joined on one clock).
+SESSION_MODES: tuple[str, ...] = ("separate", "together")
+
 #: Every job state; a job in a terminal state never changes again.
 JOB_STATES: tuple[str, ...] = ("queued", "running", "succeeded", "failed", "cancelled")
 TERMINAL_JOB_STATES: frozenset[str] = frozenset({"succeeded", "failed", "cancelled"})

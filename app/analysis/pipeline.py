@@ -31,6 +31,7 @@ from app.analysis.pose import ArmAngles, angles_from_channels, arm_angles
 from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lifts, split_phases
 from app.analysis.sync import estimate_offset
 from app.analysis.template import LiftProfile, build_template, consensus_order, lift_profile
+from app.names import MAX_VIDEO_SECONDS
 from app.planning.human_template import HumanTemplate
 from app.recordings.types import SITES, Channel, RateCheck, Recording, RecordingError, rate_check
 
@@ -982,7 +983,7 @@ def analyze_files(
     frame_rate: float | None = None,
     image_size: tuple[int, int] | None = None,
     pose_python: str | Path | None = None,
-    max_video_seconds: float = 600.0,
+    max_video_seconds: float = MAX_VIDEO_SECONDS,
 ) -> AnalysisResult:
     """Read files with ``app.recordings.read_recording`` and analyse them.
 

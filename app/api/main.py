@@ -10,6 +10,7 @@ from app.api.routes import (
     jobs,
     meta,
     plans,
+    poses,
     profiles,
     recordings,
     robots,
@@ -21,6 +22,7 @@ api_router = APIRouter()
 api_router.include_router(meta.router)
 api_router.include_router(recordings.router)
 api_router.include_router(analyses.router)
+api_router.include_router(poses.router)
 api_router.include_router(plans.router)
 api_router.include_router(simulations.router)
 api_router.include_router(sweeps.router)

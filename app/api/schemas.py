@@ -41,7 +41,7 @@ else:
     JobState = Literal[JOB_STATES]
     MethodName = Literal[tuple(METHODS)]
     HumanConstraint = Literal[HUMAN_CONSTRAINTS]
-JobKind = Literal["analysis", "plan", "simulation", "sweep", "profiles"]
+JobKind = Literal["analysis", "pose", "plan", "simulation", "sweep", "profiles"]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
 T = TypeVar("T")
@@ -144,6 +144,22 @@ class Job(BaseModel):
 
 
 # -------------------------------------------------------------------------------- recordings
+# Recordings, videos and analyses (F2). Ranges below are those the readers and the analysis
+# accept, so a request the API takes does not fail later in its job.
+
+#: Lowest EMG rate accepted [Hz]: the band-pass starts at 20 Hz and surface EMG carries
+#: 50-150 Hz, which a lower rate cannot hold.
+EMG_RATE_MIN_HZ = 100.0
+#: Highest sampling rate any reader accepts [Hz].
+RATE_MAX_HZ = 100_000.0
+
+SessionMode = Literal["separate", "together"]
+FileRole = Literal["recording", "sidecar", "video"]
+if TYPE_CHECKING:
+    SiteOrNone = str
+else:  # a site, or "none" to unmap a channel the reader mapped
+    SiteOrNone = Literal[(*MUSCLE_COLOURS, "none")]
+ChannelName = Annotated[str, Field(min_length=1, max_length=200)]
 
 
 class ChannelInfo(BaseModel):
@@ -157,6 +173,32 @@ class ChannelInfo(BaseModel):
     n_samples: int
     dims: int = Field(description="1 for scalar signals, 3 for landmarks and markers")
     duration: float = Field(description="[s]")
+    flat: bool = Field(description="constant (an unused input): left out of the analysis")
+    excluded: bool = Field(description="left out of the analysis by the user (PATCH)")
+
+
+class RateCheckInfo(BaseModel):
+    """An implausible stored EMG rate (``app.recordings.rate_check``) and the one-request fix."""
+
+    file: str = Field(description="the file whose EMG rate looks wrong")
+    stored_rate_hz: float
+    suggested_rate_hz: float
+    median_frequency_hz: float = Field(description="EMG spectral median at the stored rate")
+    channels: list[str]
+    reason: str
+    rerun: dict[str, Any] = Field(
+        description="the request that re-reads the files at the suggested rate and reruns the"
+        " analysis: {method, url, json}"
+    )
+
+
+class PoseStatus(BaseModel):
+    """The newest pose extraction of an uploaded video."""
+
+    job: Job
+    result: dict[str, Any] | None = Field(
+        description="frames, frames_with_pose, fps, image_size, warnings, landmarks_file_id"
+    )
 
 
 class FileInfo(BaseModel):
@@ -166,6 +208,18 @@ class FileInfo(BaseModel):
     size: int = Field(description="[bytes]")
     sha256: str
     metadata: dict[str, Any]
+    role: FileRole = Field(
+        description="recording (read and analysed), sidecar (of parent_id), video (to pose)"
+    )
+    parent_id: int | None = Field(
+        description="a sidecar's EDF; the video a landmarks file was extracted from"
+    )
+    warnings: list[str] = Field(description="what the reader noted (flat channels, rates...)")
+    rate_check: RateCheckInfo | None
+    video: dict[str, Any] | None = Field(
+        description="a video's container: duration_s, width, height, frames, fps_hz"
+    )
+    pose: PoseStatus | None = Field(description="a video's newest pose extraction")
     channels: list[ChannelInfo]
 
 
@@ -179,11 +233,63 @@ class RecordingSummary(BaseModel):
     n_files: int
     formats: list[str]
     file_names: list[str]
+    session: SessionMode = Field(description="separate trials, or recorded together")
 
 
 class RecordingDetail(RecordingSummary):
-    options: dict[str, Any] = Field(description="reader overrides used at upload")
+    options: dict[str, Any] = Field(
+        description="reader options (rate, emg_rate, muscle_map, image_size, frame_rate, format)"
+        " and exclude_channels, as uploaded or last changed"
+    )
+    updated_at: datetime | None
+    rate_check: RateCheckInfo | None = Field(description="the first file's implausible EMG rate")
+    warnings: list[str] = Field(description="every file's reader warnings, named by file")
+    frames_url: str | None = Field(description="the video frames with the detected skeleton")
     files: list[FileInfo]
+    pose_jobs: list[Job] = Field(description="pose extractions started by this request")
+    analysis_job: Job | None = Field(
+        default=None, description="the analysis this request started (PATCH with analyse)"
+    )
+
+
+class RecordingPatch(BaseModel):
+    """Change a stored recording; the files are read again with the new options (no upload).
+
+    A field left out keeps its value; ``null`` clears an option.
+    """
+
+    model_config = _strict
+
+    subject: str | None = Field(default=None, max_length=200)
+    task: str | None = Field(default=None, max_length=200)
+    notes: str | None = Field(default=None, max_length=10000)
+    load_kg: float | None = Field(default=None, ge=0, le=100, description="load lifted [kg]")
+    session: SessionMode | None = Field(default=None, description="separate or together")
+    muscle_map: dict[ChannelName, SiteOrNone] | None = Field(
+        default=None,
+        max_length=200,
+        description='channel label -> site ("none" unmaps); replaces the stored map',
+    )
+    exclude_channels: list[ChannelName] | None = Field(
+        default=None, max_length=500, description="channels left out of the analysis"
+    )
+    emg_rate: float | None = Field(
+        default=None, ge=EMG_RATE_MIN_HZ, le=RATE_MAX_HZ, description="true EMG rate [Hz]"
+    )
+    rate: float | None = Field(
+        default=None, ge=1, le=RATE_MAX_HZ, description="rate of files that state none [Hz]"
+    )
+    frame_rate: float | None = Field(default=None, gt=0, le=1e4, description="pose [fps]")
+    image_size: (
+        tuple[Annotated[int, Field(ge=1, le=100000)], Annotated[int, Field(ge=1, le=100000)]] | None
+    ) = Field(default=None, description="[width, height] of the video MediaPipe ran on [px]")
+    format: str | None = Field(
+        default=None, max_length=32, description="reader to use instead of detecting it"
+    )
+    analyse: bool = Field(
+        default=True,
+        description="rerun the analysis now (options of the newest analysis, files as changed)",
+    )
 
 
 class SignalSeries(BaseModel):
@@ -209,33 +315,60 @@ class Signals(BaseModel):
     channels: list[Signal]
 
 
+class SkeletonFrameInfo(BaseModel):
+    k: int = Field(description="index in this list; the image is at url")
+    file_id: int = Field(description="the video")
+    video: str = Field(description="the video's file name")
+    frame: int = Field(description="0-based frame index in the video")
+    time_s: float = Field(description="its time in the video [s]")
+    url: str
+
+
+class SkeletonFrames(BaseModel):
+    recording_id: int
+    frames: list[SkeletonFrameInfo]
+
+
 # -------------------------------------------------------------------------------- analyses
 
 
 class AnalysisRequest(BaseModel):
-    """Analyse the files of one recording (``bioplan analyze``)."""
+    """Analyse the files of one recording (``bioplan analyze``). Options left out take the
+    recording's (emg_rate, muscle_map, exclude_channels, session, load)."""
 
     model_config = _strict
 
-    recording_id: int = Field(ge=1)
-    emg_rate: float | None = Field(default=None, gt=0, le=1e6, description="override [Hz]")
-    muscle_map: dict[str, Site] | None = Field(
-        default=None, description="channel label -> EMG site; overrides the upload's"
+    recording_id: int = Field(ge=1, le=2**31 - 1)
+    emg_rate: float | None = Field(
+        default=None, ge=EMG_RATE_MIN_HZ, le=RATE_MAX_HZ, description="override [Hz]"
+    )
+    muscle_map: dict[ChannelName, SiteOrNone] | None = Field(
+        default=None,
+        max_length=200,
+        description="channel label -> EMG site; overrides the upload's",
+    )
+    exclude_channels: list[ChannelName] | None = Field(
+        default=None, max_length=500, description="channels left out; default: the recording's"
     )
     phase_bounds_deg: tuple[float, float] = Field(
         default=PHASE_BOUNDS_DEG, description="A/B and B/C elbow-flexion bounds [deg]"
     )
-    body_mass: float = Field(default=75.0, gt=0, le=500, description="[kg]")
-    body_height: float = Field(default=1.75, gt=0.5, le=2.5, description="[m]")
+    body_mass: float = Field(default=75.0, ge=20, le=250, description="[kg]")
+    body_height: float = Field(default=1.75, ge=1.0, le=2.5, description="[m]")
     load_mass: float | None = Field(
-        default=None, ge=0, le=500, description="[kg]; default: the recording's load_kg"
+        default=None, ge=0, le=100, description="[kg]; default: the recording's load_kg, else 12"
     )
-    together: bool = Field(
-        default=False, description="the files are parts of one session (e.g. EMG + pose)"
+    together: bool | None = Field(
+        default=None,
+        description="the files were recorded at the same time (one clock); default: the"
+        " recording's session mode",
     )
     offset: float | Literal["auto"] | None = Field(
         default=None,
         description='t_emg = t_pose + offset [s]; "auto" estimates it by cross-correlation',
+    )
+    side: Literal["auto", "left", "right"] = Field(
+        default="auto", description="which arm of pose data (auto: the better visible one)"
     )
 
     @field_validator("offset")
@@ -253,12 +386,39 @@ class AnalysisRequest(BaseModel):
         return v
 
 
+class AnalysisSummary(BaseModel):
+    """What a list shows of a finished analysis: the template's origin, lifts, every warning."""
+
+    n_lifts: int
+    template_source: str = Field(description='"N lift(s) with kinematics" or "paper default: ..."')
+    is_paper_default: bool = Field(description="no recorded lift shaped the template")
+    template_lifts: int = Field(description="lifts with kinematics in the template")
+    peak_velocity_angle_deg: float
+    session: SessionMode
+    files: list[dict[str, Any]] = Field(
+        description="per file: file, format, lifts, lifts_with_kinematics, warnings, rate_check"
+    )
+    warnings: list[str] = Field(description="every warning: the analysis' and each file's")
+    settings: dict[str, Any] = Field(description="every option, as used")
+
+
 class AnalysisOut(BaseModel):
     id: int
     recording_id: int | None
     job: Job
+    summary: AnalysisSummary | None = Field(description="null until the job succeeded")
     result: dict[str, Any] | None = Field(description="the JSON of `bioplan analyze --json`")
     template: dict[str, Any] | None = Field(description="the HumanTemplate (planner input)")
+
+
+class PoseOut(BaseModel):
+    """A pose-extraction job of a video and, once it succeeded, what it found."""
+
+    id: int
+    recording_id: int | None
+    video_file_id: int | None
+    job: Job
+    result: dict[str, Any] | None
 
 
 # ----------------------------------------------------------------------------------- plans

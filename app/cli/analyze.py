@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from app.cli._common import CliError, floats, positive, progress_printer
+from app.names import MAX_VIDEO_SECONDS
 from app.planning.jsonsafe import json_safe
 
 
@@ -226,7 +227,10 @@ def register(sub: Any) -> None:
         " the one 'bioplan pose-env' creates)",
     )
     p.add_argument(
-        "--max-video-seconds", type=float, default=600.0, help="longest video accepted [s]"
+        "--max-video-seconds",
+        type=float,
+        default=MAX_VIDEO_SECONDS,
+        help="longest video accepted [s]",
     )
     p.add_argument(
         "--skeletons", default=None, metavar="DIR", help="write video frames with the skeleton"

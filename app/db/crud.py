@@ -7,13 +7,14 @@ and a deletion removes the rows first and only then the blobs nobody refers to a
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
 import numpy as np
-from sqlalchemy import Select, func, or_, select, update
+from sqlalchemy import Select, delete, func, or_, select, update
 from sqlalchemy.orm import Session, selectinload, undefer
 
 from app.db.arrays import encode_array, encode_arrays
@@ -23,9 +24,11 @@ from app.db.models import (
     TERMINAL_STATES,
     ChannelRecord,
     JobRecord,
+    PoseExtraction,
     RecordingFile,
     RecordingSession,
     RobotRecord,
+    SkeletonFrame,
     utcnow,
 )
 from app.planning.jsonsafe import json_safe
@@ -48,6 +51,8 @@ class ParsedFile:
         metadata: what the file states about itself (JSON-ready).
         channels: one dict per channel: ``name, kind, unit, rate, start, site, data``
             ((N,) or (N, 3) float64), ``confidence`` and ``time`` ((N,) or None).
+        role: ``recording``, ``sidecar`` or ``video`` (``app.db.models.FILE_ROLES``).
+        parent: index (in the same upload) of the file this one belongs to, or None.
     """
 
     name: str
@@ -55,6 +60,8 @@ class ParsedFile:
     format: str
     metadata: dict[str, Any] = field(default_factory=dict)
     channels: list[dict[str, Any]] = field(default_factory=list)
+    role: str = "recording"
+    parent: int | None = None
 
 
 def _channel_row(ch: dict[str, Any]) -> ChannelRecord:
@@ -92,8 +99,8 @@ def create_recording(
     Args:
         session: open database session.
         blobs: the file store.
-        meta: ``subject, task, load_kg, notes, options`` of the session.
-        files: parsed files, at least one.
+        meta: ``subject, task, load_kg, notes, options, session_mode`` of the session.
+        files: parsed files, at least one; a file's ``parent`` is the index of an earlier one.
     """
     if not files:
         raise ValueError("a recording needs at least one file")
@@ -105,21 +112,17 @@ def create_recording(
         load_kg=meta.get("load_kg"),
         notes=meta.get("notes"),
         options=json_safe(meta.get("options") or {}),
+        session_mode=meta.get("session_mode") or "separate",
         created_at=utcnow(),
     )
     with blobs.lock:
+        stored: list[RecordingFile] = []
         for f, channel_rows in zip(files, rows, strict=True):
-            sha = blobs.put(f.data)
-            rec.files.append(
-                RecordingFile(
-                    original_name=f.name[:255],
-                    format=f.format,
-                    size=len(f.data),
-                    sha256=sha,
-                    file_metadata=json_safe(f.metadata),
-                    channels=channel_rows,
-                )
-            )
+            row = _file_row(blobs, f, channel_rows)
+            if f.parent is not None:
+                row.parent = stored[f.parent]
+            stored.append(row)
+            rec.files.append(row)
         session.add(rec)
         try:
             session.commit()
@@ -127,6 +130,19 @@ def create_recording(
             session.rollback()
             raise
     return rec
+
+
+def _file_row(blobs: BlobStore, f: ParsedFile, channel_rows: list[ChannelRecord]) -> RecordingFile:
+    """A file row, its bytes put in the blob store (call with ``blobs.lock`` held)."""
+    return RecordingFile(
+        original_name=f.name[:255],
+        format=f.format,
+        size=len(f.data),
+        sha256=blobs.put(f.data),
+        file_metadata=json_safe(f.metadata),
+        role=f.role,
+        channels=channel_rows,
+    )
 
 
 def _recording_filters(
@@ -235,6 +251,7 @@ def list_recording_summaries(
         RecordingSession.load_kg,
         RecordingSession.notes,
         RecordingSession.created_at,
+        RecordingSession.session_mode.label("session"),
     )
     stmt = filtered(select(*cols)).order_by(
         RecordingSession.created_at.desc(), RecordingSession.id.desc()
@@ -242,9 +259,12 @@ def list_recording_summaries(
     rows = session.execute(stmt.limit(limit).offset(offset)).all()
     out = {r.id: {**r._asdict(), "file_names": [], "formats": set()} for r in rows}
     if out:
+        # The files the user uploaded; not the landmarks a pose job extracts from a video
+        # (a page cached until the next upload stays right).
+        uploaded = or_(RecordingFile.role != "recording", RecordingFile.parent_id.is_(None))
         files = session.execute(
             select(RecordingFile.session_id, RecordingFile.original_name, RecordingFile.format)
-            .where(RecordingFile.session_id.in_(list(out)))
+            .where(RecordingFile.session_id.in_(list(out)), uploaded)
             .order_by(RecordingFile.id)
         )
         for sid, name, fmt in files:
@@ -330,6 +350,181 @@ def delete_recording(*, session: Session, blobs: BlobStore, recording_id: int) -
         for sha in hashes - still - robots:
             blobs.delete(sha)
     return True
+
+
+def update_recording(
+    *,
+    session: Session,
+    recording_id: int,
+    values: dict[str, Any],
+    reparsed: dict[int, ParsedFile],
+) -> RecordingSession | None:
+    """Change a recording's metadata and options and replace its files' parsed channels, in one
+    transaction (what ``PATCH /api/recordings/{id}`` does after reading the files again).
+
+    Args:
+        values: columns of the session to set (``subject, task, load_kg, notes, options,
+            session_mode``); ``updated_at`` is set here.
+        reparsed: file id -> the file read again with the new options (its ``format``,
+            ``metadata`` and ``channels`` replace the stored ones; the bytes are unchanged).
+
+    Returns:
+        The session, or None when it does not exist (nothing changed).
+    """
+    rec = get_recording(session=session, recording_id=recording_id)
+    if rec is None:
+        return None
+    rows = {fid: [_channel_row(ch) for ch in f.channels] for fid, f in reparsed.items()}
+    for key, value in values.items():
+        setattr(rec, key, json_safe(value) if key == "options" else value)
+    rec.updated_at = utcnow()
+    for f in rec.files:
+        if f.id in reparsed:
+            f.format = reparsed[f.id].format
+            f.file_metadata = json_safe(reparsed[f.id].metadata)
+            f.channels = rows[f.id]
+    try:
+        session.commit()
+    except BaseException:
+        session.rollback()
+        raise
+    return get_recording(session=session, recording_id=recording_id)
+
+
+@dataclass(frozen=True)
+class SkeletonImage:
+    """A video frame with the skeleton drawn: frame index, time in the video [s], JPEG bytes."""
+
+    frame: int
+    time: float
+    jpeg: bytes
+
+
+def store_pose_result(
+    *,
+    session: Session,
+    blobs: BlobStore,
+    job_id: int,
+    landmarks: ParsedFile,
+    skeletons: Sequence[SkeletonImage],
+    result: dict[str, Any],
+) -> int | None:
+    """Store what a pose job extracted from a video and mark the job succeeded, in one
+    transaction: the landmarks as a file of the recording (child of the video), the skeleton
+    frames, the job's result. Landmarks and frames of an earlier extraction of the same video
+    are replaced.
+
+    Returns:
+        The landmarks file's id, or None when nothing was stored (the job ended meanwhile, or
+        its video or recording was deleted).
+    """
+    rows = [_channel_row(ch) for ch in landmarks.channels]
+    with blobs.lock:
+        job = session.get(JobRecord, job_id, with_for_update=True, populate_existing=True)
+        row = session.get(PoseExtraction, job_id)
+        video = None if row is None or row.video_file_id is None else row.video_file_id
+        video_file = None if video is None else session.get(RecordingFile, video)
+        if job is None or job.state in TERMINAL_STATES or row is None or video_file is None:
+            session.rollback()
+            return None
+        old = _pose_children(session, video_file.id)
+        for child in old:
+            session.delete(child)
+        session.execute(delete(SkeletonFrame).where(SkeletonFrame.file_id == video_file.id))
+        new = _file_row(blobs, landmarks, rows)
+        new.parent_id, new.session_id = video_file.id, video_file.session_id
+        session.add(new)
+        for s in skeletons:
+            session.add(
+                SkeletonFrame(
+                    file_id=video_file.id,
+                    frame=int(s.frame),
+                    time=float(s.time),
+                    sha256=hashlib.sha256(s.jpeg).hexdigest(),
+                    jpeg=s.jpeg,
+                )
+            )
+        session.flush()
+        row.result = json_safe({**result, "landmarks_file_id": new.id})
+        _succeed(job)
+        try:
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+        _drop_unreferenced(session, blobs, {c.sha256 for c in old})
+        return new.id
+
+
+def _pose_children(session: Session, video_id: int) -> list[RecordingFile]:
+    stmt = select(RecordingFile).where(
+        RecordingFile.parent_id == video_id, RecordingFile.role == "recording"
+    )
+    return list(session.scalars(stmt))
+
+
+def _succeed(job: JobRecord, message: str = "done") -> None:
+    now = utcnow()
+    job.state = "succeeded"
+    job.progress = 1.0
+    job.message = message
+    job.finished_at = now
+    job.updated_at = now
+
+
+def _drop_unreferenced(session: Session, blobs: BlobStore, hashes: set[str]) -> None:
+    """Delete the blobs among ``hashes`` that no row refers to any more (``blobs.lock`` held)."""
+    if hashes:
+        refs = referenced_hashes(session=session)
+        for sha in hashes - refs:
+            blobs.delete(sha)
+
+
+def skeleton_frames(*, session: Session, recording_id: int) -> list[tuple[SkeletonFrame, str]]:
+    """The recording's skeleton frames (JPEG not loaded) with their video's file name, in
+    file and frame order."""
+    stmt = (
+        select(SkeletonFrame, RecordingFile.original_name)
+        .join(RecordingFile, RecordingFile.id == SkeletonFrame.file_id)
+        .where(RecordingFile.session_id == recording_id)
+        .order_by(RecordingFile.id, SkeletonFrame.frame)
+    )
+    return [(frame, name) for frame, name in session.execute(stmt).all()]
+
+
+def skeleton_jpeg(*, session: Session, frame_id: int) -> bytes | None:
+    return session.scalars(select(SkeletonFrame.jpeg).where(SkeletonFrame.id == frame_id)).first()
+
+
+def pose_jobs(*, session: Session, recording_id: int) -> dict[int, JobRecord]:
+    """Video file id -> its newest pose-extraction job, for one recording."""
+    stmt = (
+        select(PoseExtraction.video_file_id, JobRecord)
+        .join(JobRecord, JobRecord.id == PoseExtraction.id)
+        .where(PoseExtraction.recording_id == recording_id)
+        .order_by(JobRecord.id)
+    )
+    return {fid: job for fid, job in session.execute(stmt).all() if fid is not None}
+
+
+def list_pose_extractions(
+    *,
+    session: Session,
+    limit: int = 50,
+    offset: int = 0,
+    state: str | None = None,
+    recording_id: int | None = None,
+) -> tuple[list[tuple[PoseExtraction, JobRecord]], int]:
+    """A page of pose extractions with their jobs, newest first, and the total."""
+    stmt = select(PoseExtraction, JobRecord).join(JobRecord, JobRecord.id == PoseExtraction.id)
+    count = select(func.count(PoseExtraction.id)).join(JobRecord, JobRecord.id == PoseExtraction.id)
+    if state is not None:
+        stmt, count = stmt.where(JobRecord.state == state), count.where(JobRecord.state == state)
+    if recording_id is not None:
+        mine = PoseExtraction.recording_id == recording_id
+        stmt, count = stmt.where(mine), count.where(mine)
+    rows = session.execute(stmt.order_by(PoseExtraction.id.desc()).limit(limit).offset(offset))
+    return [(row, job) for row, job in rows.all()], int(session.scalar(count) or 0)
 
 
 # ------------------------------------------------------------------------------------- robots
@@ -490,7 +685,6 @@ def store_result(
 
     A job that was cancelled (or failed) meanwhile keeps its state and gets no result.
     """
-    now = utcnow()
     job = session.get(JobRecord, job_id, with_for_update=True, populate_existing=True)
     if job is None or job.state in TERMINAL_STATES:
         session.rollback()
@@ -504,11 +698,7 @@ def store_result(
         row.arrays = encode_arrays(arrays)
     if template is not None and hasattr(row, "template"):
         row.template = json_safe(template)
-    job.state = "succeeded"
-    job.progress = 1.0
-    job.message = message
-    job.finished_at = now
-    job.updated_at = now
+    _succeed(job, message)
     session.commit()
     return True
 

@@ -1,9 +1,10 @@
 """SQLAlchemy 2 models of the service's database.
 
 Entities: recording sessions, their uploaded files (raw bytes in the blob store, by SHA-256) and
-parsed channels (arrays as compressed ``.npy`` bytes), jobs, and one result table per job kind
-(analyses with their human template, plans, simulations, sweeps) whose primary key is the job's
-id, so ``/api/plans/7`` is the result of job 7. Uploaded robots (URDF + optional MJCF) have their
+parsed channels (arrays as compressed ``.npy`` bytes), the skeleton frames of uploaded videos,
+jobs, and one result table per job kind (analyses with their human template, pose extractions,
+plans, simulations, sweeps) whose primary key is the job's id, so ``/api/plans/7`` is the result
+of job 7. Uploaded robots (URDF + optional MJCF) have their
 own table; built-in robots come from the planning package and are not stored.
 
 The schema is owned by the Alembic migrations in ``app/db/migrations/``; keep them in step.
@@ -44,7 +45,11 @@ NAMING_CONVENTION = {
 #: Job states and the ones a job never leaves (one home: ``app.names``).
 JOB_STATES = _names.JOB_STATES
 TERMINAL_STATES = _names.TERMINAL_JOB_STATES
-JOB_KINDS = ("analysis", "plan", "simulation", "sweep", "profiles")
+JOB_KINDS = ("analysis", "pose", "plan", "simulation", "sweep", "profiles")
+#: What an uploaded file is to its session: a recording (read and analysed; also the landmarks
+#: extracted from a video), a sidecar of another file (BIDS ``_channels.tsv``/``_emg.json`` of an
+#: EDF: used when that file is read, never read on its own), or a video (turned into pose).
+FILE_ROLES = ("recording", "sidecar", "video")
 
 
 def utcnow() -> datetime:
@@ -89,7 +94,11 @@ class RecordingSession(Base):
     #: reader options used at upload (rate overrides, muscle map, image size, frame rate), so an
     #: analysis rereads the raw bytes the same way.
     options: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    #: ``separate`` trials (each file on its own clock) or recorded ``together`` (one clock).
+    session_mode: Mapped[str] = mapped_column(String(16), default="separate")
     created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
+    #: when the options or the metadata were last changed (``PATCH``), None if never.
+    updated_at: Mapped[datetime | None] = mapped_column()
 
     files: Mapped[list[RecordingFile]] = relationship(
         back_populates="session",
@@ -113,8 +122,15 @@ class RecordingFile(Base):
     size: Mapped[int] = mapped_column(BigInteger)
     sha256: Mapped[str] = mapped_column(String(64), index=True)
     file_metadata: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    #: one of ``FILE_ROLES``.
+    role: Mapped[str] = mapped_column(String(16), default="recording")
+    #: the file this one belongs to: a sidecar's EDF, the video a landmarks file came from.
+    parent_id: Mapped[int | None] = mapped_column(
+        ForeignKey("recording_files.id", ondelete="CASCADE"), index=True
+    )
 
     session: Mapped[RecordingSession] = relationship(back_populates="files")
+    parent: Mapped[RecordingFile | None] = relationship(remote_side=[id])
     channels: Mapped[list[ChannelRecord]] = relationship(
         back_populates="file",
         cascade="all, delete-orphan",
@@ -146,6 +162,24 @@ class ChannelRecord(Base):
     time: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
 
     file: Mapped[RecordingFile] = relationship(back_populates="channels")
+
+
+class SkeletonFrame(Base):
+    """One frame of an uploaded video with the detected skeleton drawn (JPEG), for checking
+    the pose fit; replaced with the landmarks when the pose is extracted again."""
+
+    __tablename__ = "skeleton_frames"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    #: the video file.
+    file_id: Mapped[int] = mapped_column(
+        ForeignKey("recording_files.id", ondelete="CASCADE"), index=True
+    )
+    frame: Mapped[int] = mapped_column(Integer)
+    #: time of the frame in the video [s].
+    time: Mapped[float] = mapped_column(Float)
+    sha256: Mapped[str] = mapped_column(String(64))
+    jpeg: Mapped[bytes] = mapped_column(LargeBinary, deferred=True)
 
 
 class RobotRecord(Base):
@@ -220,6 +254,23 @@ class Analysis(_ResultMixin, Base):
     job: Mapped[JobRecord] = relationship()
 
 
+class PoseExtraction(_ResultMixin, Base):
+    """A pose-extraction job of one uploaded video (its landmarks become a file of the
+    recording, its skeleton frames ``SkeletonFrame`` rows, when it succeeds)."""
+
+    __tablename__ = "pose_extractions"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    recording_id: Mapped[int | None] = mapped_column(
+        ForeignKey("recording_sessions.id", ondelete="SET NULL"), index=True
+    )
+    video_file_id: Mapped[int | None] = mapped_column(
+        ForeignKey("recording_files.id", ondelete="SET NULL"), index=True
+    )
+
+    job: Mapped[JobRecord] = relationship()
+
+
 class Plan(_ResultMixin, Base):
     __tablename__ = "plans"
 
@@ -261,9 +312,16 @@ class Profiles(_ResultMixin, Base):
 
 
 RESULT_MODELS: dict[
-    str, type[Analysis] | type[Plan] | type[Simulation] | type[Sweep] | type[Profiles]
+    str,
+    type[Analysis]
+    | type[PoseExtraction]
+    | type[Plan]
+    | type[Simulation]
+    | type[Sweep]
+    | type[Profiles],
 ] = {
     "analysis": Analysis,
+    "pose": PoseExtraction,
     "plan": Plan,
     "simulation": Simulation,
     "sweep": Sweep,

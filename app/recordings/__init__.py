@@ -5,9 +5,11 @@ MediaPipe landmarks in normalised image units) and raises only :class:`Recording
 message names the file, the line or channel, and what was expected.
 """
 
+from app.names import MAX_VIDEO_SECONDS
 from app.recordings._mediapipe import LANDMARK_NAMES
 from app.recordings._read import read_bytes, read_recording
 from app.recordings._sniff import FORMATS, sniff_format
+from app.recordings._video_probe import VideoProbe, looks_like_video, probe_video
 from app.recordings.muscles import map_muscle
 from app.recordings.types import (
     SITES,
@@ -21,7 +23,6 @@ from app.recordings.types import (
     rate_check,
 )
 from app.recordings.video import (
-    MAX_VIDEO_SECONDS,
     POSE_PYTHON_ENV,
     VIDEO_EXTENSIONS,
     PoseCancelled,
@@ -52,12 +53,15 @@ __all__ = [
     "RecordingError",
     "Site",
     "SkeletonFrame",
+    "VideoProbe",
     "create_pose_env",
     "default_pose_env",
     "extract_pose",
     "find_pose_python",
     "is_video",
+    "looks_like_video",
     "map_muscle",
+    "probe_video",
     "rate_check",
     "read_bytes",
     "read_recording",

@@ -29,6 +29,7 @@ from importlib import resources
 from pathlib import Path
 from typing import IO, Any
 
+from app.names import MAX_VIDEO_SECONDS
 from app.progress import ProgressFn, report
 from app.recordings.types import Recording, RecordingError
 
@@ -36,8 +37,6 @@ from app.recordings.types import Recording, RecordingError
 POSE_PYTHON_ENV = "BIOPLAN_POSE_PYTHON"
 #: Video containers accepted (by extension; the content is checked by decoding).
 VIDEO_EXTENSIONS: tuple[str, ...] = (".mp4", ".mov", ".avi")
-#: Default longest video accepted [s].
-MAX_VIDEO_SECONDS = 600.0
 #: What the pose environment holds (mediapipe goes in without its dependencies, whose pins
 #: would pull a numpy 2 build it does not support).
 POSE_REQUIREMENTS: tuple[str, ...] = (

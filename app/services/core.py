@@ -118,6 +118,8 @@ def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Se
         broker=broker,
         robots=robots,
         max_attempts=settings.job_max_attempts,
+        max_video_seconds=settings.max_video_seconds,
+        scratch_dir=settings.data_dir / "scratch" if settings.executor == "local" else None,
     )
     jobs.start()
     return Services(

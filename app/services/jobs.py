@@ -22,16 +22,18 @@ import queue
 import threading
 import time
 from datetime import UTC, datetime
+from pathlib import Path
 from typing import Any
 
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db import crud
 from app.db.blobs import BlobStore
-from app.db.models import Analysis, JobRecord, RecordingSession, utcnow
+from app.db.models import Analysis, JobRecord, utcnow
 from app.errors import BioPlanError
 from app.jobs.runner import JobEvent, JobRunner
-from app.names import TERMINAL_JOB_STATES
+from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
+from app.services import recordings
 from app.services.broker import JobBroker
 from app.services.errors import ConflictError, NotFoundError
 from app.services.robots import RobotCatalog
@@ -41,6 +43,7 @@ logger = logging.getLogger(__name__)
 #: Where each kind of job's result is served (``/api/<path>/<id>``).
 KIND_PATHS = {
     "analysis": "analyses",
+    "pose": "poses",
     "plan": "plans",
     "simulation": "simulations",
     "sweep": "sweeps",
@@ -122,6 +125,9 @@ class JobService:
         robots: built-in and uploaded robots (jobs receive their specs).
         max_attempts: starts allowed per job (a restart under a running job spends one).
         progress_interval: shortest time between two progress writes of one job [s].
+        max_video_seconds: longest video a pose job turns into landmarks [s].
+        scratch_dir: folder for pose jobs' temporary copies of videos (None: the system's
+            temporary folder; a local executor gets one in the data folder).
     """
 
     def __init__(
@@ -134,6 +140,8 @@ class JobService:
         robots: RobotCatalog | None = None,
         max_attempts: int = 2,
         progress_interval: float = 0.25,
+        max_video_seconds: float = MAX_VIDEO_SECONDS,
+        scratch_dir: Path | None = None,
     ) -> None:
         self.sessions = sessions
         self.blobs = blobs
@@ -142,6 +150,8 @@ class JobService:
         self.robots = robots or RobotCatalog(blobs=blobs)
         self.max_attempts = max_attempts
         self.progress_interval = progress_interval
+        self.max_video_seconds = max_video_seconds
+        self.scratch_dir = scratch_dir
         self._events: queue.Queue[Any] = queue.Queue()
         self._writer: threading.Thread | None = None
         self._closed = False
@@ -282,34 +292,16 @@ class JobService:
             raise ConflictError(f"analysis {analysis_id} has no template yet (job state {state})")
         return row.template
 
-    def _analysis_payload(self, session: Session, params: dict[str, Any]) -> dict[str, Any]:
-        """An analysis job's input: the recording's raw files and the options."""
-        rec = session.get(RecordingSession, params["recording_id"])
-        if rec is None:
-            raise NotFoundError(f"recording {params['recording_id']} no longer exists")
-        read_options = dict(rec.options)
-        for key in ("emg_rate", "muscle_map"):
-            if params.get(key) is not None:
-                read_options[key] = params[key]
-        load = params.get("load_mass")
-        options = {
-            "emg_rate": params.get("emg_rate"),
-            "muscle_map": read_options.get("muscle_map"),
-            "phase_bounds_deg": params.get("phase_bounds_deg"),
-            "body_mass": params.get("body_mass"),
-            "body_height": params.get("body_height"),
-            "load_mass": load if load is not None else rec.load_kg,
-            "together": params.get("together") or None,
-            "offset": params.get("offset"),
-        }
-        files = [{"name": f.original_name, "data": self.blobs.get(f.sha256)} for f in rec.files]
-        return {"files": files, "read_options": read_options, "options": options}
-
     def build_payload(self, session: Session, job: JobRecord) -> dict[str, Any]:
         """The job function's input, from the request stored with the job."""
         params = job.params
         if job.kind == "analysis":
-            return self._analysis_payload(session, params)
+            return recordings.analysis_payload(session, self.blobs, params)
+        if job.kind == "pose":
+            scratch = None if self.scratch_dir is None else str(self.scratch_dir)
+            return recordings.pose_payload(
+                session, self.blobs, params, max_seconds=self.max_video_seconds, scratch_dir=scratch
+            )
         payload = dict(params)
         payload["robot"] = self.robots.spec(session, params["robot"])
         if job.kind in ("plan", "simulation") and params.get("template_analysis_id") is not None:
@@ -378,24 +370,47 @@ class JobService:
 
     def _store(self, ev: JobEvent) -> None:
         out = ev.result or {}
+        analyse: int | None = None
         try:
             with self.sessions() as session:
                 job = crud.get_job(session=session, job_id=ev.job_id)
                 if job is None:
                     return
-                crud.store_result(
-                    session=session,
-                    job_id=ev.job_id,
-                    kind=job.kind,
-                    result=out["result"],
-                    arrays=out.get("arrays"),
-                    template=out.get("template"),
-                )
+                if job.kind == "pose":
+                    if recordings.store_pose(session, self.blobs, ev.job_id, out):
+                        analyse = int(job.params["recording_id"])
+                    else:  # cancelled meanwhile (left as it is) or its video deleted
+                        vanished = "its video was deleted before the landmarks were stored"
+                        self._set_state(ev.job_id, "failed", error=vanished)
+                        return
+                else:
+                    crud.store_result(
+                        session=session,
+                        job_id=ev.job_id,
+                        kind=job.kind,
+                        result=out["result"],
+                        arrays=out.get("arrays"),
+                        template=out.get("template"),
+                    )
         except Exception as exc:
             logger.exception("cannot store the result of job %d", ev.job_id)
             self._set_state(ev.job_id, "failed", error=f"cannot store the result: {exc}")
             return
         self._publish(ev.job_id)
+        self._analyse_after_pose(analyse)
+
+    def _analyse_after_pose(self, recording_id: int | None) -> None:
+        """Analyse a recording once its video became pose (with the options of its newest
+        analysis); not while another of its videos is still being extracted."""
+        if recording_id is None:
+            return
+        try:
+            with self.sessions() as session:
+                params = recordings.rerun_params(session, recording_id)
+        except BioPlanError as exc:
+            logger.info("recording %d not analysed after its pose job: %s", recording_id, exc)
+            return
+        self.submit(kind="analysis", params=params, resource={"recording_id": recording_id})
 
     def _write_loop(self) -> None:
         pending: dict[int, JobEvent] = {}

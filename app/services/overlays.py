@@ -16,8 +16,9 @@ from typing import TYPE_CHECKING
 from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 
+from app.db import crud
 from app.db.arrays import decode_arrays
-from app.db.models import Analysis, JobRecord, RecordingSession
+from app.db.models import Analysis, JobRecord, RecordingFile, RecordingSession
 from app.services.errors import AnalysisPending, NotFoundError
 from app.services.jobs import job_to_dict
 
@@ -70,6 +71,32 @@ class RecordingOverlays:
         return analysis_id, overlays
 
     @staticmethod
+    def _pose_pending(session: Session, recording_id: int) -> None:
+        """Raise when the recording's video is still being turned into pose, or when that
+        failed and nothing else can be analysed (the page follows or reports that job)."""
+        jobs = crud.pose_jobs(session=session, recording_id=recording_id)
+        if not jobs:
+            return
+        job = job_to_dict(max(jobs.values(), key=lambda j: j.id))
+        if job["state"] in ("queued", "running"):
+            raise AnalysisPending(
+                f"the video of recording {recording_id} is being turned into pose (job"
+                f" {job['id']}, {job['state']}); it is analysed when that ends",
+                job=job,
+            )
+        has_data = session.scalars(
+            select(RecordingFile.id)
+            .where(RecordingFile.session_id == recording_id, RecordingFile.role == "recording")
+            .limit(1)
+        ).first()
+        if job["state"] != "succeeded" and has_data is None:
+            reason = job["error"] or job["message"]
+            raise AnalysisPending(
+                f"pose extraction {job['id']} of recording {recording_id} {job['state']}: {reason}",
+                job=job,
+            )
+
+    @staticmethod
     def _newest(session: Session, recording_id: int) -> int:
         """The id of the recording's newest finished analysis with overlays."""
         if session.get(RecordingSession, recording_id) is None:
@@ -86,6 +113,7 @@ class RecordingOverlays:
         ).first()
         if analysis_id is not None:
             return int(analysis_id)
+        RecordingOverlays._pose_pending(session, recording_id)
         # Never analysed, still running, failed, or analysed by a version that kept no
         # overlays: say which job (if any) the page should wait for or report.
         newest_id = session.scalars(mine.order_by(Analysis.id.desc()).limit(1)).first()

@@ -16,7 +16,8 @@ from app.api.routes._common import (
     list_results,
 )
 from app.api.schemas import AnalysisOut, AnalysisRequest, Job, JobState, Page
-from app.db.models import RecordingSession
+from app.services.recording_views import analysis_summary
+from app.services.recordings import analysis_params
 
 router = APIRouter(prefix="/api/analyses", tags=["analyses"], responses=PROBLEM_RESPONSES)
 
@@ -25,14 +26,14 @@ router = APIRouter(prefix="/api/analyses", tags=["analyses"], responses=PROBLEM_
 def submit_analysis(
     body: AnalysisRequest, session: SessionDep, jobs: JobsDep, response: Response
 ) -> dict[str, Any]:
-    """Queue an analysis of a stored recording; poll the job or follow its events."""
-    if session.get(RecordingSession, body.recording_id) is None:
-        raise ApiError(422, f"recording {body.recording_id} does not exist", field="recording_id")
-    job = jobs.submit(
-        kind="analysis",
-        params=body.model_dump(mode="json"),
-        resource={"recording_id": body.recording_id},
-    )
+    """Queue an analysis of a stored recording; poll the job or follow its events.
+
+    Options left out take the recording's (its EMG rate, muscle map, excluded channels,
+    session mode, load); the job's ``params`` are the options it runs with. 409 while the
+    recording's video is being turned into pose (the problem's ``job``: that pose job).
+    """
+    params = analysis_params(session, body.model_dump(mode="json"))
+    job = jobs.submit(kind="analysis", params=params, resource={"recording_id": body.recording_id})
     response.headers["Location"] = job["result_url"]
     return job
 
@@ -47,7 +48,8 @@ def list_analyses(
         int | None, Query(ge=1, le=2**31 - 1, description="only this recording's analyses")
     ] = None,
 ) -> dict[str, Any]:
-    """Analyses, newest first; filter by job state and by recording."""
+    """Analyses, newest first; filter by job state and by recording. Each finished one has a
+    ``summary``: where its template came from (``is_paper_default``), lifts, every warning."""
     items, total = list_results(
         session,
         "analysis",
@@ -56,6 +58,8 @@ def list_analyses(
         state=state,
         recording_id=recording_id,
     )
+    for item in items:
+        item["summary"] = analysis_summary(item["result"])
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
@@ -66,6 +70,7 @@ def get_analysis(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
         "id": row.id,
         "recording_id": row.recording_id,
         "job": job_of(session, row.id),
+        "summary": analysis_summary(row.result),
         "result": row.result,
         "template": row.template,
     }

@@ -1,76 +1,57 @@
-"""Recordings: upload (multipart), list, detail, signals for plotting, raw files, delete."""
+"""Recordings: upload (multipart: recordings, BIDS sidecars, videos), list, detail, changes
+(``PATCH``: metadata, session mode, reader options, excluded channels, then a rerun), signals
+for plotting, raw files, a video's skeleton frames and pose extraction, delete."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 from datetime import datetime
 from pathlib import PurePosixPath
 from typing import Annotated, Any, get_args
 
 import numpy as np
-from fastapi import APIRouter, File, Form, Query, Response, UploadFile
+from fastapi import APIRouter, File, Form, Path, Query, Request, Response, UploadFile
 from pydantic import Field, TypeAdapter
+from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
 from app.analysis.downsample import minmax_downsample
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, utc
-from app.api.schemas import Page, RecordingDetail, RecordingSummary, Signals, Site
+from app.api.schemas import (
+    EMG_RATE_MIN_HZ,
+    RATE_MAX_HZ,
+    Page,
+    RecordingDetail,
+    RecordingPatch,
+    RecordingSummary,
+    SessionMode,
+    Signals,
+    Site,
+    SkeletonFrames,
+)
 from app.db import crud
 from app.db.arrays import decode_array
 from app.db.models import RecordingFile, RecordingSession
-from app.services import store_recording
+from app.errors import BioPlanError
+from app.recordings.video import find_pose_python
+from app.services import ConflictError, Services, job_to_dict, store_recording
+from app.services.recording_views import recording_detail
+from app.services.recordings import (
+    get_recording as get_stored,
+)
+from app.services.recordings import (
+    is_video_upload,
+    rerun_params,
+    update_recording,
+    videos_without_pose,
+)
 
 router = APIRouter(prefix="/api/recordings", tags=["recordings"], responses=PROBLEM_RESPONSES)
 
-_SITES: set[str] = set(get_args(Site))
-
-
-def _summary(rec: RecordingSession) -> dict[str, Any]:
-    return {
-        "id": rec.id,
-        "subject": rec.subject,
-        "task": rec.task,
-        "load_kg": rec.load_kg,
-        "notes": rec.notes,
-        "created_at": rec.created_at,
-        "n_files": len(rec.files),
-        "formats": sorted({f.format for f in rec.files}),
-        "file_names": [f.original_name for f in rec.files],
-    }
-
-
-def _detail(rec: RecordingSession) -> dict[str, Any]:
-    out = _summary(rec)
-    out["options"] = rec.options
-    out["files"] = [
-        {
-            "id": f.id,
-            "original_name": f.original_name,
-            "format": f.format,
-            "size": f.size,
-            "sha256": f.sha256,
-            "metadata": f.file_metadata,
-            "channels": [
-                {
-                    "id": c.id,
-                    "name": c.name,
-                    "kind": c.kind,
-                    "unit": c.unit,
-                    "rate": c.rate,
-                    "start": c.start,
-                    "site": c.site,
-                    "n_samples": c.n_samples,
-                    "dims": c.dims,
-                    "duration": c.n_samples / c.rate if c.rate > 0 else 0.0,
-                }
-                for c in f.channels
-            ],
-        }
-        for f in rec.files
-    ]
-    return out
+_SITES: set[str] = {*get_args(Site), "none"}
 
 
 def _safe_name(name: str | None, index: int) -> str:
@@ -130,18 +111,34 @@ def upload_recording(
     services: ServicesDep,
     session: SessionDep,
     files: Annotated[
-        list[UploadFile], File(description="recording files; the format is detected from content")
+        list[UploadFile],
+        File(
+            description="recording files (format detected from content), BIDS sidecars of an"
+            " EDF (<stem>_channels.tsv, <stem>_emg.json), videos (mp4, mov, avi)"
+        ),
     ],
     subject: Annotated[str | None, Form(max_length=200)] = None,
     task: Annotated[str | None, Form(max_length=200)] = None,
-    load_kg: Annotated[float | None, Form(ge=0, le=500, description="load lifted [kg]")] = None,
+    load_kg: Annotated[float | None, Form(ge=0, le=100, description="load lifted [kg]")] = None,
     notes: Annotated[str | None, Form(max_length=10000)] = None,
+    session_mode: Annotated[
+        SessionMode,
+        Form(
+            alias="session",
+            description="separate: trials on their own clocks (default); together: recorded at"
+            " the same time (e.g. an EMG file and the video of the same lifts)",
+        ),
+    ] = "separate",
     muscle_map: Annotated[
         str | None,
         Form(description='JSON object: channel label -> site, e.g. {"Biceps.EMG4": "biceps"}'),
     ] = None,
-    rate: Annotated[float | None, Form(gt=0, le=1e6, description="sampling rate [Hz]")] = None,
-    emg_rate: Annotated[float | None, Form(gt=0, le=1e6, description="EMG rate [Hz]")] = None,
+    rate: Annotated[
+        float | None, Form(ge=1, le=RATE_MAX_HZ, description="rate of files that state none [Hz]")
+    ] = None,
+    emg_rate: Annotated[
+        float | None, Form(ge=EMG_RATE_MIN_HZ, le=RATE_MAX_HZ, description="true EMG rate [Hz]")
+    ] = None,
     image_size: Annotated[
         str | None, Form(description="WIDTHxHEIGHT [px] for normalised landmarks")
     ] = None,
@@ -151,7 +148,12 @@ def upload_recording(
         Form(max_length=32, description="reader to use instead of detecting it (e.g. c3d)"),
     ] = None,
 ) -> dict[str, Any]:
-    """Parse and store every file in one transaction: all of them, or none when one fails."""
+    """Parse and store every file in one transaction: all of them, or none when one fails.
+
+    Videos are checked here (container, video track, stated duration within the server's
+    limit) and stored; a pose job per video then extracts the landmarks (``pose_jobs``), and
+    the recording is analysed when they are stored.
+    """
     options = {
         "rate": rate,
         "emg_rate": emg_rate,
@@ -160,15 +162,53 @@ def upload_recording(
         "frame_rate": frame_rate,
         "format": format,
     }
+    uploads = [(_safe_name(f.filename, i), f.file.read()) for i, f in enumerate(files)]
+    if any(is_video_upload(name, data) for name, data in uploads):
+        _require_pose_environment(services)
     rec = store_recording(
         session=session,
         blobs=services.blobs,
-        files=[(_safe_name(f.filename, i), f.file.read()) for i, f in enumerate(files)],
+        files=uploads,
         meta={"subject": subject, "task": task, "load_kg": load_kg, "notes": notes},
         options={k: v for k, v in options.items() if v is not None},
+        session_mode=session_mode,
+        max_video_seconds=services.settings.max_video_seconds,
     )
     services.recordings_cache.invalidate()
-    return _detail(rec)
+    pose = _submit_pose(services, rec, videos_without_pose(rec))
+    return _detail(session, rec.id, pose_jobs=pose)
+
+
+def _require_pose_environment(services: Services) -> None:
+    """Refuse a video at once when this server cannot turn it into pose (local jobs run here;
+    Dask workers have their own environment and report it in the job)."""
+    if services.settings.executor != "local":
+        return
+    try:
+        find_pose_python()
+    except BioPlanError as exc:
+        raise ApiError(503, f"videos cannot be turned into pose on this server: {exc}") from None
+
+
+def _submit_pose(
+    services: Services, rec: RecordingSession, videos: list[RecordingFile]
+) -> list[dict[str, Any]]:
+    """One pose-extraction job per video."""
+    return [
+        services.jobs.submit(
+            kind="pose",
+            params={"recording_id": rec.id, "video_file_id": f.id},
+            resource={"recording_id": rec.id, "video_file_id": f.id},
+        )
+        for f in videos
+    ]
+
+
+def _detail(session: Session, recording_id: int, **extra: Any) -> dict[str, Any]:
+    # A fresh read: jobs started by this request were written by other sessions.
+    session.commit()
+    rec = get_stored(session, recording_id)
+    return {**recording_detail(session, rec), **extra}
 
 
 _PAGE = TypeAdapter(Page[RecordingSummary])
@@ -224,7 +264,113 @@ def _get(session: SessionDep, recording_id: int) -> RecordingSession:
 
 @router.get("/{recording_id}", response_model=RecordingDetail)
 def get_recording(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
-    return _detail(_get(session, recording_id))
+    """Files (role, warnings, rate check, a video's pose extraction) and channels (flat,
+    excluded), the session mode and the options in use."""
+    return recording_detail(session, _get(session, recording_id))
+
+
+@router.patch(
+    "/{recording_id}",
+    response_model=RecordingDetail,
+    dependencies=[WriteAccess],
+    summary="Change a recording and rerun its analysis",
+)
+def patch_recording(
+    services: ServicesDep, session: SessionDep, recording_id: IdPath, body: RecordingPatch
+) -> dict[str, Any]:
+    """Change metadata, the session mode, reader options (the files are read again from their
+    stored bytes: muscle map, EMG rate...) and excluded channels; with ``analyse`` (default),
+    queue an analysis with these settings (``analysis_job``). Earlier analyses are kept."""
+    changes = body.model_dump(mode="json", exclude_unset=True, exclude={"analyse"})
+    update_recording(
+        session=session, blobs=services.blobs, recording_id=recording_id, changes=changes
+    )
+    services.recordings_cache.invalidate()
+    job = None
+    if body.analyse:
+        params = rerun_params(session, recording_id)
+        job = services.jobs.submit(
+            kind="analysis", params=params, resource={"recording_id": recording_id}
+        )
+    return _detail(session, recording_id, analysis_job=job)
+
+
+@router.post(
+    "/{recording_id}/pose",
+    status_code=202,
+    response_model=RecordingDetail,
+    dependencies=[WriteAccess],
+    summary="Extract the pose of the recording's videos again",
+)
+def restart_pose(
+    services: ServicesDep, session: SessionDep, recording_id: IdPath
+) -> dict[str, Any]:
+    """A pose job for every video of the recording (after a failure or a cancel; a success
+    replaces the landmarks and skeleton frames). 409 while one is queued or running."""
+    rec = _get(session, recording_id)
+    videos = [f for f in rec.files if f.role == "video"]
+    if not videos:
+        raise ApiError(409, f"recording {recording_id} has no video", field="recording_id")
+    active = [
+        j
+        for j in crud.pose_jobs(session=session, recording_id=recording_id).values()
+        if j.state in ("queued", "running")
+    ]
+    if active:
+        raise ConflictError(
+            f"the pose of recording {recording_id} is being extracted (job {active[0].id})",
+            job=job_to_dict(active[0]),
+        )
+    _require_pose_environment(services)
+    return _detail(session, recording_id, pose_jobs=_submit_pose(services, rec, videos))
+
+
+@router.get("/{recording_id}/frames", response_model=SkeletonFrames)
+def list_frames(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
+    """The video frames with the detected skeleton drawn (a few per video), to check the fit."""
+    _get(session, recording_id)
+    frames = crud.skeleton_frames(session=session, recording_id=recording_id)
+    return {
+        "recording_id": recording_id,
+        "frames": [
+            {
+                "k": k,
+                "file_id": frame.file_id,
+                "video": video,
+                "frame": frame.frame,
+                "time_s": frame.time,
+                "url": f"/api/recordings/{recording_id}/frames/{k}.jpg",
+            }
+            for k, (frame, video) in enumerate(frames)
+        ],
+    }
+
+
+@router.get(
+    "/{recording_id}/frames/{k}.jpg",
+    response_class=Response,
+    responses={200: {"content": {"image/jpeg": {}}, "description": "the frame (JPEG)"}},
+)
+def get_frame(
+    request: Request,
+    session: SessionDep,
+    recording_id: IdPath,
+    k: Annotated[int, Path(ge=0, le=10000)],
+) -> Response:
+    """Frame ``k`` of the list, with the skeleton drawn."""
+    _get(session, recording_id)
+    frames = crud.skeleton_frames(session=session, recording_id=recording_id)
+    if k >= len(frames):
+        raise ApiError(404, f"recording {recording_id} has {len(frames)} skeleton frame(s)")
+    frame = frames[k][0]
+    etag = f'"{frame.sha256[:32]}"'
+    headers = {"ETag": etag, "Cache-Control": "no-cache"}
+    if request.headers.get("if-none-match") == etag:
+        return Response(status_code=304, headers=headers)
+    jpeg = crud.skeleton_jpeg(session=session, frame_id=frame.id)
+    if jpeg is None:  # pragma: no cover - replaced between two statements
+        raise ApiError(404, f"frame {k} of recording {recording_id} was just replaced")
+    return Response(jpeg, media_type="image/jpeg", headers=headers)
 
 
 @router.get("/{recording_id}/signals", response_model=Signals)
@@ -311,6 +457,12 @@ def get_raw_file(
 
 @router.delete("/{recording_id}", status_code=204, dependencies=[WriteAccess])
 def delete_recording(services: ServicesDep, session: SessionDep, recording_id: IdPath) -> Response:
+    """Delete a recording with its files, landmarks and skeleton frames; its pose jobs still
+    queued or running are cancelled first (their workers stop; nothing of them is stored)."""
+    for job in crud.pose_jobs(session=session, recording_id=recording_id).values():
+        if job.state in ("queued", "running"):
+            with contextlib.suppress(ConflictError):  # it ended meanwhile
+                services.jobs.cancel(job.id)
     deleted = crud.delete_recording(
         session=session, blobs=services.blobs, recording_id=recording_id
     )

@@ -1,0 +1,160 @@
+"""What the API shows of stored recordings and their analyses (plain JSON-ready dicts).
+
+A recording's detail names each file's role, its reader warnings (flat channels, rates...), an
+implausible EMG rate with the one request that fixes it, a video's container and pose
+extraction, and marks channels that are flat or excluded, so a page can show all of it without
+running anything. An analysis' summary says where its template came from (lifts or the paper's
+default) and carries every warning, also when no lift was found.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from app.db import crud
+from app.db.models import PoseExtraction, RecordingFile, RecordingSession
+from app.planning.human_template import HumanTemplate
+from app.services.jobs import job_to_dict
+
+
+def summary(rec: RecordingSession) -> dict[str, Any]:
+    """The list's fields of a recording (the files the user uploaded)."""
+    uploaded = [f for f in rec.files if not (f.role == "recording" and f.parent_id is not None)]
+    return {
+        "id": rec.id,
+        "subject": rec.subject,
+        "task": rec.task,
+        "load_kg": rec.load_kg,
+        "notes": rec.notes,
+        "created_at": rec.created_at,
+        "n_files": len(uploaded),
+        "formats": sorted({f.format for f in uploaded}),
+        "file_names": [f.original_name for f in uploaded],
+        "session": rec.session_mode,
+    }
+
+
+def rate_check(rec: RecordingSession, f: RecordingFile) -> dict[str, Any] | None:
+    """The reader's verdict on a file's EMG rate, with the request that applies the fix."""
+    check = f.file_metadata.get("rate_check")
+    if not isinstance(check, dict):
+        return None
+    return {
+        "file": f.original_name,
+        **check,
+        "rerun": {
+            "method": "PATCH",
+            "url": f"/api/recordings/{rec.id}",
+            "json": {"emg_rate": check["suggested_rate_hz"]},
+        },
+    }
+
+
+def _channels(f: RecordingFile, excluded: set[str]) -> list[dict[str, Any]]:
+    flat = {str(n) for n in f.file_metadata.get("flat_channels", [])}
+    return [
+        {
+            "id": c.id,
+            "name": c.name,
+            "kind": c.kind,
+            "unit": c.unit,
+            "rate": c.rate,
+            "start": c.start,
+            "site": c.site,
+            "n_samples": c.n_samples,
+            "dims": c.dims,
+            "duration": c.n_samples / c.rate if c.rate > 0 else 0.0,
+            "flat": c.name in flat,
+            "excluded": c.name.lower() in excluded,
+        }
+        for c in f.channels
+    ]
+
+
+def _pose(f: RecordingFile, jobs: dict[int, Any], results: dict[int, Any]) -> dict[str, Any] | None:
+    job = jobs.get(f.id)
+    if f.role != "video" or job is None:
+        return None
+    return {"job": job_to_dict(job), "result": results.get(job.id)}
+
+
+def recording_detail(session: Session, rec: RecordingSession) -> dict[str, Any]:
+    """The JSON of ``GET /api/recordings/{id}`` (``app.api.schemas.RecordingDetail``)."""
+    excluded = {str(n).lower() for n in rec.options.get("exclude_channels", [])}
+    jobs = crud.pose_jobs(session=session, recording_id=rec.id)
+    results = {
+        j.id: (row.result if (row := session.get(PoseExtraction, j.id)) is not None else None)
+        for j in jobs.values()
+    }
+    files: list[dict[str, Any]] = []
+    for f in rec.files:
+        video = f.file_metadata.get("video") if f.role == "video" else None
+        files.append(
+            {
+                "id": f.id,
+                "original_name": f.original_name,
+                "format": f.format,
+                "size": f.size,
+                "sha256": f.sha256,
+                "metadata": f.file_metadata,
+                "role": f.role,
+                "parent_id": f.parent_id,
+                "warnings": [str(w) for w in f.file_metadata.get("warnings", [])],
+                "rate_check": rate_check(rec, f),
+                "video": video,
+                "pose": _pose(f, jobs, results),
+                "channels": _channels(f, excluded),
+            }
+        )
+    checks = [x["rate_check"] for x in files if x["rate_check"] is not None]
+    warnings = [f"{x['original_name']}: {w}" for x in files for w in x["warnings"]]
+    has_frames = any(f.role == "video" for f in rec.files) and bool(
+        crud.skeleton_frames(session=session, recording_id=rec.id)
+    )
+    return {
+        **summary(rec),
+        "options": rec.options,
+        "updated_at": rec.updated_at,
+        "rate_check": checks[0] if checks else None,
+        "warnings": warnings,
+        "frames_url": f"/api/recordings/{rec.id}/frames" if has_frames else None,
+        "files": files,
+        "pose_jobs": [],
+    }
+
+
+def analysis_summary(result: dict[str, Any] | None) -> dict[str, Any] | None:
+    """Template origin, lifts and every warning of a finished analysis (None before)."""
+    if result is None:
+        return None
+    template = result["template"]
+    files = [
+        {
+            "file": f["source"],
+            "format": f["format"],
+            "lifts": len(f["lifts"]),
+            "lifts_with_kinematics": sum(
+                1
+                for x in f["lifts"]
+                if x.get("kinematics_rejected") is None
+                and x.get("peak_velocity_range_fraction") is not None
+            ),
+            "warnings": list(f["warnings"]),
+            "rate_check": f.get("rate_check"),
+        }
+        for f in result["files"]
+    ]
+    return {
+        "n_lifts": int(result["n_lifts"]),
+        "template_source": str(template["source"]),
+        "is_paper_default": HumanTemplate.from_dict(template).is_paper_default,
+        "template_lifts": int(template["n_lifts"]),
+        "peak_velocity_angle_deg": float(template["peak_velocity_angle_deg"]),
+        "session": result["settings"].get("session", "separate"),
+        "files": files,
+        "warnings": list(result["warnings"])
+        + [f"{f['file']}: {w}" for f in files for w in f["warnings"]],
+        "settings": result["settings"],
+    }
