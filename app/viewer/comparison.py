@@ -18,16 +18,17 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from app.names import PHASE_BOUNDS_DEG
+from app.names import METHODS, PHASE_BOUNDS_DEG
 from app.names import PHASES as _PHASES
 
 if TYPE_CHECKING:
+    from app.analysis.replay import HumanReplay
     from app.planning.robots import Robot
 
 FloatArray = NDArray[np.float64]
 Kind = Literal["plan", "simulation"]
 KINDS: tuple[Kind, ...] = ("plan", "simulation")
-LABELS = ("standard", "optimized")
+LABELS: tuple[str, str] = ("standard", "optimized")
 #: Phase names and what they mean in a curl (``app.names.PHASES``).
 PHASES = {p.name: p.label for p in _PHASES}
 
@@ -60,6 +61,11 @@ class Comparison:
         payload_com: (3,) payload centre in the payload body's frame [m].
         payload_size: (3,) payload box extents [m] (zeros: a point mass).
         result: the job's JSON result (the CLI's ``--json``).
+        methods: the planning methods whose trajectories the arrays hold (``app.names.METHODS``
+            order); the dicts above hold them under their names too. Empty for results stored
+            before methods existed (only ``standard`` and ``optimized``).
+        human: the recorded lift replayed on this comparison's time grid, or None.
+        human_note: why there is no human (or what was assumed for it); shown in the viewer.
     """
 
     kind: Kind
@@ -83,6 +89,23 @@ class Comparison:
     payload_com: FloatArray
     payload_size: FloatArray
     result: dict[str, Any] = field(default_factory=dict)
+    methods: tuple[str, ...] = ()
+    human: HumanReplay | None = None
+    human_note: str = ""
+
+    @property
+    def choices(self) -> tuple[str, ...]:
+        """The trajectories a viewer can show: every method, else ``standard``/``optimized``."""
+        return self.methods if len(self.methods) >= 2 else LABELS
+
+    @property
+    def default_pair(self) -> tuple[str, str]:
+        """(solid, ghost) shown first: the standard quintic and the paper's (or optimised) one."""
+        if len(self.methods) < 2:
+            return LABELS
+        solid = "quintic" if "quintic" in self.methods else self.methods[0]
+        ghost = "paper" if "paper" in self.methods else next(m for m in self.methods if m != solid)
+        return solid, ghost
 
     @property
     def duration(self) -> float:
@@ -158,6 +181,19 @@ class Comparison:
             },
             "phases": PHASES,
         }
+
+
+def trajectory_label(name: str) -> str:
+    """What to call a trajectory: a method's label, or "standard quintic" / "optimised"."""
+    if name in METHODS:
+        return METHODS[name].label
+    return {"standard": "standard quintic", "optimized": "optimised"}.get(name, name)
+
+
+def trajectory_colour(name: str) -> str:
+    """A trajectory's CSS colour: its method's (``standard`` = quintic, ``optimized`` = paper)."""
+    method = {"standard": "quintic", "optimized": "paper"}.get(name, name)
+    return METHODS[method].colour if method in METHODS else "#888888"
 
 
 def _clean(array: FloatArray) -> list[Any]:
@@ -274,7 +310,8 @@ def comparison_from_arrays(
         k: {} for k in ("q", "qd", "qdd", "tau", "power", "energy", "flex")
     }
     times: dict[str, tuple[float, float]] = {}
-    for label in LABELS:
+    methods = tuple(m for m in METHODS if f"{m}_q" in arrays and f"{m}_tau" in arrays)
+    for label in (*LABELS, *methods):
         for name, arr in _trajectory(arrays, label, kind, t, len(robot.joint_names)).items():
             data[name][label] = arr
         # Phases follow the commanded elbow in a simulation (as the simulator reports them).
@@ -305,4 +342,5 @@ def comparison_from_arrays(
         payload_com=np.asarray(payload.com, dtype=np.float64),
         payload_size=np.asarray(payload.size, dtype=np.float64),
         result=dict(result),
+        methods=methods,
     )

@@ -96,7 +96,7 @@ def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -
     for label in ("standard", "optimized"):
         trace = nodes[f"/bioplan/{label}/trace"]
         assert trace.kind == "add_mesh_simple"  # one plain mesh, not instanced fat lines
-        assert trace.args[0] is prepared.traces[label][0]
+        assert trace.args[0] is prepared.traces[scene.shown[label]][0]
         payload = [n for n in nodes if n.endswith("/flange/payload") and f"/{label}/" in n]
         assert len(payload) == 1
         np.testing.assert_allclose(nodes[payload[0]].dimensions, prepared.comparison.payload_size)
@@ -104,13 +104,14 @@ def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -
     for index in (1, 400, 400, 999, 0):
         phases = scene.show(index)
         frames = scene._frames
-        for label in ("standard", "optimized"):
-            for joint, handle in frames[label].items():
+        for slot in ("standard", "optimized"):
+            label = scene.shown[slot]
+            for joint, handle in frames[slot].items():
                 np.testing.assert_array_equal(handle.wxyz, prepared.joint_wxyz[label][joint][index])
                 np.testing.assert_array_equal(
                     handle.position, prepared.joint_position[label][joint][index]
                 )
-            assert phases[label] == prepared.comparison.phase_at(label, index)
+            assert phases[slot] == prepared.comparison.phase_at(label, index)
     assert target.scene.nodes.keys() == nodes.keys()  # nothing added while playing
     # The curl turns the shoulder and elbow pitch joints only: per new index, one rotation of
     # each for both robots; the repeated index 400 sends nothing; labels ride on the flange.
@@ -169,8 +170,12 @@ def test_trace_of_a_still_or_short_path() -> None:
 
 def test_layouts(prepared: PreparedComparison) -> None:
     target = FakeTarget()
-    scene = ComparisonScene(target, prepared)
+    scene = ComparisonScene(target, prepared, layout="ghost")
     nodes = target.scene.nodes
+    # The ghost is shifted sideways: its rest poses do not coincide with the solid robot's.
+    assert nodes["/bioplan/standard"].position == (0.0, 0.0, 0.0)
+    assert nodes["/bioplan/optimized"].position == (0.0, -prepared.ghost_shift, 0.0)
+    assert prepared.ghost_shift >= 0.08
     ghosts = [
         h for n, h in nodes.items() if n.startswith("/bioplan/optimized/") and "/visual_" in n
     ]

@@ -242,7 +242,7 @@ def test_playing_sends_the_phase_text_only_at_boundaries_and_the_gui_at_4_hz(
     changes = 1 + sum(a != b for a, b in itertools.pairwise(seen))
     texts = [v for name, key, v in log if name == "phase" and key == "content"]
     assert 0 < len(texts) <= changes and len(set(texts)) == len(texts)
-    assert f"standard: **{seen[-1][0]}**" in texts[-1]
+    assert f"solid: standard quintic: **{seen[-1][0]}**" in texts[-1]
     # Slider and plot cursor: at most 4 updates a second while moving, plus the first.
     slider = [v for name, key, v in log if name == "time" and key == "value"]
     assert 2 <= len(slider) <= 2 + 4 * plan_comparison.duration and slider == sorted(slider)

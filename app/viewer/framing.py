@@ -1,0 +1,156 @@
+"""Where things go in the viewer's scene: the camera that frames them all, the human beside.
+
+Pure arithmetic on axis-aligned boxes (``(lo (3,), hi (3,))`` in world coordinates [m], z up),
+so the framing is tested without a browser: every corner of every box lies inside the camera's
+view, and a camera any closer would crop one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+Box = tuple[FloatArray, FloatArray]
+
+#: Vertical field of view the viewer sets on each tab's camera [rad].
+FOV = math.radians(50.0)
+#: From the scene's centre towards the camera: in front, to the right, a little above.
+VIEW_DIRECTION = (0.8, -1.0, 0.45)
+#: Extra distance beyond the tightest framing (labels, the panel's edge).
+MARGIN = 1.1
+
+
+def box_of(points: FloatArray, pad: float | FloatArray = 0.0) -> Box:
+    """The box around (N, 3) points, grown by ``pad`` [m] (a scalar or (N,) per point)."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    grow = np.broadcast_to(np.asarray(pad, dtype=np.float64), (len(pts),))[:, None]
+    return (pts - grow).min(axis=0), (pts + grow).max(axis=0)
+
+
+def shifted(box: Box, offset: Sequence[float]) -> Box:
+    """``box`` moved by ``offset`` (3,) [m]."""
+    d = np.asarray(offset, dtype=np.float64)
+    return box[0] + d, box[1] + d
+
+
+def union(boxes: Sequence[Box]) -> Box:
+    """The smallest box holding every box."""
+    if not boxes:
+        raise ValueError("union of no boxes")
+    return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+
+
+def corners(box: Box) -> FloatArray:
+    """(8, 3) corners of a box."""
+    lo, hi = box
+    return np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]] for i in (0, 1)
+                     for j in (0, 1) for k in (0, 1)])  # fmt: skip
+
+
+def _basis(direction: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Camera forward, right and up unit vectors for a camera looking along -direction, z up."""
+    d = np.asarray(direction, dtype=np.float64)
+    forward = -d / np.linalg.norm(d)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    return forward, right, np.cross(right, forward)
+
+
+def frame_camera(
+    boxes: Sequence[Box],
+    *,
+    direction: Sequence[float] = VIEW_DIRECTION,
+    fov: float = FOV,
+    aspect: float = 1.6,
+    margin: float = MARGIN,
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """A camera position and look-at point whose view holds every box.
+
+    The camera looks at the centre of the boxes' union from along ``direction``. A corner at
+    offset p from the centre is seen at depth D + p·f and at p·r (across) and p·u (up) off the
+    axis; it is inside the view when |p·r| <= (D + p·f) tan(hfov/2) and |p·u| <= (D + p·f)
+    tan(fov/2), so the smallest distance is the largest of |p·r| / tan(hfov/2) - p·f and
+    |p·u| / tan(fov/2) - p·f over the corners; ``margin`` scales it.
+
+    Args:
+        boxes: world boxes [m] to keep in view.
+        direction: from the look-at point towards the camera (any length).
+        fov: vertical field of view [rad].
+        aspect: width / height of the canvas (a 400 px wide phone is below 1).
+        margin: distance factor (>= 1).
+
+    Returns:
+        (position, look_at) [m].
+    """
+    lo, hi = union(boxes)
+    centre = 0.5 * (lo + hi)
+    forward, right, up = _basis(direction)
+    tan_v = math.tan(0.5 * fov)
+    tan_h = tan_v * max(aspect, 1e-3)
+    p = corners((lo, hi)) - centre
+    along = p @ forward
+    need = np.maximum(np.abs(p @ right) / tan_h, np.abs(p @ up) / tan_v) - along
+    # Never inside the box: at least the corner's own depth in front of the camera.
+    distance = margin * max(float(need.max()), float(np.abs(along).max()) + 0.05, 0.3)
+    position = centre - forward * distance
+    return tuple(float(v) for v in position), tuple(float(v) for v in centre)  # type: ignore[return-value]
+
+
+def in_view(
+    point: Sequence[float],
+    position: Sequence[float],
+    look_at: Sequence[float],
+    *,
+    fov: float = FOV,
+    aspect: float = 1.6,
+) -> bool:
+    """Whether a point [m] lies inside the view of a camera at ``position`` looking at ``look_at``
+    (z up, vertical field of view ``fov`` [rad])."""
+    cam = np.asarray(position, dtype=np.float64)
+    forward, right, up = _basis(cam - np.asarray(look_at, dtype=np.float64))
+    v = np.asarray(point, dtype=np.float64) - cam
+    depth = float(v @ forward)
+    if depth <= 0.0:
+        return False
+    tan_v = math.tan(0.5 * fov)
+    return bool(
+        abs(v @ right) <= depth * tan_v * aspect + 1e-9 and abs(v @ up) <= depth * tan_v + 1e-9
+    )
+
+
+def human_placement(
+    robot_boxes: Sequence[Box], human_reach: float, *, gap: float = 0.25
+) -> tuple[tuple[float, float, float], float]:
+    """Where the human's shoulder goes and how much the arm is scaled, beside the robots.
+
+    The arm is scaled to the robots' size (their tallest box, at least life size, at most 3x)
+    so it reads beside a 6-DOF arm, and its shoulder is put beyond the robots' lowest y, by
+    ``gap`` plus the scaled arm's reach, at the height where the hanging arm's hand just clears
+    the floor.
+
+    Args:
+        robot_boxes: world boxes of the robots [m].
+        human_reach: the straight arm's length [m].
+        gap: clearance between the robots' boxes and the human's [m].
+
+    Returns:
+        (shoulder position (3,) [m], scale).
+    """
+    lo, hi = union(robot_boxes)
+    size = float(max(hi[2] - min(lo[2], 0.0), hi[0] - lo[0]))
+    scale = float(np.clip(0.8 * size / max(human_reach, 1e-3), 1.0, 3.0))
+    reach = scale * human_reach
+    shoulder = (0.5 * float(lo[0] + hi[0]), float(lo[1]) - gap - reach, 1.1 * reach + 0.05)
+    return shoulder, scale
+
+
+def human_box(shoulder: Sequence[float], reach: float) -> Box:
+    """The box the scaled arm can sweep in its sagittal plane, with the torso below [m]."""
+    s = np.asarray(shoulder, dtype=np.float64)
+    lo = s + np.array([-reach, -0.3 * reach, -reach])
+    hi = s + np.array([reach, 0.3 * reach, 0.45 * reach])
+    return lo, hi
