@@ -198,6 +198,7 @@ class ViewerSession:
             "solid": self.scene.shown["standard"],
             "ghost": self.scene.shown["optimized"],
             "human": self.scene.human is not None,
+            "panel_minimised": self.panel_minimised,
             "phases": dict(self.scene.phases_now),
             "frames": self.stats.frames,
             "fps": self.stats.fps(),
@@ -413,22 +414,28 @@ def frame_client(client: Any, scene: ComparisonScene) -> None:
 
 
 def _fit_to_screen(session: ViewerSession) -> None:
-    """When the browser first reports its canvas: frame the scene for its real shape, and on a
-    narrow screen minimise the control panel so it does not cover the canvas."""
+    """Once the browser has reported its canvas (viser connects a tab after its first camera
+    message, so usually already): frame the scene for the canvas' real shape, and on a narrow
+    screen minimise the control panel so that it does not cover the canvas."""
     client = session.client
     fitted = threading.Event()
 
-    def on_camera(_: Any) -> None:
+    def fit(_: Any = None) -> None:
         if fitted.is_set():
+            return
+        try:
+            width = int(client.camera.image_width)
+        except AssertionError:  # no camera message yet: wait for one
             return
         fitted.set()
         with session.lock, client.atomic():
             frame_client(client, session.scene)
-        if int(client.camera.image_width) < NARROW_PX:
+        if width < NARROW_PX:
             client.gui.main_panel.minimize()
             session.panel_minimised = True
 
-    client.camera.on_update(on_camera)
+    client.camera.on_update(fit)
+    fit()
 
 
 def _plot_series(labels: tuple[str, str]) -> tuple[dict[str, Any], ...]:

@@ -41,6 +41,7 @@ class FakeScene:
     def _add(self, name: str, **props: Any) -> Handle:
         assert name not in self.nodes, f"node {name} added twice"
         handle = Handle(self.updates, name, **props)
+        object.__setattr__(handle, "remove", lambda: self.nodes.pop(name))
         self.nodes[name] = handle
         return handle
 

@@ -89,7 +89,7 @@ def viewer(plan_comparison: Comparison) -> Iterator[ViewerServer]:
         server.stop()
 
 
-def _connect(viewer: ViewerServer, path: str) -> Any:
+def _connect(viewer: ViewerServer, path: str, *, width: int = 800) -> Any:
     """A websocket client like viser's own page: its version as subprotocol, any path, and the
     camera message the page sends first (viser calls a client connected only after it)."""
     import msgspec
@@ -110,7 +110,7 @@ def _connect(viewer: ViewerServer, path: str) -> Any:
         near=0.01,
         far=100.0,
         image_height=600,
-        image_width=800,
+        image_width=width,
         look_at=(0.0, 0.0, 0.5),
         up_direction=(0.0, 0.0, 1.0),
     )
