@@ -18,8 +18,9 @@ Box = tuple[FloatArray, FloatArray]
 
 #: Vertical field of view the viewer sets on each tab's camera [rad].
 FOV = math.radians(50.0)
-#: From the scene's centre towards the camera: in front, to the right, a little above.
-VIEW_DIRECTION = (0.8, -1.0, 0.45)
+#: From the scene's centre towards the camera: from the side (-y, across the arms' sagittal
+#: x-z plane, where the robots and the human stand in a row along x), a little in front, above.
+VIEW_DIRECTION = (0.3, -1.0, 0.4)
 #: Extra distance beyond the tightest framing (labels, the panel's edge).
 MARGIN = 1.1
 
@@ -127,10 +128,10 @@ def human_placement(
 ) -> tuple[tuple[float, float, float], float]:
     """Where the human's shoulder goes and how much the arm is scaled, beside the robots.
 
-    The arm is scaled to the robots' size (their tallest box, at least life size, at most 3x)
-    so it reads beside a 6-DOF arm, and its shoulder is put beyond the robots' lowest y, by
-    ``gap`` plus the scaled arm's reach, at the height where the hanging arm's hand just clears
-    the floor.
+    The arm is scaled to the robots' height (0.6 of it, at least life size, at most 2x) so it
+    reads beside a 6-DOF arm, and the figure stands in the robots' row (along x) beyond their
+    largest x by ``gap``, its shoulder at the height where the hanging hand clears the floor
+    (z = 0, or the robots' lowest point when they hang below their base).
 
     Args:
         robot_boxes: world boxes of the robots [m].
@@ -141,16 +142,24 @@ def human_placement(
         (shoulder position (3,) [m], scale).
     """
     lo, hi = union(robot_boxes)
-    size = float(max(hi[2] - min(lo[2], 0.0), hi[0] - lo[0]))
-    scale = float(np.clip(0.8 * size / max(human_reach, 1e-3), 1.0, 3.0))
+    floor = min(float(lo[2]), 0.0)
+    scale = float(np.clip(0.6 * (float(hi[2]) - floor) / max(human_reach, 1e-3), 1.0, 2.0))
     reach = scale * human_reach
-    shoulder = (0.5 * float(lo[0] + hi[0]), float(lo[1]) - gap - reach, 1.1 * reach + 0.05)
+    shoulder = (
+        float(hi[0]) + gap + _BEHIND * reach,
+        0.5 * float(lo[1] + hi[1]),
+        floor + 1.1 * reach + 0.05,
+    )
     return shoulder, scale
 
 
+#: How far the figure reaches behind its shoulder (torso, an arm swung back), in arm lengths.
+_BEHIND = 0.5
+
+
 def human_box(shoulder: Sequence[float], reach: float) -> Box:
-    """The box the scaled arm can sweep in its sagittal plane, with the torso below [m]."""
+    """The box the scaled figure can take: its arm swept in the sagittal plane, torso, head."""
     s = np.asarray(shoulder, dtype=np.float64)
-    lo = s + np.array([-reach, -0.3 * reach, -reach])
-    hi = s + np.array([reach, 0.3 * reach, 0.45 * reach])
+    lo = s + np.array([-_BEHIND * reach, -0.35 * reach, -reach])
+    hi = s + np.array([reach, 0.6 * reach, 0.5 * reach])
     return lo, hi

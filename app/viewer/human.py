@@ -92,10 +92,10 @@ class HumanFigure:
             f"{root}/torso",
             color=BODY,
             dimensions=(0.14 * s, 0.3 * s, 0.55 * s),
-            position=(-0.09 * s, 0.12 * s, -0.26 * s),
+            position=(-0.09 * s, 0.2 * s, -0.26 * s),
         )
         scene.add_icosphere(
-            f"{root}/head", radius=0.1 * s, color=BODY, position=(-0.06 * s, 0.12 * s, 0.2 * s)
+            f"{root}/head", radius=0.1 * s, color=BODY, position=(-0.06 * s, 0.2 * s, 0.2 * s)
         )
         self.upper = scene.add_frame(f"{root}/upper", show_axes=False)
         scene.add_box(

@@ -26,6 +26,7 @@ from app.viewer.comparison import LABELS, Comparison, trajectory_colour, traject
 from app.viewer.framing import (
     Box,
     box_of,
+    corners,
     frame_camera,
     human_box,
     human_placement,
@@ -133,7 +134,7 @@ class PreparedComparison:
         self.bounds: dict[str, Box] = {}
         #: every trajectory the comparison holds (methods, and standard/optimized).
         self.labels = tuple(comparison.q)
-        radius = _link_radii(self.meshes)
+        extents = _link_corners(self.meshes)
         com = np.append(comparison.payload_com, 1.0)
         for label in self.labels:
             q = comparison.q[label]
@@ -148,7 +149,7 @@ class PreparedComparison:
                     f"payload body {comparison.payload_body!r} is not a link of the URDF"
                 )
             self.payload_path[label] = (world[comparison.payload_body] @ com)[:, :3]
-            self.bounds[label] = _robot_box(world, radius, self.payload_path[label], comparison)
+            self.bounds[label] = _robot_box(world, extents, self.payload_path[label], comparison)
         stacked = np.concatenate(list(self.payload_path.values()))
         self.reach = float(np.max(np.linalg.norm(stacked[:, :2], axis=1), initial=0.3))
         self.height = float(np.max(stacked[:, 2], initial=1.0))
@@ -179,6 +180,12 @@ class PreparedComparison:
                 comparison.human, comparison.phase_bounds_deg, shoulder=shoulder, scale=scale
             )
 
+    @property
+    def floor(self) -> float:
+        """Height of the floor [m]: z = 0, or under a robot that hangs below its base (the
+        human arm's shoulder is its origin)."""
+        return min(float(union(list(self.bounds.values()))[0][2]), 0.0)
+
     def boxes(self, layout: Layout) -> list[Box]:
         """World boxes of everything shown: both robots and the human [m]."""
         out = self.robot_boxes(layout)
@@ -187,17 +194,17 @@ class PreparedComparison:
         return out
 
     def slot_offsets(self, layout: Layout) -> dict[str, tuple[float, float, float]]:
-        """Where each robot's root goes [m]: side by side, or the ghost shifted a little."""
+        """Where each robot's root goes [m]: side by side along x (the camera looks from the
+        side, across the arms' sagittal x-z plane), or the ghost shifted a little along x."""
         if layout == "side_by_side":
-            half = 0.5 * self.side_offset
-            return {"standard": (0.0, half, 0.0), "optimized": (0.0, -half, 0.0)}
-        return {"standard": (0.0, 0.0, 0.0), "optimized": (0.0, -self.ghost_shift, 0.0)}
+            return {"standard": (0.0, 0.0, 0.0), "optimized": (self.side_offset, 0.0, 0.0)}
+        return {"standard": (0.0, 0.0, 0.0), "optimized": (self.ghost_shift, 0.0, 0.0)}
 
     @property
     def ghost_shift(self) -> float:
-        """Sideways shift of the ghost over the solid robot [m], so their rest poses (where
-        both trajectories start and end) do not coincide."""
-        return max(0.08, 0.2 * self.reach)
+        """Shift of the ghost over the solid robot [m], so their rest poses (where both
+        trajectories start and end) do not coincide."""
+        return max(0.08, 0.15 * self.reach)
 
     def robot_boxes(self, layout: Layout) -> list[Box]:
         """World boxes of both robots (every trajectory, so a method switch stays in view)."""
@@ -208,7 +215,7 @@ class PreparedComparison:
     def side_offset(self) -> float:
         """Distance between the two robots side by side [m]."""
         lo, hi = union(list(self.bounds.values()))
-        return max(2.0 * self.reach, float(hi[1] - lo[1])) + 0.4
+        return float(hi[0] - lo[0]) + 0.3
 
     def phase_points(self, label: str) -> list[tuple[str, FloatArray]]:
         """Where along the payload path each phase starts: [(phase, (3,) position)]."""
@@ -221,28 +228,35 @@ class PreparedComparison:
         return out
 
 
-def _link_radii(meshes: Sequence[LinkMesh]) -> dict[str, float]:
-    """link -> distance of its farthest visual vertex from the link's origin [m]."""
-    out: dict[str, float] = {}
-    for mesh in meshes:
-        if len(mesh.vertices):
-            r = float(np.linalg.norm(mesh.vertices, axis=1).max())
-            out[mesh.link] = max(out.get(mesh.link, 0.0), r)
+def _link_corners(meshes: Sequence[LinkMesh]) -> dict[str, FloatArray]:
+    """link -> (8, 3) corners of the box around its visual meshes, in the link's frame [m]."""
+    out: dict[str, FloatArray] = {}
+    for link in {m.link for m in meshes}:
+        verts = [m.vertices for m in meshes if m.link == link and len(m.vertices)]
+        if verts:
+            out[link] = corners(box_of(np.concatenate(verts).astype(np.float64)))
     return out
+
+
+#: Poses per trajectory used for a robot's box (plenty for a smooth motion).
+BOX_SAMPLES = 60
 
 
 def _robot_box(
     world: Mapping[str, FloatArray],
-    radius: Mapping[str, float],
+    link_corners: Mapping[str, FloatArray],
     payload: FloatArray,
     comparison: Comparison,
 ) -> Box:
-    """The box a robot sweeps: every link origin grown by its meshes' radius, and the payload."""
-    points = [payload]
-    pads = [np.full(len(payload), 0.5 * float(np.max(comparison.payload_size, initial=0.06)))]
+    """The box a robot sweeps: its links' mesh boxes at evenly spaced poses, and the payload."""
+    idx = np.unique(np.linspace(0, len(payload) - 1, BOX_SAMPLES).round().astype(int))
+    points = [payload[idx]]
+    pads = [np.full(len(idx), 0.5 * float(np.max(comparison.payload_size, initial=0.06)))]
     for link, poses in world.items():
-        points.append(poses[:, :3, 3])
-        pads.append(np.full(len(poses), radius.get(link, 0.02)))
+        local = link_corners.get(link, np.zeros((1, 3)))
+        moved = np.einsum("tij,kj->tki", poses[idx, :3, :3], local) + poses[idx, None, :3, 3]
+        points.append(moved.reshape(-1, 3))
+        pads.append(np.full(moved.shape[0] * moved.shape[1], 0.01))
     return box_of(np.concatenate(points), np.concatenate(pads))
 
 
@@ -400,7 +414,7 @@ class ComparisonScene:
                 no_human_text(prepared.comparison),
                 font_screen_scale=0.8,
                 anchor="bottom-center",
-                position=(0.0, -0.5 * prepared.side_offset - prepared.reach - 0.3, 0.6),
+                position=(float(union(prepared.robot_boxes("side_by_side"))[1][0]) + 0.5, 0.0, 0.8),
             )
         self.layout: Layout = "side_by_side"
         self.set_layout(layout)
@@ -413,7 +427,11 @@ class ComparisonScene:
             f"{ROOT}/floor",
             width=float(hi[0] - lo[0]) + 0.6,
             height=float(hi[1] - lo[1]) + 0.6,
-            position=(float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[1] + hi[1])), 0.0),
+            position=(
+                float(0.5 * (lo[0] + hi[0])),
+                float(0.5 * (lo[1] + hi[1])),
+                self.prepared.floor,
+            ),
             cell_size=0.25,
             section_size=1.0,
             shadow_opacity=0.0,

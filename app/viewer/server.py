@@ -381,7 +381,9 @@ class ViewerServer:
             scene = ComparisonScene(client, prepared)
             client.camera.up_direction = (0.0, 0.0, 1.0)
             frame_client(client, scene)
-            gui = _add_gui(client.gui, scene, autoplay=self.autoplay)
+            width = canvas_width(client)
+            compact = width is not None and width < NARROW_PX
+            gui = _add_gui(client.gui, scene, autoplay=self.autoplay, compact=compact)
         clock = PlaybackClock(c.duration)
         session = ViewerSession(
             client=client, kind=kind, id=result_id, scene=scene, clock=clock, gui=gui
@@ -413,6 +415,15 @@ def frame_client(client: Any, scene: ComparisonScene) -> None:
     client.camera.look_at = look_at
 
 
+def canvas_width(client: Any) -> int | None:
+    """The tab's canvas width [px], None before its first camera message (viser connects a tab
+    only after that message, so it is normally known)."""
+    try:
+        return int(client.camera.image_width)
+    except AssertionError:
+        return None
+
+
 def _fit_to_screen(session: ViewerSession) -> None:
     """Once the browser has reported its canvas (viser connects a tab after its first camera
     message, so usually already): frame the scene for the canvas' real shape, and on a narrow
@@ -423,9 +434,8 @@ def _fit_to_screen(session: ViewerSession) -> None:
     def fit(_: Any = None) -> None:
         if fitted.is_set():
             return
-        try:
-            width = int(client.camera.image_width)
-        except AssertionError:  # no camera message yet: wait for one
+        width = canvas_width(client)
+        if width is None:  # no camera message yet: wait for one
             return
         fitted.set()
         with session.lock, client.atomic():
@@ -449,18 +459,36 @@ def _plot_series(labels: tuple[str, str]) -> tuple[dict[str, Any], ...]:
     )
 
 
-def _add_gui(gui: Any, scene: ComparisonScene, *, autoplay: bool) -> dict[str, Any]:
-    """A tab's controls: play, speed, time, layout, which method each robot shows, the phase of
-    the moment, the power curve; and whose the human is (or why there is none)."""
+def _add_gui(
+    gui: Any, scene: ComparisonScene, *, autoplay: bool, compact: bool = False
+) -> dict[str, Any]:
+    """A tab's controls: play, time, speed, layout, which method each robot shows, the phase of
+    the moment, the power curve; and whose the human is (or why there is none).
+
+    ``compact`` (a narrow screen): viser's phone layout shows the panel as a bottom sheet that
+    the server cannot collapse, so everything but play and time goes into a closed folder.
+    """
     c = scene.prepared.comparison
     solid, ghost = scene.shown["standard"], scene.shown["optimized"]
-    gui.add_markdown(f"**{c.title}**")
     handles = {
         "play": gui.add_button("Pause" if autoplay else "Play", icon="player-pause"),
-        "speed": gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x"),
         "time": gui.add_slider(
             "Time [s]", min=0.0, max=round(c.duration, 3), step=0.01, initial_value=0.0
         ),
+    }
+    if compact:
+        with gui.add_folder("Details", expand_by_default=False):
+            handles.update(_details(gui, scene, solid, ghost))
+        return handles
+    handles.update(_details(gui, scene, solid, ghost))
+    return handles
+
+
+def _details(gui: Any, scene: ComparisonScene, solid: str, ghost: str) -> dict[str, Any]:
+    c = scene.prepared.comparison
+    gui.add_markdown(f"**{c.title}**")
+    handles = {
+        "speed": gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x"),
         "layout": gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="side by side"),
     }
     names = {trajectory_label(m): m for m in c.choices}

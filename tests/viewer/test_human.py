@@ -50,12 +50,19 @@ def test_the_camera_frames_every_box_and_no_closer_camera_would(aspect: float) -
 def test_the_human_stands_beside_the_robots_at_a_readable_size() -> None:
     robots = [(np.array([-0.3, 0.2, 0.0]), np.array([1.0, 1.4, 1.6]))]
     shoulder, scale = human_placement(robots, 0.65)
-    assert 1.0 <= scale <= 3.0 and scale * 0.65 == pytest.approx(0.8 * 1.6)
+    # The arm is 0.6 of the robots' height (1.6 m), in the robots' row beyond their x.
+    assert scale * 0.65 == pytest.approx(0.6 * 1.6)
     box = human_box(shoulder, scale * 0.65)
-    assert not _overlap(box, robots[0])
+    assert not _overlap(box, robots[0]) and box[0][0] > robots[0][1][0]
     assert box[0][2] > 0.0  # the hanging hand clears the floor
     small = [(np.zeros(3), np.array([0.2, 0.2, 0.3]))]
     assert human_placement(small, 0.65)[1] == 1.0  # never smaller than life size
+    tall = [(np.zeros(3), np.array([0.2, 0.2, 5.0]))]
+    assert human_placement(tall, 0.65)[1] == 2.0  # nor a giant
+    # A robot hanging below its base (the human arm model): the floor is its lowest point.
+    hanging = [(np.array([-0.6, -0.6, -0.65]), np.array([0.6, 0.6, 0.6]))]
+    shoulder, scale = human_placement(hanging, 0.65)
+    assert human_box(shoulder, scale * 0.65)[0][2] > -0.65
 
 
 @pytest.fixture(scope="module")
@@ -212,3 +219,7 @@ def test_over_a_real_websocket_the_human_moves_and_a_narrow_tab_gets_a_minimised
     assert sessions[0]["human"] and sessions[0]["panel_minimised"]
     collapsed = [m for m in messages if m["type"] == "GuiSetPanelCollapsedMessage"]
     assert any(m.get("collapsed") is True for m in collapsed), collapsed
+    # viser's phone layout cannot be collapsed from the server: all but play and time sit in
+    # a closed folder there.
+    folders = [m for m in messages if "Folder" in m["type"]]
+    assert any("'expand_by_default': False" in str(m) for m in folders), folders

@@ -175,7 +175,7 @@ def test_layouts(prepared: PreparedComparison) -> None:
     nodes = target.scene.nodes
     # The ghost is shifted sideways: its rest poses do not coincide with the solid robot's.
     assert nodes["/bioplan/standard"].position == (0.0, 0.0, 0.0)
-    assert nodes["/bioplan/optimized"].position == (0.0, -prepared.ghost_shift, 0.0)
+    assert nodes["/bioplan/optimized"].position == (prepared.ghost_shift, 0.0, 0.0)
     assert prepared.ghost_shift >= 0.08
     ghosts = [
         h for n, h in nodes.items() if n.startswith("/bioplan/optimized/") and "/visual_" in n
@@ -187,9 +187,11 @@ def test_layouts(prepared: PreparedComparison) -> None:
     assert all(h.opacity == GHOST_OPACITY for h in ghosts)
     assert not any(h.visible for h in static) and all(h.visible for h in moving)
     scene.set_layout("side_by_side")
-    half = 0.5 * prepared.side_offset
-    assert nodes["/bioplan/standard"].position == (0.0, half, 0.0)
-    assert nodes["/bioplan/optimized"].position == (0.0, -half, 0.0)
+    # Side by side along x, far enough apart that their boxes do not meet.
+    assert nodes["/bioplan/standard"].position == (0.0, 0.0, 0.0)
+    assert nodes["/bioplan/optimized"].position == (prepared.side_offset, 0.0, 0.0)
+    a, b = prepared.robot_boxes("side_by_side")
+    assert a[1][0] < b[0][0]
     assert all(h.opacity == 1.0 for h in ghosts) and all(h.visible for h in static)
     with pytest.raises(ValueError, match="unknown layout"):
         scene.set_layout("stacked")  # type: ignore[arg-type]
