@@ -4,8 +4,8 @@ A real ``bioplan serve --demo`` (its plan and simulation were planned with the d
 template, so the viewer shows the recorded human beside both robots). The viewer alone is
 opened in headless Chromium (Debian's, SwiftShader WebGL) at 640x400 and at a 400x700 phone
 size, and the frames its canvas presents are counted while the comparison plays (frames with
-draw calls, and those that show new poses), median of ``--runs`` fresh tabs. The server's view
-of each tab (human shown, panel minimised, its pose rate) is printed with it.
+draw calls, and those that show new poses), median of ``--runs`` fresh tabs, beside the floor of
+the same browser at the same moment (a bare viser scene with one moving frame at 640x400).
 
     .venv/bin/python benchmarks/bench_viewer.py [--runs 5] [--seconds 4] [--json]
         [--screenshot DIR]
@@ -26,7 +26,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from benchmarks.bench_frontend import _frame_rates  # noqa: E402
+from benchmarks.bench_frontend import _empty_viser, _frame_rates  # noqa: E402
 from tests.utils.browser import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
 from tests.utils.server import Server  # noqa: E402
 
@@ -65,6 +65,9 @@ def measure(
             for key in ("drawn", "fresh", "raf", "pose_updates_per_s", "load")
         } | {"all_drawn": [round(r["drawn"], 1) for r in results]}
         out["renderer"] = results[0]["renderer"]
+    # The floor in the same browser at the same moment: a bare viser scene, one moving frame.
+    floor = [_empty_viser(browser, SIZES["640x400"], seconds) for _ in range(runs)]
+    out["floor_empty_viser_640x400"] = statistics.median(r["drawn"] for r in floor)
     out["alone_url"] = alone_url
     return out
 
@@ -116,6 +119,7 @@ def main() -> int:
             f"poses received {v['pose_updates_per_s']:.1f}/s; median of {result['runs']}: "
             f"{v['all_drawn']}; load {v['load']:.1f})"
         )
+    print(f"floor: a bare viser scene at 640x400 {result['floor_empty_viser_640x400']:.1f} fps")
     humans = sum(bool(s.get("human")) for s in sessions)
     print(f"tabs still open: {len(sessions)}, with the human: {humans}")
     return 0

@@ -153,5 +153,6 @@ class HumanFigure:
 
 
 def _name(prepared: PreparedHuman) -> str:
-    scale = "" if prepared.scale == 1.0 else f", drawn {prepared.scale:.1f}x"
-    return f"recorded human ({prepared.replay.describe()}{scale})"
+    """The legend over the figure (which lift: in the panel's note)."""
+    scale = "" if prepared.scale == 1.0 else f" (drawn {prepared.scale:.1f}x)"
+    return f"recorded human{scale}"

@@ -608,7 +608,7 @@ class ComparisonScene:
             # Labels change only at a phase boundary: no message per frame.
             if self._phase.get(slot) != phase:
                 self._phase[slot] = phase
-                self._labels[slot].text = f"{trajectory_label(self.shown[slot])}: {phase}"
+                self._labels[slot].text = f"phase {phase}"
                 self._lamps[slot].color = PHASE_COLORS[phase]
         if self.human is not None:
             phases["human"] = self.human.show(index)

@@ -399,9 +399,12 @@ class ViewerServer:
 
 # The viewer's own layout (not connection handling) -------------------------------------------
 
-#: Canvas width [px] below which the control panel starts minimised (viser's mobile breakpoint,
-#: Mantine's ``xs`` = 36 em): at 400 px it would otherwise cover the scene.
+#: Canvas width [px] below which viser shows its phone layout (Mantine's ``xs`` = 36 em): the
+#: panel is a bottom sheet the server cannot collapse, so the GUI is built compact there.
 NARROW_PX = 576
+#: Canvas width [px] below which the floating control panel starts minimised (a bar the user
+#: can open): at 640 px its medium width would cover half the scene.
+MINIMISE_PX = 900
 
 
 def frame_client(client: Any, scene: ComparisonScene) -> None:
@@ -440,7 +443,7 @@ def _fit_to_screen(session: ViewerSession) -> None:
         fitted.set()
         with session.lock, client.atomic():
             frame_client(client, session.scene)
-        if width < NARROW_PX:
+        if width < MINIMISE_PX:
             client.gui.main_panel.minimize()
             session.panel_minimised = True
 
