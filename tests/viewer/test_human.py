@@ -223,3 +223,14 @@ def test_over_a_real_websocket_the_human_moves_and_a_narrow_tab_gets_a_minimised
     # a closed folder there.
     folders = [m for m in messages if "Folder" in m["type"]]
     assert any("'expand_by_default': False" in str(m) for m in folders), folders
+
+
+def test_a_simulation_offers_its_methods_by_name(simulation_comparison: Comparison) -> None:
+    c = simulation_comparison
+    assert c.methods == ("quintic", "paper") and c.choices == c.methods
+    assert c.default_pair == ("quintic", "paper")
+    # The method arrays are the same runs as the standard / optimised ones.
+    np.testing.assert_array_equal(c.q["quintic"], c.q["standard"])
+    np.testing.assert_array_equal(c.tau["paper"], c.tau["optimized"])
+    old = dataclasses.replace(c, methods=())  # stored before methods existed
+    assert old.choices == ("standard", "optimized") == old.default_pair
