@@ -165,12 +165,14 @@ def _inner(raw: bytes) -> bytes:
     return bytes(zstandard.ZstdDecompressor().decompress(raw[16 : 16 + n], max_output_size=size))
 
 
-def _messages(ws: Any, seconds: float) -> list[dict[str, Any]]:
-    """Every message viser sends to a tab within ``seconds``, decoded."""
+def _messages(
+    ws: Any, until: Any, timeout: float = 120.0, out: list[dict[str, Any]] | None = None
+) -> list[dict[str, Any]]:
+    """Messages viser sends to a tab, decoded, until ``until(messages)`` holds (or timeout)."""
     import msgspec
 
-    out: list[dict[str, Any]] = []
-    deadline = time.monotonic() + seconds
+    out = [] if out is None else out
+    deadline = time.monotonic() + timeout
 
     def walk(value: Any) -> None:
         if isinstance(value, dict) and "type" in value:
@@ -182,7 +184,7 @@ def _messages(ws: Any, seconds: float) -> list[dict[str, Any]]:
             for v in value:
                 walk(v)
 
-    while time.monotonic() < deadline:
+    while time.monotonic() < deadline and not until(out):
         try:
             raw = ws.recv(timeout=0.5)
         except TimeoutError:
@@ -190,6 +192,18 @@ def _messages(ws: Any, seconds: float) -> list[dict[str, Any]]:
         if isinstance(raw, bytes):
             walk(msgspec.msgpack.decode(_inner(raw)))
     return out
+
+
+def _human_played(messages: list[dict[str, Any]]) -> bool:
+    """The forearm turned in many frames and the human's phase label showed B and C."""
+    turns = {tuple(m["wxyz"]) for m in messages
+             if m.get("name") == "/bioplan/human/upper/fore" and "wxyz" in m}  # fmt: skip
+    texts = [str(m) for m in messages if m.get("name") == "/bioplan/human/upper/fore/phase"]
+    return (
+        len(turns) > 10
+        and any("human: B" in t for t in texts)
+        and any("human: C" in t for t in texts)
+    )
 
 
 def test_over_a_real_websocket_the_human_moves_and_a_narrow_tab_gets_a_minimised_panel(
@@ -204,19 +218,21 @@ def test_over_a_real_websocket_the_human_moves_and_a_narrow_tab_gets_a_minimised
     viewer.start()
     try:
         with _connect(viewer, "/bioplan/plan/7", width=400) as ws:
-            messages = _messages(ws, 4.0)
+            messages = _messages(ws, _human_played)
+            session = next(iter(viewer._sessions.values()))
+            session.set_methods("paper", "quintic")  # what the two dropdowns do
+            _messages(ws, lambda ms: any("ghost: standard quintic" in str(m) for m in ms),
+                      out=messages)  # fmt: skip
             sessions = viewer.sessions()
     finally:
         viewer.stop()
     names = {m.get("name") for m in messages}
     assert {"/bioplan/human/upper/arm", "/bioplan/human/upper/fore/hand"} <= names
-    turns = [tuple(m["wxyz"]) for m in messages
-             if m.get("name") == "/bioplan/human/upper/fore" and "wxyz" in m]  # fmt: skip
-    assert len(set(turns)) > 10  # the forearm turns with the frames
-    labels = [m for m in messages if m.get("name") == "/bioplan/human/upper/fore/phase"]
-    texts = {str(m) for m in labels}
-    assert any("human: B" in t for t in texts) and any("human: C" in t for t in texts)
+    assert _human_played(messages)  # the forearm turns with the frames, its phase changes
     assert sessions[0]["human"] and sessions[0]["panel_minimised"]
+    assert (sessions[0]["solid"], sessions[0]["ghost"]) == ("paper", "quintic")
+    assert any(m.get("name") == "/bioplan/optimized/name" and "ghost: standard quintic" in str(m)
+               for m in messages)  # fmt: skip
     collapsed = [m for m in messages if m["type"] == "GuiSetPanelCollapsedMessage"]
     assert any(m.get("collapsed") is True for m in collapsed), collapsed
     # viser's phone layout cannot be collapsed from the server: all but play and time sit in
