@@ -138,7 +138,9 @@ class Comparison:
 
         Returns:
             ``{"t": [...], "joint_names", "standard"/"optimized": {"q", "qd", "qdd", "tau":
-            (T, n) lists, "power", "energy", "elbow_flexion_deg": (T,) lists}}``.
+            (T, n) lists, "power", "energy", "elbow_flexion_deg", "elbow_velocity_normalised":
+            (T,) lists}, "human": None or {"elbow_velocity_normalised", "elbow_flexion_deg",
+            "shoulder_deg": (T,) lists}}`` (the human's lift on the same grid).
         """
         if points < 2:
             raise ValueError(f"points must be >= 2, got {points}")
@@ -154,8 +156,26 @@ class Comparison:
                 "power": _clean(self.power[label][idx]),
                 "energy": _clean(self.energy[label][idx]),
                 "elbow_flexion_deg": _clean(self.elbow_flexion_deg[label][idx]),
+                "elbow_velocity_normalised": _clean(self.elbow_velocity_normalised(label)[idx]),
             }
+        out["human"] = None if self.human is None else self._human_curves(idx)
         return out
+
+    def elbow_velocity_normalised(self, label: str) -> FloatArray:
+        """(T,) the elbow's velocity over its peak |value| (0 when it never moves)."""
+        return _over_peak(self.qd[label][:, self.elbow_joint])
+
+    def _human_curves(self, idx: NDArray[np.int_]) -> dict[str, Any]:
+        """The replayed lift on the plan's grid: its elbow velocity over its peak (the
+        Compare page draws it over the robots'), elbow flexion and shoulder angle [deg]."""
+        h = self.human
+        assert h is not None
+        velocity = np.gradient(h.elbow, h.t) if len(h.t) > 1 else np.zeros_like(h.elbow)
+        return {
+            "elbow_velocity_normalised": _clean(_over_peak(velocity)[idx]),
+            "elbow_flexion_deg": _clean(np.degrees(h.elbow)[idx]),
+            "shoulder_deg": _clean(np.degrees(h.shoulder)[idx]),
+        }
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready description without the curves (phases, payload, joints)."""
@@ -180,7 +200,22 @@ class Comparison:
                 for label, times in self.phase_times.items()
             },
             "phases": PHASES,
+            "methods": list(self.methods),
+            "human": {
+                "shown": self.human is not None,
+                "note": self.human_note,
+                "lift": None if self.human is None else dict(self.human.lift),
+                "segments_m": None
+                if self.human is None
+                else {"upper_arm": self.human.upper_arm, "forearm": self.human.forearm},
+            },
         }
+
+
+def _over_peak(values: FloatArray) -> FloatArray:
+    peak = float(np.max(np.abs(values), initial=0.0))
+    out: FloatArray = values / peak if peak > 0.0 else np.zeros_like(values)
+    return out
 
 
 def trajectory_label(name: str) -> str:

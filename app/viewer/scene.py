@@ -5,8 +5,11 @@ joint frame's pose at every sample, the payload's path); ``ComparisonScene`` cre
 once on a viser target (one browser tab's ``ClientHandle``, or a server used for an export) and
 ``show(index)`` only assigns precomputed poses, which is all the playback loop does.
 
-The standard robot is drawn in its URDF colours; the optimised one in amber, either as a
-translucent ghost over the standard one or beside it (``set_layout``).
+Two robots show any two of the comparison's trajectories (``set_methods``; by default the
+standard quintic and the paper's method): the solid one in its URDF colours, the ghost in its
+method's colour, beside it (default) or over it, shifted a little (``set_layout``). The recorded
+human (``app.viewer.human``) stands in the same row; ``camera`` frames all of them
+(``app.viewer.framing``).
 """
 
 from __future__ import annotations
@@ -406,6 +409,7 @@ class ComparisonScene:
         for slot in LABELS:
             self._add_robot(scene, slot)
         self.human: HumanFigure | None = None
+        self.no_human: Any = None
         if prepared.human is not None:
             self.human = HumanFigure(scene, f"{ROOT}/human", prepared.human)
         else:

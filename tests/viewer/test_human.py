@@ -250,3 +250,25 @@ def test_a_simulation_offers_its_methods_by_name(simulation_comparison: Comparis
     np.testing.assert_array_equal(c.tau["paper"], c.tau["optimized"])
     old = dataclasses.replace(c, methods=())  # stored before methods existed
     assert old.choices == ("standard", "optimized") == old.default_pair
+
+
+def test_the_compare_page_gets_the_human_elbow_velocity_over_the_planned_ones(
+    with_human: Comparison, plan_comparison: Comparison
+) -> None:
+    """The synthetic curl's elbow rises linearly from the lift's start to its top, so on the
+    plan's grid its velocity is constant: 1 everywhere over its peak. The quintic's elbow
+    velocity is 30 s^2 (1 - s)^2 / T...: 0 at both ends, 1 at mid-time."""
+    n = len(with_human.t)
+    curves = with_human.curves(points=n)
+    human = curves["human"]
+    np.testing.assert_allclose(human["elbow_velocity_normalised"], 1.0, atol=1e-9)
+    assert human["elbow_flexion_deg"][0] == pytest.approx(5.0)
+    assert human["elbow_flexion_deg"][-1] == pytest.approx(140.0)
+    quintic = np.asarray(curves["standard"]["elbow_velocity_normalised"])
+    assert abs(quintic[0]) < 1e-9 and abs(quintic[-1]) < 1e-6
+    assert np.max(np.abs(quintic)) == pytest.approx(1.0)
+    assert abs(quintic[n // 2]) == pytest.approx(1.0, abs=1e-3)
+    summary = with_human.summary()["human"]
+    assert summary["shown"] and summary["note"] == "synthetic curl"
+    assert plan_comparison.curves(points=10)["human"] is None
+    assert plan_comparison.summary()["human"]["shown"] is False
