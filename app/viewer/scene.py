@@ -163,25 +163,28 @@ class PreparedComparison:
         }
         #: label -> (joint, property) pairs that change along the trajectory: all a playback
         #: frame sends (a revolute joint's frame turns but never moves its origin).
-        self.animated: dict[str, list[tuple[str, str]]] = {}
-        for label in self.labels:
-            pairs = []
-            for joint in self.joint_wxyz[label]:
-                for prop, values in (
-                    ("wxyz", self.joint_wxyz[label][joint]),
-                    ("position", self.joint_position[label][joint]),
-                ):
-                    if np.ptp(values, axis=0).max() > 1e-12:
-                        pairs.append((joint, prop))
-            self.animated[label] = pairs
-        self.human: PreparedHuman | None = None
-        if comparison.human is not None:
-            shoulder, scale = human_placement(
-                self.robot_boxes("side_by_side"), comparison.human.reach
-            )
-            self.human = PreparedHuman(
-                comparison.human, comparison.phase_bounds_deg, shoulder=shoulder, scale=scale
-            )
+        self.animated = {label: self._animated(label) for label in self.labels}
+        self.human = self._prepare_human()
+
+    def _animated(self, label: str) -> list[tuple[str, str]]:
+        """(joint, "wxyz" | "position") pairs that change along one trajectory."""
+        pairs = []
+        for joint in self.joint_wxyz[label]:
+            for prop, values in (
+                ("wxyz", self.joint_wxyz[label][joint]),
+                ("position", self.joint_position[label][joint]),
+            ):
+                if np.ptp(values, axis=0).max() > 1e-12:
+                    pairs.append((joint, prop))
+        return pairs
+
+    def _prepare_human(self) -> PreparedHuman | None:
+        """The recorded human placed beside the robots, or None without one."""
+        c = self.comparison
+        if c.human is None:
+            return None
+        shoulder, scale = human_placement(self.robot_boxes("side_by_side"), c.human.reach)
+        return PreparedHuman(c.human, c.phase_bounds_deg, shoulder=shoulder, scale=scale)
 
     @property
     def floor(self) -> float:
