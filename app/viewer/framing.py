@@ -68,6 +68,7 @@ def frame_camera(
     fov: float = FOV,
     aspect: float = 1.6,
     margin: float = MARGIN,
+    covered_right: float = 0.0,
 ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     """A camera position and look-at point whose view holds every box.
 
@@ -75,7 +76,11 @@ def frame_camera(
     offset p from the centre is seen at depth D + p·f and at p·r (across) and p·u (up) off the
     axis; it is inside the view when |p·r| <= (D + p·f) tan(hfov/2) and |p·u| <= (D + p·f)
     tan(fov/2), so the smallest distance is the largest of |p·r| / tan(hfov/2) - p·f and
-    |p·u| / tan(fov/2) - p·f over the corners; ``margin`` scales it.
+    |p·u| / tan(fov/2) - p·f over the corners; ``margin`` scales it. When a panel covers the
+    right fraction c of the canvas, camera and look-at move right by D tan(hfov/2) c (the
+    boxes' centre then appears at the centre of the uncovered part) and each corner must lie
+    left of the panel; the shift makes that depth-dependent, so the distance is found by
+    bisection (whether all corners fit is monotone in D).
 
     Args:
         boxes: world boxes [m] to keep in view.
@@ -83,6 +88,7 @@ def frame_camera(
         fov: vertical field of view [rad].
         aspect: width / height of the canvas (a 400 px wide phone is below 1).
         margin: distance factor (>= 1).
+        covered_right: fraction of the canvas' width covered on the right (a panel), [0, 0.8].
 
     Returns:
         (position, look_at) [m].
@@ -92,11 +98,31 @@ def frame_camera(
     forward, right, up = _basis(direction)
     tan_v = math.tan(0.5 * fov)
     tan_h = tan_v * max(aspect, 1e-3)
+    covered = min(max(covered_right, 0.0), 0.8)
     p = corners((lo, hi)) - centre
-    along = p @ forward
-    need = np.maximum(np.abs(p @ right) / tan_h, np.abs(p @ up) / tan_v) - along
-    # Never inside the box: at least the corner's own depth in front of the camera.
-    distance = margin * max(float(need.max()), float(np.abs(along).max()) + 0.05, 0.3)
+    across, along, height = p @ right, p @ forward, p @ up
+
+    def fits(distance: float) -> bool:
+        depth = distance + along
+        if np.any(depth <= 1e-6):
+            return False
+        x = (across - distance * tan_h * covered) / (depth * tan_h)
+        y = height / (depth * tan_v)
+        return bool(
+            np.all(x >= -1.0) and np.all(x <= 1.0 - 2.0 * covered) and np.all(abs(y) <= 1.0)
+        )
+
+    # Without a panel, the closed form; the panel's shift makes it depth-dependent, so bisect
+    # (fitting is monotone in the distance) from there.
+    need = np.maximum(np.abs(across) / (tan_h * (1.0 - covered)), np.abs(height) / tan_v) - along
+    low, high = 0.0, max(float(need.max()), float(np.abs(along).max()) + 0.05, 0.3)
+    while not fits(high):
+        low, high = high, 2.0 * high
+    for _ in range(50):
+        mid = 0.5 * (low + high)
+        low, high = (low, mid) if fits(mid) else (mid, high)
+    distance = margin * high
+    centre = centre + right * (distance * tan_h * covered)  # the look-at point
     position = centre - forward * distance
     return tuple(float(v) for v in position), tuple(float(v) for v in centre)  # type: ignore[return-value]
 
@@ -108,9 +134,11 @@ def in_view(
     *,
     fov: float = FOV,
     aspect: float = 1.6,
+    covered_right: float = 0.0,
 ) -> bool:
     """Whether a point [m] lies inside the view of a camera at ``position`` looking at ``look_at``
-    (z up, vertical field of view ``fov`` [rad])."""
+    (z up, vertical field of view ``fov`` [rad]), left of a panel covering the right
+    ``covered_right`` fraction of the canvas."""
     cam = np.asarray(position, dtype=np.float64)
     forward, right, up = _basis(cam - np.asarray(look_at, dtype=np.float64))
     v = np.asarray(point, dtype=np.float64) - cam
@@ -118,9 +146,9 @@ def in_view(
     if depth <= 0.0:
         return False
     tan_v = math.tan(0.5 * fov)
-    return bool(
-        abs(v @ right) <= depth * tan_v * aspect + 1e-9 and abs(v @ up) <= depth * tan_v + 1e-9
-    )
+    x = float(v @ right) / (depth * tan_v * aspect)  # -1 (left edge) .. 1 (right edge)
+    inside_x = -1.0 - 1e-9 <= x <= 1.0 - 2.0 * covered_right + 1e-9
+    return bool(inside_x and abs(v @ up) <= depth * tan_v + 1e-9)
 
 
 def human_placement(

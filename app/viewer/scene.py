@@ -623,10 +623,13 @@ class ComparisonScene:
         return phases
 
     def camera(
-        self, *, aspect: float = 1.6
+        self, *, aspect: float = 1.6, covered_right: float = 0.0
     ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-        """A camera position and look-at point that frame both robots and the human [m]."""
-        return frame_camera(self.prepared.boxes(self.layout), aspect=aspect)
+        """A camera position and look-at point that frame both robots and the human [m], left
+        of a panel covering the right ``covered_right`` fraction of the canvas."""
+        return frame_camera(
+            self.prepared.boxes(self.layout), aspect=aspect, covered_right=covered_right
+        )
 
 
 def slot_name(slot: str, label: str) -> str:

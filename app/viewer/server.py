@@ -407,12 +407,20 @@ NARROW_PX = 576
 MINIMISE_PX = 900
 
 
+#: Width of viser's floating control panel ("medium") with its margin [px].
+PANEL_PX = 340
+
+
 def frame_client(client: Any, scene: ComparisonScene) -> None:
-    """Point a tab's camera at everything in the scene, for its canvas' shape when known."""
-    aspect = 1.6
+    """Point a tab's camera at everything in the scene, for its canvas' shape when known, in the
+    part of a wide canvas that the open control panel leaves free."""
+    aspect, covered = 1.6, 0.0
+    width = canvas_width(client)
     with contextlib.suppress(AssertionError, AttributeError):
         aspect = float(client.camera.aspect)  # known once the browser has reported its camera
-    position, look_at = scene.camera(aspect=aspect)
+    if width is not None and width >= MINIMISE_PX:
+        covered = PANEL_PX / width
+    position, look_at = scene.camera(aspect=aspect, covered_right=covered)
     client.camera.fov = FOV
     client.camera.position = position
     client.camera.look_at = look_at

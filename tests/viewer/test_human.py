@@ -30,21 +30,31 @@ def _overlap(a: Any, b: Any) -> bool:
     return bool(np.all(a[0] < b[1]) and np.all(b[0] < a[1]))
 
 
-@pytest.mark.parametrize("aspect", [1.6, 0.66])
-def test_the_camera_frames_every_box_and_no_closer_camera_would(aspect: float) -> None:
+@pytest.mark.parametrize(("aspect", "covered"), [(1.6, 0.0), (0.66, 0.0), (1.6, 340 / 1280)])
+def test_the_camera_frames_every_box_and_no_closer_camera_would(
+    aspect: float, covered: float
+) -> None:
+    """Every corner inside the view (left of the panel covering the right ``covered`` of the
+    canvas), and 10 % closer some corner is cropped."""
+    # The viewer's row along x: two robots side by side, the human beyond them.
     robots = [
-        (np.array([-0.2, 0.4, 0.0]), np.array([0.9, 1.6, 1.5])),
-        (np.array([-0.2, -1.6, 0.0]), np.array([0.9, -0.4, 1.5])),
+        (np.array([-0.5, -0.5, 0.0]), np.array([1.2, 0.5, 1.5])),
+        (np.array([1.5, -0.5, 0.0]), np.array([3.2, 0.5, 1.5])),
     ]
-    human = human_box((0.3, -2.4, 0.8), 0.7)
+    human = human_box((3.9, 0.0, 0.8), 0.7)
     boxes = [*robots, human]
-    position, look_at = frame_camera(boxes, aspect=aspect, margin=1.0)
+    position, look_at = frame_camera(boxes, aspect=aspect, margin=1.0, covered_right=covered)
     pts = np.concatenate([corners(b) for b in boxes])
-    assert all(in_view(p, position, look_at, aspect=aspect) for p in pts)
+    view = {"aspect": aspect, "covered_right": covered}
+    assert all(in_view(p, position, look_at, **view) for p in pts)
     # Tight: 10% closer along the same line, some corner falls outside (would be cropped).
     closer = np.asarray(look_at) + 0.9 * (np.asarray(position) - np.asarray(look_at))
-    assert not all(in_view(p, closer, look_at, aspect=aspect) for p in pts)
-    np.testing.assert_allclose(look_at, 0.5 * (union(boxes)[0] + union(boxes)[1]))
+    assert not all(in_view(p, closer, look_at, **view) for p in pts)
+    if covered == 0.0:
+        np.testing.assert_allclose(look_at, 0.5 * (union(boxes)[0] + union(boxes)[1]))
+    else:  # framed for the whole canvas instead, the panel would hide some corner
+        naive = frame_camera(boxes, aspect=aspect, margin=1.0)
+        assert not all(in_view(p, *naive, **view) for p in pts)
 
 
 def test_the_human_stands_beside_the_robots_at_a_readable_size() -> None:
