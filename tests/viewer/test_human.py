@@ -23,7 +23,7 @@ from app.viewer.framing import (
 )
 from app.viewer.human import about_minus_y
 from app.viewer.scene import ComparisonScene, PreparedCache, PreparedComparison
-from tests.viewer.test_scene import FakeTarget
+from tests.viewer._fakes import FakeTarget
 
 
 def _overlap(a: Any, b: Any) -> bool:
@@ -220,7 +220,8 @@ def test_over_a_real_websocket_the_human_moves_and_a_narrow_tab_gets_a_minimised
     with_human: Comparison,
 ) -> None:
     from app.viewer.server import ViewerServer
-    from tests.viewer.test_server import _connect, _listening_socket
+    from tests.viewer._fakes import connect_client as _connect
+    from tests.viewer._fakes import listening_socket as _listening_socket
 
     with _listening_socket() as sock:
         port = sock.getsockname()[1]

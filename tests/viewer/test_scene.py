@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import pytest
 
@@ -17,48 +15,7 @@ from app.viewer.scene import (
     PreparedComparison,
     trace_tube,
 )
-
-
-class Handle:
-    """Records every property assignment, like a viser scene-node handle would send it."""
-
-    def __init__(self, log: list[tuple[str, str]], name: str, **props: Any) -> None:
-        object.__setattr__(self, "_log", log)
-        object.__setattr__(self, "name", name)
-        for k, v in props.items():
-            object.__setattr__(self, k, v)
-
-    def __setattr__(self, key: str, value: Any) -> None:
-        self._log.append((self.name, key))
-        object.__setattr__(self, key, value)
-
-
-class FakeScene:
-    def __init__(self) -> None:
-        self.nodes: dict[str, Handle] = {}
-        self.updates: list[tuple[str, str]] = []
-
-    def _add(self, name: str, **props: Any) -> Handle:
-        assert name not in self.nodes, f"node {name} added twice"
-        handle = Handle(self.updates, name, **props)
-        object.__setattr__(handle, "remove", lambda: self.nodes.pop(name))
-        self.nodes[name] = handle
-        return handle
-
-    def __getattr__(self, method: str) -> Any:
-        if not method.startswith("add_"):
-            raise AttributeError(method)
-
-        def add(name: str, *args: Any, **props: Any) -> Handle:
-            props.setdefault("visible", True)
-            return self._add(name, kind=method, args=args, **props)
-
-        return add
-
-
-class FakeTarget:
-    def __init__(self) -> None:
-        self.scene = FakeScene()
+from tests.viewer._fakes import FakeTarget
 
 
 @pytest.fixture(scope="module")
