@@ -37,6 +37,15 @@ from app.analysis.pipeline import (
 )
 from app.analysis.plots import write_analysis_plots
 from app.analysis.pose import ArmAngles, angles_from_channels, arm_angles, joint_angles
+from app.analysis.replay import (
+    HumanReplay,
+    ReplayError,
+    lift_time_map,
+    lifts_with_angles,
+    replay_from_overlays,
+    replay_lift,
+    two_link_points,
+)
 from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lifts, split_phases
 from app.analysis.sync import estimate_offset, event_offset, resample
 from app.analysis.template import LiftProfile, build_template, lift_profile
@@ -46,6 +55,7 @@ __all__ = [
     "AnalysisResult",
     "ArmAngles",
     "Energetics",
+    "HumanReplay",
     "Lift",
     "LiftProfile",
     "LiftReport",
@@ -55,6 +65,7 @@ __all__ = [
     "PhaseEnergetics",
     "PhaseStats",
     "RecordingAnalysis",
+    "ReplayError",
     "activation_order",
     "analyze_files",
     "analyze_recordings",
@@ -73,14 +84,19 @@ __all__ = [
     "joint_angles",
     "lift_energetics",
     "lift_profile",
+    "lift_time_map",
+    "lifts_with_angles",
     "merge_recordings",
     "minmax_downsample",
     "moving_rms",
     "normalize_amplitude",
     "peak_times",
+    "replay_from_overlays",
+    "replay_lift",
     "resample",
     "saturation_flags",
     "split_phases",
     "tkeo",
+    "two_link_points",
     "write_analysis_plots",
 ]

@@ -23,6 +23,7 @@ from app.jobs.runner import JobRunner, make_runner
 from app.services.broker import JobBroker
 from app.services.cache import ResponseCache
 from app.services.comparisons import ComparisonLoader
+from app.services.human_replay import HumanReplayLoader
 from app.services.jobs import JobService
 from app.services.overlays import RecordingOverlays
 from app.services.robots import RobotCatalog
@@ -131,7 +132,9 @@ def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Se
         jobs=jobs,
         robots=robots,
         overlays=RecordingOverlays(sessions),
-        comparisons=PreparedCache(ComparisonLoader(sessions, robots)),
+        comparisons=PreparedCache(
+            ComparisonLoader(sessions, robots), human=HumanReplayLoader(sessions)
+        ),
     )
 
 

@@ -18,16 +18,17 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from app.names import PHASE_BOUNDS_DEG
+from app.names import METHODS, PHASE_BOUNDS_DEG
 from app.names import PHASES as _PHASES
 
 if TYPE_CHECKING:
+    from app.analysis.replay import HumanReplay
     from app.planning.robots import Robot
 
 FloatArray = NDArray[np.float64]
 Kind = Literal["plan", "simulation"]
 KINDS: tuple[Kind, ...] = ("plan", "simulation")
-LABELS = ("standard", "optimized")
+LABELS: tuple[str, str] = ("standard", "optimized")
 #: Phase names and what they mean in a curl (``app.names.PHASES``).
 PHASES = {p.name: p.label for p in _PHASES}
 
@@ -60,12 +61,18 @@ class Comparison:
         payload_com: (3,) payload centre in the payload body's frame [m].
         payload_size: (3,) payload box extents [m] (zeros: a point mass).
         result: the job's JSON result (the CLI's ``--json``).
-        methods: the planned methods shown as ``standard`` and ``optimized`` (in that order).
+        shown: the planned methods shown as ``standard`` and ``optimized`` (in that order), as
+            chosen by the Compare page's ``methods=a,b``.
         urdf_path: the robot's URDF file, so its meshes are found (None: ``urdf`` text only).
         package_dirs: folders ``package://`` mesh paths resolve in.
         allowed_roots: meshes outside these folders are not read (an uploaded robot's folder);
             None: no confinement (built-in robots).
         locks: locked joints -> values [rad or m] (drawn at their values).
+        methods: the planning methods whose trajectories the arrays hold (``app.names.METHODS``
+            order); the dicts above hold them under their names too. Empty for results stored
+            before methods existed (only ``standard`` and ``optimized``).
+        human: the recorded lift replayed on this comparison's time grid, or None.
+        human_note: why there is no human (or what was assumed for it); shown in the viewer.
     """
 
     kind: Kind
@@ -89,11 +96,31 @@ class Comparison:
     payload_com: FloatArray
     payload_size: FloatArray
     result: dict[str, Any] = field(default_factory=dict)
-    methods: tuple[str, str] = ("quintic", "paper")
+    shown: tuple[str, str] = ("quintic", "paper")
     urdf_path: Path | None = None
     package_dirs: tuple[Path, ...] = ()
     allowed_roots: tuple[Path, ...] | None = None
     locks: dict[str, float] = field(default_factory=dict)
+    methods: tuple[str, ...] = ()
+    human: HumanReplay | None = None
+    human_note: str = ""
+
+    @property
+    def choices(self) -> tuple[str, ...]:
+        """The trajectories a viewer can show: every method, else ``standard``/``optimized``."""
+        return self.methods if len(self.methods) >= 2 else LABELS
+
+    @property
+    def default_pair(self) -> tuple[str, str]:
+        """(solid, ghost) shown first: the pair the page chose (``shown``) when both were
+        planned, else the standard quintic and the paper's (or the optimised) one."""
+        if len(self.methods) < 2:
+            return LABELS
+        if all(m in self.methods for m in self.shown):
+            return self.shown
+        solid = "quintic" if "quintic" in self.methods else self.methods[0]
+        ghost = "paper" if "paper" in self.methods else next(m for m in self.methods if m != solid)
+        return solid, ghost
 
     @property
     def duration(self) -> float:
@@ -126,7 +153,9 @@ class Comparison:
 
         Returns:
             ``{"t": [...], "joint_names", "standard"/"optimized": {"q", "qd", "qdd", "tau":
-            (T, n) lists, "power", "energy", "elbow_flexion_deg": (T,) lists}}``.
+            (T, n) lists, "power", "energy", "elbow_flexion_deg", "elbow_velocity_normalised":
+            (T,) lists}, "human": None or {"elbow_velocity_normalised", "elbow_flexion_deg",
+            "shoulder_deg": (T,) lists}}`` (the human's lift on the same grid).
         """
         if points < 2:
             raise ValueError(f"points must be >= 2, got {points}")
@@ -142,8 +171,26 @@ class Comparison:
                 "power": _clean(self.power[label][idx]),
                 "energy": _clean(self.energy[label][idx]),
                 "elbow_flexion_deg": _clean(self.elbow_flexion_deg[label][idx]),
+                "elbow_velocity_normalised": _clean(self.elbow_velocity_normalised(label)[idx]),
             }
+        out["human"] = None if self.human is None else self._human_curves(idx)
         return out
+
+    def elbow_velocity_normalised(self, label: str) -> FloatArray:
+        """(T,) the elbow's velocity over its peak |value| (0 when it never moves)."""
+        return _over_peak(self.qd[label][:, self.elbow_joint])
+
+    def _human_curves(self, idx: NDArray[np.int_]) -> dict[str, Any]:
+        """The replayed lift on the plan's grid: its elbow velocity over its peak (the
+        Compare page draws it over the robots'), elbow flexion and shoulder angle [deg]."""
+        h = self.human
+        assert h is not None
+        velocity = np.gradient(h.elbow, h.t) if len(h.t) > 1 else np.zeros_like(h.elbow)
+        return {
+            "elbow_velocity_normalised": _clean(_over_peak(velocity)[idx]),
+            "elbow_flexion_deg": _clean(np.degrees(h.elbow)[idx]),
+            "shoulder_deg": _clean(np.degrees(h.shoulder)[idx]),
+        }
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready description without the curves (phases, payload, joints)."""
@@ -168,8 +215,36 @@ class Comparison:
                 for label, times in self.phase_times.items()
             },
             "phases": PHASES,
-            "methods": dict(zip(LABELS, self.methods, strict=True)),
+            "methods": dict(zip(LABELS, self.shown, strict=True)),
+            "planned": list(self.methods),
+            "human": {
+                "shown": self.human is not None,
+                "note": self.human_note,
+                "lift": None if self.human is None else dict(self.human.lift),
+                "segments_m": None
+                if self.human is None
+                else {"upper_arm": self.human.upper_arm, "forearm": self.human.forearm},
+            },
         }
+
+
+def _over_peak(values: FloatArray) -> FloatArray:
+    peak = float(np.max(np.abs(values), initial=0.0))
+    out: FloatArray = values / peak if peak > 0.0 else np.zeros_like(values)
+    return out
+
+
+def trajectory_label(name: str) -> str:
+    """What to call a trajectory: a method's label, or "standard quintic" / "optimised"."""
+    if name in METHODS:
+        return METHODS[name].label
+    return {"standard": "standard quintic", "optimized": "optimised"}.get(name, name)
+
+
+def trajectory_colour(name: str) -> str:
+    """A trajectory's CSS colour: its method's (``standard`` = quintic, ``optimized`` = paper)."""
+    method = {"standard": "quintic", "optimized": "paper"}.get(name, name)
+    return METHODS[method].colour if method in METHODS else "#888888"
 
 
 def _clean(array: FloatArray) -> list[Any]:
@@ -294,7 +369,8 @@ def comparison_from_arrays(
         k: {} for k in ("q", "qd", "qdd", "tau", "power", "energy", "flex")
     }
     times: dict[str, tuple[float, float]] = {}
-    for label in LABELS:
+    planned = tuple(m for m in METHODS if f"{m}_q" in arrays and f"{m}_tau" in arrays)
+    for label in (*LABELS, *planned):
         for name, arr in _trajectory(arrays, label, kind, t, len(robot.joint_names)).items():
             data[name][label] = arr
         # Phases follow the commanded elbow in a simulation (as the simulator reports them).
@@ -325,11 +401,12 @@ def comparison_from_arrays(
         payload_com=np.asarray(payload.com, dtype=np.float64),
         payload_size=np.asarray(payload.size, dtype=np.float64),
         result=dict(result),
-        methods=methods if methods is not None else ("quintic", "paper"),
+        shown=methods if methods is not None else ("quintic", "paper"),
         urdf_path=Path(robot.urdf_path),
         package_dirs=tuple(Path(p) for p in robot.package_dirs),
         allowed_roots=allowed_roots,
         locks=dict(robot.locks),
+        methods=planned,
     )
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from app.names import METRICS
 from app.names import PHASES as PHASE_INFO
 from app.viewer.comparison import LABELS, PHASES, Comparison
+from app.viewer.framing import FOV
 from app.viewer.scene import (
     COLORS,
     ComparisonScene,
@@ -59,6 +60,7 @@ def scene_html(
         configure_lighting(server.scene)
         scene = ComparisonScene(server, prepared, layout=layout)
         position, look_at = scene.camera()
+        server.initial_camera.fov = FOV  # the framing's field of view
         server.initial_camera.position = position
         server.initial_camera.look_at = look_at
         server.initial_camera.up = (0.0, 0.0, 1.0)

@@ -14,9 +14,16 @@ PLOT_POINTS = 240
 
 
 def power_plot(
-    comparison: Comparison, t_now: float, *, points: int = PLOT_POINTS
+    comparison: Comparison,
+    t_now: float,
+    *,
+    points: int = PLOT_POINTS,
+    labels: tuple[str, str] = ("standard", "optimized"),
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """uPlot data: time, standard and optimised power [W], and a time cursor at ``t_now``.
+    """uPlot data: time, two trajectories' power [W], and a time cursor at ``t_now``.
+
+    ``labels`` names the two trajectories (the solid and the ghost robot's; default the
+    standard and the optimised one).
 
     uPlot draws one x array for all series and viser sends plain float arrays (no gaps), so the
     cursor is a series on its own 0-1 scale that is 0 everywhere except for a spike to 1 at
@@ -24,13 +31,13 @@ def power_plot(
     interpolated there. The spike draws as a vertical line; the rest lies on the x axis.
 
     Returns:
-        (t, standard, optimised, cursor), each (points + 3,) at most.
+        (t, first, second, cursor), each (points + 3,) at most.
     """
     c = comparison
     idx = np.unique(np.linspace(0, len(c.t) - 1, min(points, len(c.t))).round().astype(int))
     t = c.t[idx]
-    std = c.power["standard"][idx]
-    opt = c.power["optimized"][idx]
+    std = c.power[labels[0]][idx]
+    opt = c.power[labels[1]][idx]
     now = float(min(max(t_now, t[0]), t[-1]))
     k = int(np.searchsorted(t, now))
     at_std = float(np.interp(now, t, std))

@@ -5,8 +5,11 @@ joint frame's pose at every sample, the payload's path); ``ComparisonScene`` cre
 once on a viser target (one browser tab's ``ClientHandle``, or a server used for an export) and
 ``show(index)`` only assigns precomputed poses, which is all the playback loop does.
 
-The standard robot is drawn in its URDF colours; the optimised one in amber, either as a
-translucent ghost over the standard one or beside it (``set_layout``).
+Two robots show any two of the comparison's trajectories (``set_methods``; by default the
+standard quintic and the paper's method): the solid one in its URDF colours, the ghost in its
+method's colour, beside it (default) or over it, shifted a little (``set_layout``). The recorded
+human (``app.viewer.human``) stands in the same row; ``camera`` frames all of them
+(``app.viewer.framing``).
 """
 
 from __future__ import annotations
@@ -22,7 +25,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.names import METHODS, PHASES
-from app.viewer.comparison import LABELS, Comparison
+from app.viewer.comparison import LABELS, Comparison, trajectory_colour, trajectory_label
+from app.viewer.framing import (
+    Box,
+    box_of,
+    corners,
+    frame_camera,
+    human_box,
+    human_placement,
+    shifted,
+    union,
+)
+from app.viewer.human import HumanFigure, PreparedHuman
 from app.viewer.kinematics import UrdfChain, load_urdf, matrices_to_wxyz
 
 FloatArray = NDArray[np.float64]
@@ -44,7 +58,8 @@ COLORS = {"standard": rgb(METHODS["quintic"].colour), "optimized": rgb(METHODS["
 PAYLOAD_COLOR = (120, 170, 200)
 #: The A/B/C phase marks on the traces (``app.names.PHASES``).
 PHASE_COLORS = {phase.name: rgb(phase.colour) for phase in PHASES}
-GHOST_OPACITY = 0.4
+#: The ghost robot over the solid one: clearly visible, still see-through.
+GHOST_OPACITY = 0.6
 #: End-effector trace: a thin tube of at most this many rings of TRACE_SIDES vertices [m].
 TRACE_SAMPLES = 120
 TRACE_SIDES = 6
@@ -118,8 +133,13 @@ class PreparedComparison:
         self.joint_wxyz: dict[str, dict[str, FloatArray]] = {}
         self.joint_position: dict[str, dict[str, FloatArray]] = {}
         self.payload_path: dict[str, FloatArray] = {}
+        #: label -> (lo, hi) box of the robot over the whole trajectory, in its root frame [m].
+        self.bounds: dict[str, Box] = {}
+        #: every trajectory the comparison holds (methods, and standard/optimized).
+        self.labels = tuple(comparison.q)
+        extents = _link_corners(self.meshes)
         com = np.append(comparison.payload_com, 1.0)
-        for label in LABELS:
+        for label in self.labels:
             q = comparison.q[label]
             if held:  # locked joints as constant columns (a gripper held open, ...)
                 q = np.column_stack([q, np.tile(list(held.values()), (q.shape[0], 1))])
@@ -132,32 +152,76 @@ class PreparedComparison:
                     f"payload body {comparison.payload_body!r} is not a link of the URDF"
                 )
             self.payload_path[label] = (world[comparison.payload_body] @ com)[:, :3]
+            self.bounds[label] = _robot_box(world, extents, self.payload_path[label], comparison)
         stacked = np.concatenate(list(self.payload_path.values()))
         self.reach = float(np.max(np.linalg.norm(stacked[:, :2], axis=1), initial=0.3))
         self.height = float(np.max(stacked[:, 2], initial=1.0))
-        self.traces = {label: trace_tube(self.payload_path[label]) for label in LABELS}
+        self.traces = {label: trace_tube(self.payload_path[label]) for label in self.labels}
         self.phases = {
             label: [comparison.phase_at(label, i) for i in range(len(comparison.t))]
-            for label in LABELS
+            for label in self.labels
         }
         #: label -> (joint, property) pairs that change along the trajectory: all a playback
         #: frame sends (a revolute joint's frame turns but never moves its origin).
-        self.animated: dict[str, list[tuple[str, str]]] = {}
-        for label in LABELS:
-            pairs = []
-            for joint in self.joint_wxyz[label]:
-                for prop, values in (
-                    ("wxyz", self.joint_wxyz[label][joint]),
-                    ("position", self.joint_position[label][joint]),
-                ):
-                    if np.ptp(values, axis=0).max() > 1e-12:
-                        pairs.append((joint, prop))
-            self.animated[label] = pairs
+        self.animated = {label: self._animated(label) for label in self.labels}
+        self.human = self._prepare_human()
+
+    def _animated(self, label: str) -> list[tuple[str, str]]:
+        """(joint, "wxyz" | "position") pairs that change along one trajectory."""
+        pairs = []
+        for joint in self.joint_wxyz[label]:
+            for prop, values in (
+                ("wxyz", self.joint_wxyz[label][joint]),
+                ("position", self.joint_position[label][joint]),
+            ):
+                if np.ptp(values, axis=0).max() > 1e-12:
+                    pairs.append((joint, prop))
+        return pairs
+
+    def _prepare_human(self) -> PreparedHuman | None:
+        """The recorded human placed beside the robots, or None without one."""
+        c = self.comparison
+        if c.human is None:
+            return None
+        shoulder, scale = human_placement(self.robot_boxes("side_by_side"), c.human.reach)
+        return PreparedHuman(c.human, c.phase_bounds_deg, shoulder=shoulder, scale=scale)
+
+    @property
+    def floor(self) -> float:
+        """Height of the floor [m]: z = 0, or under a robot that hangs below its base (the
+        human arm's shoulder is its origin)."""
+        return min(float(union(list(self.bounds.values()))[0][2]), 0.0)
+
+    def boxes(self, layout: Layout) -> list[Box]:
+        """World boxes of everything shown: both robots and the human [m]."""
+        out = self.robot_boxes(layout)
+        if self.human is not None:
+            out.append(human_box(self.human.shoulder, self.human.scale * self.human.replay.reach))
+        return out
+
+    def slot_offsets(self, layout: Layout) -> dict[str, tuple[float, float, float]]:
+        """Where each robot's root goes [m]: side by side along x (the camera looks from the
+        side, across the arms' sagittal x-z plane), or the ghost shifted a little along x."""
+        if layout == "side_by_side":
+            return {"standard": (0.0, 0.0, 0.0), "optimized": (self.side_offset, 0.0, 0.0)}
+        return {"standard": (0.0, 0.0, 0.0), "optimized": (self.ghost_shift, 0.0, 0.0)}
+
+    @property
+    def ghost_shift(self) -> float:
+        """Shift of the ghost over the solid robot [m], so their rest poses (where both
+        trajectories start and end) do not coincide."""
+        return max(0.08, 0.15 * self.reach)
+
+    def robot_boxes(self, layout: Layout) -> list[Box]:
+        """World boxes of both robots (every trajectory, so a method switch stays in view)."""
+        everything = union(list(self.bounds.values()))
+        return [shifted(everything, offset) for offset in self.slot_offsets(layout).values()]
 
     @property
     def side_offset(self) -> float:
         """Distance between the two robots side by side [m]."""
-        return 2.0 * self.reach + 0.4
+        lo, hi = union(list(self.bounds.values()))
+        return float(hi[0] - lo[0]) + 0.3
 
     def phase_points(self, label: str) -> list[tuple[str, FloatArray]]:
         """Where along the payload path each phase starts: [(phase, (3,) position)]."""
@@ -168,6 +232,38 @@ class PreparedComparison:
                 out.append((phase, self.payload_path[label][i]))
                 previous = phase
         return out
+
+
+def _link_corners(meshes: Sequence[LinkMesh]) -> dict[str, FloatArray]:
+    """link -> (8, 3) corners of the box around its visual meshes, in the link's frame [m]."""
+    out: dict[str, FloatArray] = {}
+    for link in {m.link for m in meshes}:
+        verts = [m.vertices for m in meshes if m.link == link and len(m.vertices)]
+        if verts:
+            out[link] = corners(box_of(np.concatenate(verts).astype(np.float64)))
+    return out
+
+
+#: Poses per trajectory used for a robot's box (plenty for a smooth motion).
+BOX_SAMPLES = 60
+
+
+def _robot_box(
+    world: Mapping[str, FloatArray],
+    link_corners: Mapping[str, FloatArray],
+    payload: FloatArray,
+    comparison: Comparison,
+) -> Box:
+    """The box a robot sweeps: its links' mesh boxes at evenly spaced poses, and the payload."""
+    idx = np.unique(np.linspace(0, len(payload) - 1, BOX_SAMPLES).round().astype(int))
+    points = [payload[idx]]
+    pads = [np.full(len(idx), 0.5 * float(np.max(comparison.payload_size, initial=0.06)))]
+    for link, poses in world.items():
+        local = link_corners.get(link, np.zeros((1, 3)))
+        moved = np.einsum("tij,kj->tki", poses[idx, :3, :3], local) + poses[idx, None, :3, 3]
+        points.append(moved.reshape(-1, 3))
+        pads.append(np.full(moved.shape[0] * moved.shape[1], 0.01))
+    return box_of(np.concatenate(points), np.concatenate(pads))
 
 
 def trace_tube(
@@ -279,78 +375,132 @@ def configure_lighting(scene: Any) -> None:
 class ComparisonScene:
     """The scene of one comparison on one viser target; built once, then only posed.
 
+    Two robots: the solid one (slot ``standard``, its URDF colours) and the ghost (slot
+    ``optimized``, translucent in its method's colour); each shows one of the comparison's
+    trajectories (``set_methods``), by default the standard quintic and the paper's. The
+    recorded human, when the comparison has one, stands beside them.
+
     Args:
         target: a ``viser.ClientHandle`` (one tab) or ``viser.ViserServer``.
         prepared: the precomputed comparison.
-        layout: ``"ghost"`` (optimised over standard, translucent) or ``"side_by_side"``.
+        layout: ``"side_by_side"`` (default) or ``"ghost"`` (the ghost over the solid robot,
+            shifted a little sideways so the rest poses do not coincide).
     """
 
-    def __init__(self, target: Any, prepared: PreparedComparison, *, layout: Layout = "ghost"):
+    def __init__(
+        self, target: Any, prepared: PreparedComparison, *, layout: Layout = "side_by_side"
+    ):
         self.target = target
         self.prepared = prepared
         scene = target.scene
-        self._frames: dict[str, dict[str, Any]] = {label: {} for label in LABELS}
+        self.shown: dict[str, str] = dict(
+            zip(LABELS, prepared.comparison.default_pair, strict=True)
+        )
+        self._frames: dict[str, dict[str, Any]] = {slot: {} for slot in LABELS}
         self._roots: dict[str, Any] = {}
         self._ghost_meshes: list[Any] = []
         self._static_ghost: list[Any] = []
         self._labels: dict[str, Any] = {}
+        self._names: dict[str, Any] = {}
+        self._lamps: dict[str, Any] = {}
+        self._traces: dict[str, list[Any]] = {slot: [] for slot in LABELS}
         self._phase: dict[str, str] = {}
+        #: the phase of each robot (and the human) at the pose shown.
+        self.phases_now: dict[str, str] = {}
         self.index = -1
-        chain = prepared.chain
-        # Just under both robots in either layout: the grid's shader costs a software renderer
-        # per pixel it covers.
+        self._add_floor(scene)
+        for slot in LABELS:
+            self._add_robot(scene, slot)
+        self.human: HumanFigure | None = None
+        self.no_human: Any = None
+        if prepared.human is not None:
+            self.human = HumanFigure(scene, f"{ROOT}/human", prepared.human)
+        else:
+            self.no_human = scene.add_label(
+                f"{ROOT}/no_human",
+                no_human_text(prepared.comparison),
+                font_screen_scale=0.8,
+                anchor="bottom-center",
+                position=(float(union(prepared.robot_boxes("side_by_side"))[1][0]) + 0.5, 0.0, 0.8),
+            )
+        self.layout: Layout = "side_by_side"
+        self.set_layout(layout)
+        self.show(0)
+
+    def _add_floor(self, scene: Any) -> None:
+        # Just under everything: the grid's shader costs a software renderer per pixel it covers.
+        lo, hi = union(self.prepared.boxes("side_by_side"))
         scene.add_grid(
             f"{ROOT}/floor",
-            width=2.0 * prepared.reach + 1.0,
-            height=prepared.side_offset + 2.0 * prepared.reach + 1.0,
+            width=float(hi[0] - lo[0]) + 0.6,
+            height=float(hi[1] - lo[1]) + 0.6,
+            position=(
+                float(0.5 * (lo[0] + hi[0])),
+                float(0.5 * (lo[1] + hi[1])),
+                self.prepared.floor,
+            ),
             cell_size=0.25,
             section_size=1.0,
             shadow_opacity=0.0,
         )
-        for label in LABELS:
-            root = scene.add_frame(f"{ROOT}/{label}", show_axes=False)
-            self._roots[label] = root
-            optimized = label == "optimized"
-            for joint in chain.joints:
-                name = self._link_node(label, joint.child)
-                self._frames[label][joint.name] = scene.add_frame(name, show_axes=False)
-            for k, mesh in enumerate(prepared.meshes):
-                handle = scene.add_mesh_simple(
-                    f"{self._link_node(label, mesh.link)}/visual_{k}",
-                    mesh.vertices,
-                    mesh.faces,
-                    color=COLORS["optimized"] if optimized else mesh.color,
-                    opacity=GHOST_OPACITY if optimized else None,
-                    cast_shadow=False,
-                    receive_shadow=False,
-                )
-                if optimized:
-                    self._ghost_meshes.append(handle)
-                    if mesh.link not in prepared.moving_links:
-                        self._static_ghost.append(handle)
-            self._add_payload(scene, label)
-            self._add_trace(scene, label)
-            # On the payload body, so it moves with it at no cost; the standard's label above
-            # the payload, the optimised one's below, so the two never overlap.
-            self._labels[label] = scene.add_label(
-                f"{self._link_node(label, prepared.comparison.payload_body)}/phase_label",
-                "",
-                font_screen_scale=0.9,
-                anchor="top-center" if optimized else "bottom-center",
-                position=tuple(float(v) for v in prepared.comparison.payload_com),
+
+    def _add_robot(self, scene: Any, slot: str) -> None:
+        prepared = self.prepared
+        ghost = slot == "optimized"
+        label = self.shown[slot]
+        self._roots[slot] = scene.add_frame(f"{ROOT}/{slot}", show_axes=False)
+        for joint in prepared.chain.joints:
+            node = self._link_node(slot, joint.child)
+            self._frames[slot][joint.name] = scene.add_frame(node, show_axes=False)
+        for k, mesh in enumerate(prepared.meshes):
+            handle = scene.add_mesh_simple(
+                f"{self._link_node(slot, mesh.link)}/visual_{k}",
+                mesh.vertices,
+                mesh.faces,
+                color=rgb(trajectory_colour(label)) if ghost else mesh.color,
+                opacity=GHOST_OPACITY if ghost else None,
+                cast_shadow=False,
+                receive_shadow=False,
             )
-        self.layout: Layout = "ghost"
-        self.set_layout(layout)
-        self.show(0)
+            if ghost:
+                self._ghost_meshes.append(handle)
+                if mesh.link not in prepared.moving_links:
+                    self._static_ghost.append(handle)
+        self._add_payload(scene, slot)
+        self._add_trace(scene, slot)
+        c = prepared.comparison
+        body = self._link_node(slot, c.payload_body)
+        com = tuple(float(v) for v in c.payload_com)
+        # On the payload body, so they move with it at no cost; the solid robot's label above
+        # the payload, the ghost's below, so the two never overlap in the ghost layout.
+        self._labels[slot] = scene.add_label(
+            f"{body}/phase_label",
+            "",
+            font_screen_scale=0.9,
+            anchor="top-center" if ghost else "bottom-center",
+            position=com,
+        )
+        self._lamps[slot] = scene.add_icosphere(
+            f"{body}/phase_lamp", radius=0.022, color=PHASE_COLORS["A"], position=com
+        )
+        top = float(prepared.bounds[label][1][2]) + 0.12
+        self._names[slot] = scene.add_label(
+            f"{ROOT}/{slot}/name",
+            slot_name(slot, label),
+            font_screen_scale=1.0,
+            anchor="bottom-center",
+            position=(0.0, 0.0, top),
+        )
 
-    def _link_node(self, label: str, link: str) -> str:
-        return f"{ROOT}/{label}/" + "/".join(self.prepared.link_paths[link])
+    def _link_node(self, slot: str, link: str) -> str:
+        return f"{ROOT}/{slot}/" + "/".join(self.prepared.link_paths[link])
 
-    def _add_payload(self, scene: Any, label: str) -> None:
+    def _add_payload(self, scene: Any, slot: str) -> None:
         c = self.prepared.comparison
-        parent = self._link_node(label, c.payload_body)
-        color = COLORS["optimized"] if label == "optimized" else PAYLOAD_COLOR
-        opacity = GHOST_OPACITY if label == "optimized" else 0.85
+        parent = self._link_node(slot, c.payload_body)
+        ghost = slot == "optimized"
+        color = rgb(trajectory_colour(self.shown[slot])) if ghost else PAYLOAD_COLOR
+        opacity = GHOST_OPACITY if ghost else 0.85
         if np.all(c.payload_size > 0.0):
             handle = scene.add_box(
                 f"{parent}/payload",
@@ -369,81 +519,128 @@ class ComparisonScene:
                 opacity=opacity,
                 position=tuple(float(v) for v in c.payload_com),
             )
-        if label == "optimized":
+        if ghost:
             self._ghost_meshes.append(handle)
 
-    def _add_trace(self, scene: Any, label: str) -> None:
+    def _add_trace(self, scene: Any, slot: str) -> None:
+        """The payload's path of the slot's trajectory, with its phase starts (replaced when
+        the slot changes method: not in the playback loop)."""
+        for handle in self._traces[slot]:
+            handle.remove()
+        self._traces[slot] = []
+        label = self.shown[slot]
         vertices, faces = self.prepared.traces[label]
         if len(faces):
-            scene.add_mesh_simple(
-                f"{ROOT}/{label}/trace",
-                vertices,
-                faces,
-                color=COLORS[label],
-                flat_shading=False,
-                cast_shadow=False,
-                receive_shadow=False,
+            self._traces[slot].append(
+                scene.add_mesh_simple(
+                    f"{ROOT}/{slot}/trace",
+                    vertices,
+                    faces,
+                    color=rgb(trajectory_colour(label)),
+                    flat_shading=False,
+                    cast_shadow=False,
+                    receive_shadow=False,
+                )
             )
         for k, (phase, pos) in enumerate(self.prepared.phase_points(label)):
-            scene.add_icosphere(
-                f"{ROOT}/{label}/phase_start_{k}",
-                radius=0.018,
-                color=PHASE_COLORS[phase],
-                position=tuple(float(v) for v in pos),
+            self._traces[slot].append(
+                scene.add_icosphere(
+                    f"{ROOT}/{slot}/phase_start_{k}",
+                    radius=0.018,
+                    color=PHASE_COLORS[phase],
+                    position=tuple(float(v) for v in pos),
+                )
             )
 
+    def set_methods(self, solid: str, ghost: str) -> None:
+        """Show trajectory ``solid`` on the solid robot and ``ghost`` on the ghost (names of
+        ``prepared.labels``); recolours the ghost and redraws the traces, no new robot."""
+        for name in (solid, ghost):
+            if name not in self.prepared.labels:
+                raise ValueError(
+                    f"unknown trajectory {name!r} (expected one of {self.prepared.labels})"
+                )
+        changed = [slot for slot, name in zip(LABELS, (solid, ghost), strict=True)
+                   if self.shown[slot] != name]  # fmt: skip
+        for slot, name in zip(LABELS, (solid, ghost), strict=True):
+            self.shown[slot] = name
+        for slot in changed:
+            self._add_trace(self.target.scene, slot)
+            self._names[slot].text = slot_name(slot, self.shown[slot])
+            self._phase.pop(slot, None)
+        if "optimized" in changed:
+            colour = rgb(trajectory_colour(ghost))
+            for handle in self._ghost_meshes:
+                handle.color = colour
+        if changed:
+            index, self.index = self.index, -1  # every joint: the new trajectory's pose
+            self.show(index)
+
     def set_layout(self, layout: Layout) -> None:
-        """Ghost overlay or side by side (moves the roots, changes opacity; no new nodes)."""
+        """Side by side or ghost (moves the roots, changes opacity; no new nodes)."""
         if layout not in LAYOUTS:
             raise ValueError(f"unknown layout {layout!r} (expected one of {LAYOUTS})")
-        half = 0.5 * self.prepared.side_offset if layout == "side_by_side" else 0.0
-        self._roots["standard"].position = (0.0, half, 0.0)
-        self._roots["optimized"].position = (0.0, -half, 0.0)
+        for slot, offset in self.prepared.slot_offsets(layout).items():
+            self._roots[slot].position = offset
         opacity = GHOST_OPACITY if layout == "ghost" else 1.0
         for handle in self._ghost_meshes:
             handle.opacity = opacity
-        # Overlaid, the optimised robot's fixed base would only tint the standard one's.
+        # Overlaid, the ghost's fixed base would only tint the solid one's.
         for handle in self._static_ghost:
             handle.visible = layout == "side_by_side"
         self.layout = layout
 
     def show(self, index: int) -> dict[str, str]:
-        """Pose both robots at sample ``index``; returns the phase of each trajectory.
+        """Pose both robots and the human at sample ``index``; returns the phase of each
+        (``standard``, ``optimized`` and, with a human, ``human``).
 
         Wrap calls in ``target.atomic()`` so a browser never draws half a pose.
         """
         p = self.prepared
         index = int(min(max(index, 0), len(p.comparison.t) - 1))
-        if self.index < 0:
-            # First pose: every frame, so the scene is right whatever it showed before.
-            for label in LABELS:
-                for joint, frame in self._frames[label].items():
+        for slot in LABELS:
+            label, frames = self.shown[slot], self._frames[slot]
+            if self.index < 0:
+                # First pose: every frame, so the scene is right whatever it showed before.
+                for joint, frame in frames.items():
                     frame.wxyz = p.joint_wxyz[label][joint][index]
                     frame.position = p.joint_position[label][joint][index]
-        elif index != self.index:
-            for label in LABELS:
-                frames = self._frames[label]
+            elif index != self.index:
                 for joint, prop in p.animated[label]:
                     source = p.joint_wxyz if prop == "wxyz" else p.joint_position
                     setattr(frames[joint], prop, source[label][joint][index])
         self.index = index
-        phases = {label: p.phases[label][index] for label in LABELS}
-        for label, phase in phases.items():
+        phases = {slot: p.phases[self.shown[slot]][index] for slot in LABELS}
+        for slot, phase in phases.items():
             # Labels change only at a phase boundary: no message per frame.
-            if self._phase.get(label) != phase:
-                self._phase[label] = phase
-                handle = self._labels[label]
-                handle.text = f"{'standard' if label == 'standard' else 'optimised'}: {phase}"
+            if self._phase.get(slot) != phase:
+                self._phase[slot] = phase
+                self._labels[slot].text = f"phase {phase}"
+                self._lamps[slot].color = PHASE_COLORS[phase]
+        if self.human is not None:
+            phases["human"] = self.human.show(index)
+        self.phases_now = phases
         return phases
 
-    def camera(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-        """A camera position and look-at point that frame both robots [m]."""
-        p = self.prepared
-        side = 0.5 * p.side_offset
-        side = side if self.layout == "side_by_side" else 0.0
-        look = (0.4 * p.reach, 0.0, 0.55 * p.height)
-        dist = 1.25 * max(p.reach + side, 0.8 * p.height, 0.8)
-        return (look[0] + 0.8 * dist, look[1] - 1.0 * dist, look[2] + 0.35 * dist), look
+    def camera(
+        self, *, aspect: float = 1.6, covered_right: float = 0.0
+    ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """A camera position and look-at point that frame both robots and the human [m], left
+        of a panel covering the right ``covered_right`` fraction of the canvas."""
+        return frame_camera(
+            self.prepared.boxes(self.layout), aspect=aspect, covered_right=covered_right
+        )
+
+
+def slot_name(slot: str, label: str) -> str:
+    """The legend over a robot: which trajectory it shows, drawn how."""
+    drawn = "solid" if slot == "standard" else "ghost"
+    return f"{drawn}: {trajectory_label(label)}"
+
+
+def no_human_text(comparison: Comparison) -> str:
+    """Why no recorded human stands beside the robots."""
+    return comparison.human_note or "no recorded human: this comparison has no analysed lift"
 
 
 class PreparedCache:
@@ -453,11 +650,20 @@ class PreparedCache:
     Args:
         loader: ``(kind, id) -> Comparison``.
         size: comparisons kept in memory.
+        human: ``comparison -> comparison`` with the recorded human attached (or a note why
+            there is none); the service's ``HumanReplayLoader``.
     """
 
-    def __init__(self, loader: Callable[[str, int], Comparison], *, size: int = 8) -> None:
+    def __init__(
+        self,
+        loader: Callable[[str, int], Comparison],
+        *,
+        size: int = 8,
+        human: Callable[[Comparison], Comparison] | None = None,
+    ) -> None:
         self.loader = loader
         self.size = size
+        self.human = human
         self._items: OrderedDict[tuple[str, int, Any], PreparedComparison] = OrderedDict()
         self._lock = threading.Lock()
 
@@ -477,6 +683,8 @@ class PreparedCache:
             comparison = self.loader(kind, int(result_id))
         else:
             comparison = self.loader(kind, int(result_id), methods)  # type: ignore[call-arg]
+        if self.human is not None:
+            comparison = self.human(comparison)
         prepared = PreparedComparison(
             comparison,
             urdf_path=comparison.urdf_path,

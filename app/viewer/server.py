@@ -37,7 +37,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from app.viewer.comparison import LABELS, PHASES, Comparison
+from app.viewer.comparison import (
+    LABELS,
+    PHASES,
+    Comparison,
+    trajectory_colour,
+    trajectory_label,
+)
+from app.viewer.framing import FOV
 from app.viewer.playback import SPEEDS, PlaybackClock, Player, TickStats
 from app.viewer.plots import power_plot
 from app.viewer.scene import (
@@ -46,6 +53,8 @@ from app.viewer.scene import (
     Layout,
     PreparedComparison,
     configure_lighting,
+    no_human_text,
+    slot_name,
 )
 
 logger = logging.getLogger(__name__)
@@ -60,7 +69,7 @@ _PATH = re.compile(r"^/bioplan/(plan|simulation)/([1-9][0-9]{0,9})/?$")
 GUI_PERIOD = 0.25
 #: Seconds a Compare page's request waits for a tab whose websocket path cannot be read.
 PENDING_SECONDS = 120.0
-_LAYOUT_NAMES: dict[str, Layout] = {"ghost overlay": "ghost", "side by side": "side_by_side"}
+_LAYOUT_NAMES: dict[str, Layout] = {"side by side": "side_by_side", "ghost overlay": "ghost"}
 _SPEED_NAMES = {f"{s:g}x": s for s in SPEEDS}
 
 
@@ -102,6 +111,7 @@ class ViewerSession:
     phase_text: str = ""
     lock: threading.Lock = field(default_factory=threading.Lock)
     dirty: bool = True
+    panel_minimised: bool = False
 
     @property
     def comparison(self) -> Comparison:
@@ -125,14 +135,23 @@ class ViewerSession:
 
     def _refresh_gui(self, t: float, phases: dict[str, str] | None) -> None:
         c = self.comparison
-        phases = phases or {label: c.phase_at(label, self.scene.index) for label in LABELS}
+        if phases is None:
+            phases = {
+                slot: c.phase_at(label, self.scene.index)
+                for slot, label in self.scene.shown.items()
+            }
+            if self.scene.human is not None:
+                phases["human"] = self.scene.human.phase
         slider = self.gui["time"]
         slider.value = round(min(t, float(slider.max)), 3)
-        text = _phase_text(phases)
+        text = _phase_text(phases, self.scene.shown)
         if text != self.phase_text:  # only at a phase boundary
             self.phase_text = text
             self.gui["phase"].content = text
-        self.gui["plot"].data = power_plot(c, t)
+        self.gui["plot"].data = power_plot(c, t, labels=self._plotted())
+
+    def _plotted(self) -> tuple[str, str]:
+        return self.scene.shown["standard"], self.scene.shown["optimized"]
 
     def toggle(self) -> None:
         with self.lock:
@@ -157,6 +176,15 @@ class ViewerSession:
     def set_layout(self, layout: Layout) -> None:
         with self.lock, self.client.atomic():
             self.scene.set_layout(layout)
+            frame_client(self.client, self.scene)
+
+    def set_methods(self, solid: str, ghost: str) -> None:
+        """Show trajectory ``solid`` on the solid robot and ``ghost`` on the ghost."""
+        with self.lock:
+            with self.client.atomic():
+                self.scene.set_methods(solid, ghost)
+            self.gui["plot"].series = _plot_series(self._plotted())
+            self.dirty = True
 
     def describe(self) -> dict[str, Any]:
         return {
@@ -167,14 +195,25 @@ class ViewerSession:
             "time": self.clock.time(),
             "speed": self.clock.speed,
             "layout": self.scene.layout,
+            "solid": self.scene.shown["standard"],
+            "ghost": self.scene.shown["optimized"],
+            "human": self.scene.human is not None,
+            "panel_minimised": self.panel_minimised,
+            "phases": dict(self.scene.phases_now),
             "frames": self.stats.frames,
             "fps": self.stats.fps(),
         }
 
 
-def _phase_text(phases: dict[str, str]) -> str:
-    std, opt = phases["standard"], phases["optimized"]
-    return f"standard: **{std}** ({PHASES[std]})  \noptimised: **{opt}** ({PHASES[opt]})"
+def _phase_text(phases: dict[str, str], shown: dict[str, str]) -> str:
+    """The phase of the moment of each robot (named by its trajectory) and of the human."""
+    lines = [
+        f"{slot_name(slot, shown[slot])}: **{phases[slot]}** ({PHASES[phases[slot]]})"
+        for slot in LABELS
+    ]
+    if "human" in phases:
+        lines.append(f"recorded human: **{phases['human']}** ({PHASES[phases['human']]})")
+    return "  \n".join(lines)
 
 
 class ViewerServer:
@@ -340,16 +379,17 @@ class ViewerServer:
         c = prepared.comparison
         with client.atomic():
             scene = ComparisonScene(client, prepared)
-            position, look_at = scene.camera()
             client.camera.up_direction = (0.0, 0.0, 1.0)
-            client.camera.position = position
-            client.camera.look_at = look_at
-            gui = _add_gui(client.gui, c, autoplay=self.autoplay)
+            frame_client(client, scene)
+            width = canvas_width(client)
+            compact = width is not None and width < NARROW_PX
+            gui = _add_gui(client.gui, scene, autoplay=self.autoplay, compact=compact)
         clock = PlaybackClock(c.duration)
         session = ViewerSession(
             client=client, kind=kind, id=result_id, scene=scene, clock=clock, gui=gui
         )
         _wire(session, gui)
+        _fit_to_screen(session)
         if self.autoplay:
             clock.play()
         else:
@@ -357,27 +397,123 @@ class ViewerServer:
         return session
 
 
-def _add_gui(gui: Any, c: Comparison, *, autoplay: bool) -> dict[str, Any]:
-    """A tab's controls: play, speed, time, layout, the phase of the moment, the power curve."""
-    standard, optimized = ("#{:02x}{:02x}{:02x}".format(*COLORS[k]) for k in LABELS)
-    gui.add_markdown(f"**{c.title}**  \nblue: standard quintic · amber: bio-inspired")
+# The viewer's own layout (not connection handling) -------------------------------------------
+
+#: Canvas width [px] below which viser shows its phone layout (Mantine's ``xs`` = 36 em): the
+#: panel is a bottom sheet the server cannot collapse, so the GUI is built compact there.
+NARROW_PX = 576
+#: Canvas width [px] below which the floating control panel starts minimised (a bar the user
+#: can open): at 640 px its medium width would cover half the scene.
+MINIMISE_PX = 900
+
+
+#: Width of viser's floating control panel ("medium") with its margin [px].
+PANEL_PX = 340
+
+
+def frame_client(client: Any, scene: ComparisonScene) -> None:
+    """Point a tab's camera at everything in the scene, for its canvas' shape when known, in the
+    part of a wide canvas that the open control panel leaves free."""
+    aspect, covered = 1.6, 0.0
+    width = canvas_width(client)
+    with contextlib.suppress(AssertionError, AttributeError):
+        aspect = float(client.camera.aspect)  # known once the browser has reported its camera
+    if width is not None and width >= MINIMISE_PX:
+        covered = PANEL_PX / width
+    position, look_at = scene.camera(aspect=aspect, covered_right=covered)
+    client.camera.fov = FOV
+    client.camera.position = position
+    client.camera.look_at = look_at
+
+
+def canvas_width(client: Any) -> int | None:
+    """The tab's canvas width [px], None before its first camera message (viser connects a tab
+    only after that message, so it is normally known)."""
+    try:
+        return int(client.camera.image_width)
+    except AssertionError:
+        return None
+
+
+def _fit_to_screen(session: ViewerSession) -> None:
+    """Once the browser has reported its canvas (viser connects a tab after its first camera
+    message, so usually already): frame the scene for the canvas' real shape, and on a narrow
+    screen minimise the control panel so that it does not cover the canvas."""
+    client = session.client
+    fitted = threading.Event()
+
+    def fit(_: Any = None) -> None:
+        if fitted.is_set():
+            return
+        width = canvas_width(client)
+        if width is None:  # no camera message yet: wait for one
+            return
+        fitted.set()
+        with session.lock, client.atomic():
+            frame_client(client, session.scene)
+        if width < MINIMISE_PX:
+            client.gui.main_panel.minimize()
+            session.panel_minimised = True
+
+    client.camera.on_update(fit)
+    fit()
+
+
+def _plot_series(labels: tuple[str, str]) -> tuple[dict[str, Any], ...]:
+    """uPlot series of the power panel: time, the solid and ghost robots' power, the cursor."""
+    solid, ghost = labels
+    return (
+        {"label": "t [s]"},
+        {"label": f"{trajectory_label(solid)} [W]", "stroke": trajectory_colour(solid), "width": 2},
+        {"label": f"{trajectory_label(ghost)} [W]", "stroke": trajectory_colour(ghost), "width": 2},
+        {"label": "now", "stroke": "#444", "width": 1, "scale": "cursor"},
+    )
+
+
+def _add_gui(
+    gui: Any, scene: ComparisonScene, *, autoplay: bool, compact: bool = False
+) -> dict[str, Any]:
+    """A tab's controls: play, time, speed, layout, which method each robot shows, the phase of
+    the moment, the power curve; and whose the human is (or why there is none).
+
+    ``compact`` (a narrow screen): viser's phone layout shows the panel as a bottom sheet that
+    the server cannot collapse, so everything but play and time goes into a closed folder.
+    """
+    c = scene.prepared.comparison
+    solid, ghost = scene.shown["standard"], scene.shown["optimized"]
     handles = {
         "play": gui.add_button("Pause" if autoplay else "Play", icon="player-pause"),
-        "speed": gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x"),
         "time": gui.add_slider(
             "Time [s]", min=0.0, max=round(c.duration, 3), step=0.01, initial_value=0.0
         ),
-        "layout": gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="ghost overlay"),
-        "phase": gui.add_markdown(_phase_text({label: "A" for label in LABELS})),
     }
+    if compact:
+        with gui.add_folder("Details", expand_by_default=False):
+            handles.update(_details(gui, scene, solid, ghost))
+        return handles
+    handles.update(_details(gui, scene, solid, ghost))
+    return handles
+
+
+def _details(gui: Any, scene: ComparisonScene, solid: str, ghost: str) -> dict[str, Any]:
+    c = scene.prepared.comparison
+    gui.add_markdown(f"**{c.title}**")
+    handles = {
+        "speed": gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x"),
+        "layout": gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="side by side"),
+    }
+    names = {trajectory_label(m): m for m in c.choices}
+    handles["solid"] = gui.add_dropdown(
+        "Solid robot", tuple(names), initial_value=trajectory_label(solid)
+    )
+    handles["ghost"] = gui.add_dropdown(
+        "Ghost robot", tuple(names), initial_value=trajectory_label(ghost)
+    )
+    handles["phase"] = gui.add_markdown(_phase_text(scene.phases_now, scene.shown))
+    handles["human"] = gui.add_markdown(c.human_note or no_human_text(c))
     handles["plot"] = gui.add_uplot(
-        power_plot(c, 0.0),
-        (
-            {"label": "t [s]"},
-            {"label": "standard [W]", "stroke": standard, "width": 2},
-            {"label": "optimised [W]", "stroke": optimized, "width": 2},
-            {"label": "now", "stroke": "#444", "width": 1, "scale": "cursor"},
-        ),
+        power_plot(c, 0.0, labels=(solid, ghost)),
+        _plot_series((solid, ghost)),
         title="Mechanical power Σ|τ·ω| [W]",
         scales={"x": {"time": False}, "cursor": {"range": (0.0, 1.0)}},
         axes=({}, {"size": 44}),
@@ -390,6 +526,7 @@ def _add_gui(gui: Any, c: Comparison, *, autoplay: bool) -> dict[str, Any]:
 def _wire(session: ViewerSession, gui: dict[str, Any]) -> None:
     """Connect a tab's controls to its session."""
     play, speed, time_slider, layout = gui["play"], gui["speed"], gui["time"], gui["layout"]
+    names = {trajectory_label(m): m for m in session.comparison.choices}
 
     def on_time(event: Any) -> None:
         if event.client is None:
@@ -399,10 +536,15 @@ def _wire(session: ViewerSession, gui: dict[str, Any]) -> None:
             play.label, play.icon = "Play", "player-play"
         session.seek(float(time_slider.value))
 
+    def on_method(_: Any) -> None:
+        session.set_methods(names[gui["solid"].value], names[gui["ghost"].value])
+
     play.on_click(lambda _: session.toggle())
     speed.on_update(lambda _: session.set_speed(_SPEED_NAMES[speed.value]))
     time_slider.on_update(on_time)
     layout.on_update(lambda _: session.set_layout(_LAYOUT_NAMES[layout.value]))
+    gui["solid"].on_update(on_method)
+    gui["ghost"].on_update(on_method)
 
 
 def _url_host(host: str) -> str:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import pytest
 
@@ -17,47 +15,7 @@ from app.viewer.scene import (
     PreparedComparison,
     trace_tube,
 )
-
-
-class Handle:
-    """Records every property assignment, like a viser scene-node handle would send it."""
-
-    def __init__(self, log: list[tuple[str, str]], name: str, **props: Any) -> None:
-        object.__setattr__(self, "_log", log)
-        object.__setattr__(self, "name", name)
-        for k, v in props.items():
-            object.__setattr__(self, k, v)
-
-    def __setattr__(self, key: str, value: Any) -> None:
-        self._log.append((self.name, key))
-        object.__setattr__(self, key, value)
-
-
-class FakeScene:
-    def __init__(self) -> None:
-        self.nodes: dict[str, Handle] = {}
-        self.updates: list[tuple[str, str]] = []
-
-    def _add(self, name: str, **props: Any) -> Handle:
-        assert name not in self.nodes, f"node {name} added twice"
-        handle = Handle(self.updates, name, **props)
-        self.nodes[name] = handle
-        return handle
-
-    def __getattr__(self, method: str) -> Any:
-        if not method.startswith("add_"):
-            raise AttributeError(method)
-
-        def add(name: str, *args: Any, **props: Any) -> Handle:
-            props.setdefault("visible", True)
-            return self._add(name, kind=method, args=args, **props)
-
-        return add
-
-
-class FakeTarget:
-    def __init__(self) -> None:
-        self.scene = FakeScene()
+from tests.viewer._fakes import FakeTarget
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +54,7 @@ def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -
     for label in ("standard", "optimized"):
         trace = nodes[f"/bioplan/{label}/trace"]
         assert trace.kind == "add_mesh_simple"  # one plain mesh, not instanced fat lines
-        assert trace.args[0] is prepared.traces[label][0]
+        assert trace.args[0] is prepared.traces[scene.shown[label]][0]
         payload = [n for n in nodes if n.endswith("/flange/payload") and f"/{label}/" in n]
         assert len(payload) == 1
         np.testing.assert_allclose(nodes[payload[0]].dimensions, prepared.comparison.payload_size)
@@ -104,13 +62,14 @@ def test_scene_is_built_once_and_then_only_posed(prepared: PreparedComparison) -
     for index in (1, 400, 400, 999, 0):
         phases = scene.show(index)
         frames = scene._frames
-        for label in ("standard", "optimized"):
-            for joint, handle in frames[label].items():
+        for slot in ("standard", "optimized"):
+            label = scene.shown[slot]
+            for joint, handle in frames[slot].items():
                 np.testing.assert_array_equal(handle.wxyz, prepared.joint_wxyz[label][joint][index])
                 np.testing.assert_array_equal(
                     handle.position, prepared.joint_position[label][joint][index]
                 )
-            assert phases[label] == prepared.comparison.phase_at(label, index)
+            assert phases[slot] == prepared.comparison.phase_at(label, index)
     assert target.scene.nodes.keys() == nodes.keys()  # nothing added while playing
     # The curl turns the shoulder and elbow pitch joints only: per new index, one rotation of
     # each for both robots; the repeated index 400 sends nothing; labels ride on the flange.
@@ -169,8 +128,12 @@ def test_trace_of_a_still_or_short_path() -> None:
 
 def test_layouts(prepared: PreparedComparison) -> None:
     target = FakeTarget()
-    scene = ComparisonScene(target, prepared)
+    scene = ComparisonScene(target, prepared, layout="ghost")
     nodes = target.scene.nodes
+    # The ghost is shifted sideways: its rest poses do not coincide with the solid robot's.
+    assert nodes["/bioplan/standard"].position == (0.0, 0.0, 0.0)
+    assert nodes["/bioplan/optimized"].position == (prepared.ghost_shift, 0.0, 0.0)
+    assert prepared.ghost_shift >= 0.08
     ghosts = [
         h for n, h in nodes.items() if n.startswith("/bioplan/optimized/") and "/visual_" in n
     ]
@@ -181,9 +144,11 @@ def test_layouts(prepared: PreparedComparison) -> None:
     assert all(h.opacity == GHOST_OPACITY for h in ghosts)
     assert not any(h.visible for h in static) and all(h.visible for h in moving)
     scene.set_layout("side_by_side")
-    half = 0.5 * prepared.side_offset
-    assert nodes["/bioplan/standard"].position == (0.0, half, 0.0)
-    assert nodes["/bioplan/optimized"].position == (0.0, -half, 0.0)
+    # Side by side along x, far enough apart that their boxes do not meet.
+    assert nodes["/bioplan/standard"].position == (0.0, 0.0, 0.0)
+    assert nodes["/bioplan/optimized"].position == (prepared.side_offset, 0.0, 0.0)
+    a, b = prepared.robot_boxes("side_by_side")
+    assert a[1][0] < b[0][0]
     assert all(h.opacity == 1.0 for h in ghosts) and all(h.visible for h in static)
     with pytest.raises(ValueError, match="unknown layout"):
         scene.set_layout("stacked")  # type: ignore[arg-type]

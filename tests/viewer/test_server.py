@@ -17,13 +17,8 @@ from app.viewer import server as server_module
 from app.viewer.comparison import Comparison
 from app.viewer.scene import PreparedCache
 from app.viewer.server import ViewerServer, parse_client_path
-
-
-def _listening_socket() -> socket.socket:
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.bind(("127.0.0.1", 0))
-    sock.listen(1)
-    return sock
+from tests.viewer._fakes import connect_client as _connect
+from tests.viewer._fakes import listening_socket as _listening_socket
 
 
 @pytest.mark.parametrize(
@@ -87,37 +82,6 @@ def viewer(plan_comparison: Comparison) -> Iterator[ViewerServer]:
         yield server
     finally:
         server.stop()
-
-
-def _connect(viewer: ViewerServer, path: str) -> Any:
-    """A websocket client like viser's own page: its version as subprotocol, any path, and the
-    camera message the page sends first (viser calls a client connected only after it)."""
-    import msgspec
-    import viser
-    from viser._messages import ViewerCameraMessage
-    from websockets.sync.client import connect
-
-    ws = connect(
-        f"ws://127.0.0.1:{viewer.port}{path}",
-        subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
-        max_size=None,
-        open_timeout=20,
-    )
-    camera = ViewerCameraMessage(
-        wxyz=(1.0, 0.0, 0.0, 0.0),
-        position=(2.0, -2.0, 1.5),
-        fov=1.0,
-        near=0.01,
-        far=100.0,
-        image_height=600,
-        image_width=800,
-        look_at=(0.0, 0.0, 0.5),
-        up_direction=(0.0, 0.0, 1.0),
-    )
-    ws.send(
-        msgspec.msgpack.encode({"type": "ViewerCameraMessage", **camera.as_serializable_dict()})
-    )
-    return ws
 
 
 def _session_of(
@@ -242,7 +206,7 @@ def test_playing_sends_the_phase_text_only_at_boundaries_and_the_gui_at_4_hz(
     changes = 1 + sum(a != b for a, b in itertools.pairwise(seen))
     texts = [v for name, key, v in log if name == "phase" and key == "content"]
     assert 0 < len(texts) <= changes and len(set(texts)) == len(texts)
-    assert f"standard: **{seen[-1][0]}**" in texts[-1]
+    assert f"solid: standard quintic: **{seen[-1][0]}**" in texts[-1]
     # Slider and plot cursor: at most 4 updates a second while moving, plus the first.
     slider = [v for name, key, v in log if name == "time" and key == "value"]
     assert 2 <= len(slider) <= 2 + 4 * plan_comparison.duration and slider == sorted(slider)
