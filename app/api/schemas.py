@@ -11,7 +11,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from app.names import (
     HUMAN_CONSTRAINTS,
@@ -534,11 +534,13 @@ class SweepRequest(BaseModel):
     )
     no_check: bool = Field(default=False, description="skip the convergence check")
 
-    @field_validator("methods")
+    @field_validator("methods", "objectives", "durations", "payloads")
     @classmethod
-    def _distinct_methods(cls, v: list[str]) -> list[str]:
-        if len(set(v)) != len(v):
-            raise ValueError("methods must not repeat")
+    def _distinct(cls, v: list[Any], info: ValidationInfo) -> list[Any]:
+        # A repeated grid value is accepted by no sweep: refuse it here, not in the job.
+        repeated = sorted({x for x in v if v.count(x) > 1}, key=str)
+        if repeated:
+            raise ValueError(f"{info.field_name} must not repeat (repeated: {repeated})")
         return v
 
     @field_validator("durations")

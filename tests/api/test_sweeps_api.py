@@ -73,3 +73,16 @@ def test_bad_sweeps_are_422(shared_client: TestClient) -> None:
     assert_problem(r, 422, field="methods")
     assert_problem(post("/api/sweeps", json={**GRID, "check_seed": -2}), 422, field="check_seed")
     assert_problem(post("/api/sweeps", json={**GRID, "robot": "r2d2"}), 422, field="robot")
+
+
+def test_a_repeated_grid_value_is_refused_before_a_job(shared_client: TestClient) -> None:
+    """Issue 14: ``durations: [1.0, 1.0]`` was accepted (202) and failed in the job."""
+    jobs_before = shared_client.get("/api/jobs").json()["total"]
+    for field, values in (
+        ("durations", [0.8, 0.8]),
+        ("payloads", [0.0, 2.0, 0.0]),
+        ("objectives", ["tau_sq", "tau_sq"]),
+    ):
+        r = shared_client.post("/api/sweeps", json={**GRID, field: values})
+        assert "must not repeat" in assert_problem(r, 422, field=field)["detail"]
+    assert shared_client.get("/api/jobs").json()["total"] == jobs_before  # no job queued
