@@ -134,8 +134,8 @@ def serve(
             instead of the line for people.
 
     Returns:
-        Exit code: 0 after a clean stop, 2 for bad settings or a busy port, 1 when the server
-        could not start.
+        Exit code: 0 after a clean stop, 2 for bad settings, a busy port or a data directory
+        another server uses, 1 when the server could not start.
     """
     settings = _settings(host, port, data_dir)
     if settings is None:
@@ -143,9 +143,18 @@ def serve(
     sock = _bind_or_explain(settings.host, settings.port)
     if sock is None:
         return EXIT_BAD_INPUT
+    from app.db.lock import DataDirBusyError, lock_data_dir
+
+    try:  # before migrating or seeding: one server per data directory
+        data_lock = lock_data_dir(settings.data_dir)
+    except DataDirBusyError as exc:
+        sock.close()
+        _say(f"bioplan serve: error: {exc}")
+        return EXIT_BAD_INPUT
     try:
         return _run(settings, sock, demo=demo, json_out=json_out)
     finally:
+        data_lock.release()
         sock.close()
 
 

@@ -18,6 +18,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.config import Settings
 from app.db import crud
 from app.db.blobs import BlobStore
+from app.db.lock import DataDirLock, lock_data_dir
 from app.db.session import make_engine, make_sessionmaker, upgrade
 from app.jobs.runner import JobRunner, make_runner
 from app.services.broker import JobBroker
@@ -51,6 +52,7 @@ class Services:
         comparisons: finished plans and simulations prepared for the viewer and the Compare
             page (kept in memory, most recently used first).
         viewer: the 3-D viewer, once started.
+        data_lock: this server's hold on its data directory (one server per folder).
         recordings_cache: cached ``GET /api/recordings`` pages.
         started: ``time.monotonic()`` at start.
     """
@@ -65,6 +67,7 @@ class Services:
     overlays: RecordingOverlays
     comparisons: PreparedCache
     viewer: ViewerServer | None = None
+    data_lock: DataDirLock | None = None
     recordings_cache: ResponseCache = field(default_factory=ResponseCache)
     started: float = field(default_factory=time.monotonic)
 
@@ -101,7 +104,15 @@ def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Se
         settings: the configuration.
         runner: job runner to use instead of the one ``settings.executor`` names (tests).
     """
-    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    data_lock = lock_data_dir(settings.data_dir)  # before anything touches the folder
+    try:
+        return _start(settings, runner, data_lock)
+    except BaseException:
+        data_lock.release()
+        raise
+
+
+def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock) -> Services:
     upgrade(settings.db_url)
     engine = make_engine(settings.db_url)
     sessions = make_sessionmaker(engine)
@@ -135,6 +146,7 @@ def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Se
         comparisons=PreparedCache(
             ComparisonLoader(sessions, robots), human=HumanReplayLoader(sessions)
         ),
+        data_lock=data_lock,
     )
 
 
@@ -145,3 +157,5 @@ def stop_services(services: Services) -> None:
         services.viewer = None
     services.jobs.close()
     services.engine.dispose()
+    if services.data_lock is not None:
+        services.data_lock.release()

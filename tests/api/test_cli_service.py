@@ -52,6 +52,28 @@ def test_a_busy_port_is_one_line_naming_the_port_and_the_option(tmp_path: Path) 
     assert not (tmp_path / "d").exists()  # nothing was started, migrated or written
 
 
+def test_a_second_server_on_the_same_data_directory_refuses_naming_the_first(
+    server: Server,
+) -> None:
+    """Issue 14: a second server on one folder deleted the first's uncommitted files and re-ran
+    its jobs. Now it refuses before migrating or cleaning anything, naming the first's pid."""
+    csv = shared_file("noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv")
+    with csv.open("rb") as f:
+        up = server.post("/api/recordings", files={"files": (csv.name, f)}, data={"subject": "s"})
+    assert up.status_code == 201, up.text
+    stored = sorted(p.name for p in (server.data_dir).rglob("*") if p.is_file())
+    out = bioplan("serve", "--port", str(free_port()), "--data-dir", str(server.data_dir))
+    assert out.returncode == 2, out.stderr
+    errors = [line for line in out.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and f"is in use by process {server.pid}" in errors[0], errors
+    assert "--data-dir or BIOPLAN_DATA_DIR" in errors[0]
+    assert sorted(p.name for p in (server.data_dir).rglob("*") if p.is_file()) == stored
+    rec = up.json()
+    file_id = rec["files"][0]["id"]
+    blob = httpx.get(f"{server.url}/api/recordings/{rec['id']}/files/{file_id}", timeout=60)
+    assert blob.status_code == 200 and blob.content == csv.read_bytes()
+
+
 def test_an_unreachable_database_is_one_line_without_its_password(tmp_path: Path) -> None:
     env = {**os.environ, "BIOPLAN_DATABASE_URL": "postgresql+psycopg://u:s3cret@127.0.0.1:9/x"}
     out = subprocess.run(
