@@ -92,6 +92,28 @@ def test_de_leva_segments_sum_to_body_mass(sex: str, body_mass: float) -> None:
     assert sum(masses.values()) == pytest.approx(body_mass, rel=2e-4)
 
 
+def test_the_robot_cache_is_bounded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 14: every distinct subject wrote two files to the cache, never cleaned. Now the
+    least recently used go first and the cache keeps at most ``CACHE_MAX_FILES``."""
+    from app.planning.robots import _loader
+
+    monkeypatch.setenv("BIOPLAN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_loader, "CACHE_MAX_FILES", 6)
+    first = load_robot("human_arm_2dof", body_mass=60.0)
+    for mass in (61.0, 62.0):
+        load_robot("human_arm_2dof", body_mass=mass)
+    again = load_robot("human_arm_2dof", body_mass=60.0)  # a hit: now the most recent
+    assert again.urdf_path == first.urdf_path
+    for mass in (63.0, 64.0):
+        load_robot("human_arm_2dof", body_mass=mass)
+    files = sorted(p.name for p in (tmp_path / "robots").iterdir())
+    assert len(files) == 6, files
+    assert first.urdf_path.is_file()  # used recently, kept
+    newest = load_robot("human_arm_2dof", body_mass=64.0)
+    assert newest.urdf_path.is_file() and newest.mjcf_path is not None
+    assert newest.mjcf_path.is_file()
+
+
 def test_human_arm_scales_with_the_subject(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Masses from the URDF are de Leva's fractions of body mass; lengths scale with height."""
     import pinocchio as pin
