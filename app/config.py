@@ -49,7 +49,13 @@ class Settings(BaseSettings):
             ``Authorization: Bearer <token>``.
         host, port: where ``bioplan serve`` binds; a non-loopback host needs ``api_token``.
         max_upload_mb: largest request body accepted [MB], enforced while it streams in.
-        cors_origins: origins allowed by CORS (none by default: CORS closed).
+        cors_origins: origins allowed by CORS (none by default: CORS closed); they may also
+            write across sites.
+        allowed_hosts: names the server answers to in the ``Host`` header besides the loopback
+            names and ``host`` (DNS rebinding: a page on another site that resolves its own name
+            to 127.0.0.1 is refused); a wildcard bind (0.0.0.0) with none listed answers any.
+        protect_reads: with ``api_token`` set, reads of ``/api`` need the token too (only
+            ``/api/health`` and ``/api/meta`` stay open).
         viewer: start the 3-D viewer with the server.
         viewer_host, viewer_port: where the viewer binds (viser takes the next free port when
             this one is busy; ``GET /api/viewer`` reports the real one).
@@ -71,6 +77,8 @@ class Settings(BaseSettings):
     port: int = Field(default=8000, ge=1, le=65535)
     max_upload_mb: float = Field(default=200.0, gt=0)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    allowed_hosts: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    protect_reads: bool = False
     viewer: bool = True
     viewer_host: str = "127.0.0.1"
     viewer_port: int = Field(default=8080, ge=1, le=65535)
@@ -78,7 +86,7 @@ class Settings(BaseSettings):
     max_video_seconds: float = Field(default=MAX_VIDEO_SECONDS, gt=0, le=86400)  # F2: videos
     log_level: Literal["debug", "info", "warning", "error"] = "info"
 
-    @field_validator("cors_origins", mode="before")
+    @field_validator("cors_origins", "allowed_hosts", mode="before")
     @classmethod
     def _split_origins(cls, value: Any) -> Any:
         # Environment variables carry a comma-separated list; JSON lists are accepted too.

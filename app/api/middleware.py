@@ -1,20 +1,25 @@
-"""Everything that wraps every request, in one place: body-size limit, CORS, the catch-all 500.
+"""Everything that wraps every request, in one place: the perimeter (Host, cross-site writes,
+the API token, all checked before the body is read), body-size limit, CORS, the catch-all 500.
 
 ``install_middleware(app, settings)`` is the only call; the order is explicit there (Starlette
-runs the last one added first). Authentication is a dependency (``app.api.deps.require_token``).
+runs the last one added first). Routes keep the token as a dependency too
+(``app.api.deps.require_token``), so a route mounted outside this app is not left open.
 """
 
 from __future__ import annotations
 
+import hmac
+import ipaddress
 import logging
 import uuid
+from urllib.parse import urlsplit
 
 from fastapi import FastAPI
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.api.errors import problem
-from app.config import Settings
+from app.config import Settings, is_loopback
 
 logger = logging.getLogger(__name__)
 
@@ -104,11 +109,115 @@ class CatchAllMiddleware:
             await response(scope, receive, send)
 
 
+SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
+OPEN_READS = ("/api/health", "/api/meta")
+LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
+
+
+def _host_name(value: str) -> str:
+    """``Host`` header or URL authority -> lower-case name without port or brackets."""
+    value = value.strip().lower()
+    if value.startswith("["):
+        return value[1 : value.find("]")] if "]" in value else value[1:]
+    return value.rsplit(":", 1)[0] if value.count(":") == 1 else value
+
+
+def _is_wildcard(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_unspecified
+    except ValueError:
+        return False
+
+
+class PerimeterMiddleware:
+    """What is checked before a request's body is read (so a refused upload costs nothing):
+
+    - ``Host`` names this server (DNS rebinding): the loopback names, the bound host and
+      ``BIOPLAN_ALLOWED_HOSTS``; a wildcard bind without a list answers any name.
+    - A write (any method but GET/HEAD/OPTIONS) from a browser comes from this site: refused
+      when ``Sec-Fetch-Site`` says ``cross-site`` or ``Origin`` names another host than
+      ``Host`` (and is not a configured CORS origin), with or without a token.
+    - With ``BIOPLAN_API_TOKEN``: writes, and with ``BIOPLAN_PROTECT_READS`` every ``/api``
+      read but health and meta, carry ``Authorization: Bearer <token>``.
+    """
+
+    def __init__(self, app: ASGIApp, settings: Settings) -> None:
+        self.app = app
+        self.token = settings.token
+        self.protect_reads = settings.protect_reads and self.token is not None
+        names = {_host_name(h) for h in settings.allowed_hosts} | LOOPBACK_NAMES
+        self.any_host = _is_wildcard(settings.host) and not settings.allowed_hosts
+        if not _is_wildcard(settings.host):
+            names.add(_host_name(settings.host))
+        self.hosts = frozenset(names)
+        self.origins = frozenset(o.rstrip("/").lower() for o in settings.cors_origins)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
+        refusal = self._refusal(str(scope["method"]), str(scope["path"]), headers)
+        if refusal is None:
+            await self.app(scope, receive, send)
+            return
+        status, title, detail = refusal
+        extra = {"WWW-Authenticate": "Bearer"} if status == 401 else None
+        await problem(status, title, detail, headers=extra)(scope, receive, send)
+
+    def _refusal(
+        self, method: str, path: str, headers: dict[str, str]
+    ) -> tuple[int, str, str] | None:
+        host = _host_name(headers.get("host", ""))
+        if not self.any_host and host not in self.hosts and not is_loopback(host):
+            return (
+                421,
+                "Misdirected Request",
+                f"this server does not answer to the host name {host!r}: add it to "
+                "BIOPLAN_ALLOWED_HOSTS to serve it under that name",
+            )
+        write = method.upper() not in SAFE_METHODS
+        if write and self._cross_site(headers):
+            return 403, "Forbidden", "cross-site writes are refused (Origin / Sec-Fetch-Site)"
+        needs_token = write or (
+            self.protect_reads and path.startswith("/api") and not path.startswith(OPEN_READS)
+        )
+        if needs_token and self.token is not None and not self._has_token(headers):
+            what = "writes" if write else "reads"
+            return (
+                401,
+                "Unauthorized",
+                f"this server requires an API token for {what}: "
+                "send 'Authorization: Bearer <token>'",
+            )
+        return None
+
+    def _cross_site(self, headers: dict[str, str]) -> bool:
+        origin = headers.get("origin")
+        if origin is not None and origin.rstrip("/").lower() in self.origins:
+            return False
+        if headers.get("sec-fetch-site", "").lower() == "cross-site":
+            return True
+        if origin is None or origin == "null":
+            return origin == "null"  # no Origin: not a browser's cross-site request
+        # Another port of the same machine is another site too: compare name and port.
+        return urlsplit(origin).netloc.lower() != headers.get("host", "").strip().lower()
+
+    def _has_token(self, headers: dict[str, str]) -> bool:
+        scheme, _, sent = headers.get("authorization", "").partition(" ")
+        assert self.token is not None
+        return scheme.lower() == "bearer" and hmac.compare_digest(
+            sent.strip().encode(), self.token.encode()
+        )
+
+
 def install_middleware(app: FastAPI, settings: Settings) -> None:
     """Add the middleware. Outermost first: CORS (when configured, so every answer, a 413 or a
-    500 too, carries its headers), the catch-all 500, the body-size limit."""
+    500 too, carries its headers), the catch-all 500, the perimeter, the body-size limit."""
     # The upload limit is enforced while the body streams in, not after it is buffered.
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_upload_bytes)
+    # Before any body is read: host, cross-site writes, token.
+    app.add_middleware(PerimeterMiddleware, settings=settings)
     app.add_middleware(CatchAllMiddleware)
     if settings.cors_origins:
         from fastapi.middleware.cors import CORSMiddleware

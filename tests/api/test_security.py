@@ -86,3 +86,85 @@ def test_cors_closed_by_default_open_when_configured(tmp_path: Path) -> None:
         assert r.headers["access-control-allow-origin"] == "http://lab.example"
         r = c.options("/api/recordings", headers=pre)
         assert "access-control-allow-origin" not in r.headers
+
+
+def test_a_foreign_host_name_is_refused_dns_rebinding(tmp_path: Path) -> None:
+    """Issue 14 item 3: ``Host: attacker.example`` read raw uploaded files (DNS rebinding)."""
+    with make_client(tmp_path / "a") as c:
+        r = c.get("/api/recordings", headers={"Host": "attacker.example"})
+        assert "BIOPLAN_ALLOWED_HOSTS" in assert_problem(r, 421)["detail"]
+        assert c.get("/", headers={"Host": "attacker.example:8000"}).status_code == 421
+        for name in ("127.0.0.1:8000", "localhost:8000", "[::1]:8000", "127.0.0.2"):
+            assert c.get("/api/recordings", headers={"Host": name}).status_code == 200, name
+    with make_client(tmp_path / "b", allowed_hosts="lab.example") as c:
+        assert c.get("/api/recordings", headers={"Host": "lab.example"}).status_code == 200
+        assert c.get("/api/recordings", headers={"Host": "evil.example"}).status_code == 421
+
+
+def test_cross_site_writes_are_refused_with_or_without_a_token(tmp_path: Path) -> None:
+    """Issue 14 item 3: a ``text/plain`` POST from any site cancelled a job (no preflight)."""
+    evil = {"Origin": "http://evil.example", "Content-Type": "text/plain"}
+    with make_client(tmp_path / "a") as c:
+        assert_problem(c.post("/api/jobs/1/cancel", headers=evil), 403)
+        fetch = {"Sec-Fetch-Site": "cross-site"}
+        assert_problem(c.post("/api/jobs/1/cancel", headers=fetch), 403)
+        other_port = {"Origin": "http://127.0.0.1:9999"}  # another site on this machine
+        assert_problem(c.post("/api/jobs/1/cancel", headers=other_port), 403)
+        assert_problem(c.delete("/api/recordings/1", headers={"Origin": "null"}), 403)
+        same = {"Origin": "http://127.0.0.1", "Sec-Fetch-Site": "same-origin"}
+        assert_problem(c.post("/api/jobs/1/cancel", headers=same), 404)  # past the perimeter
+        assert_problem(c.post("/api/jobs/1/cancel"), 404)  # no Origin: not from a browser
+        assert c.get("/api/recordings", headers=evil).status_code == 200  # reads: CORS decides
+    with make_client(tmp_path / "b", api_token="s3cret") as c:
+        auth = {"Authorization": "Bearer s3cret"}
+        assert_problem(c.post("/api/jobs/1/cancel", headers={**evil, **auth}), 403)
+    with make_client(tmp_path / "c", cors_origins="http://lab.example") as c:
+        lab = {"Origin": "http://lab.example"}
+        assert_problem(c.post("/api/jobs/1/cancel", headers=lab), 404)  # a configured origin
+
+
+def test_the_token_is_checked_before_the_body_is_read(tmp_path: Path) -> None:
+    """Issue 14 item 4: 150 MB were spooled before the 401; bad JSON got 422, not 401."""
+    import asyncio
+
+    from app.api.middleware import PerimeterMiddleware
+
+    reached: list[str] = []
+
+    async def app(scope: object, receive: object, send: object) -> None:
+        reached.append("app")
+
+    async def receive() -> dict[str, object]:
+        raise AssertionError("the body was read before the token was checked")
+
+    sent: list[dict[str, object]] = []
+
+    async def send(message: dict[str, object]) -> None:
+        sent.append(message)
+
+    settings = Settings(data_dir=tmp_path, api_token="s3cret")
+    middleware = PerimeterMiddleware(app, settings)  # type: ignore[arg-type]
+    scope = {
+        "type": "http",
+        "method": "POST",
+        "path": "/api/recordings",
+        "headers": [(b"host", b"127.0.0.1:8000"), (b"content-length", b"157286400")],
+    }
+    asyncio.run(middleware(scope, receive, send))  # type: ignore[arg-type]
+    assert reached == [] and sent[0]["status"] == 401
+    with make_client(tmp_path / "c", api_token="s3cret") as c:
+        r = c.post("/api/plans", content=b"{not json", headers={"Content-Type": "application/json"})
+        assert_problem(r, 401)
+
+
+def test_reads_can_require_the_token(tmp_path: Path) -> None:
+    """Issue 14 item 6: with a token set, raw files, subjects and notes stayed readable."""
+    with make_client(tmp_path / "a", api_token="s3cret", protect_reads=True) as c:
+        assert "reads" in assert_problem(c.get("/api/recordings"), 401)["detail"]
+        assert_problem(c.get("/api/recordings/1/files/1"), 401)
+        assert c.get("/api/health").status_code == 200 and c.get("/api/meta").status_code == 200
+        assert c.get("/").status_code == 200  # the page itself holds no data
+        ok = c.get("/api/recordings", headers={"Authorization": "Bearer s3cret"})
+        assert ok.status_code == 200
+    with make_client(tmp_path / "b", api_token="s3cret") as c:
+        assert c.get("/api/recordings").status_code == 200  # the default: reads open

@@ -45,7 +45,8 @@ def make_client(
     )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", StarletteDeprecationWarning)
-        client = TestClient(create_app(settings, runner=runner))
+        # A loopback name in Host, as a browser on this machine sends (the server refuses others).
+        client = TestClient(create_app(settings, runner=runner), base_url="http://127.0.0.1")
     with client:
         yield client
 
