@@ -427,7 +427,9 @@ class JobService:
                     if ev.type == "progress":
                         pending[ev.job_id] = ev  # only the latest progress is written
                     else:
-                        pending.pop(ev.job_id, None)
+                        last = pending.pop(ev.job_id, None)
+                        if last is not None and ev.type == "succeeded":
+                            self._apply(last)  # a job's last progress is shown, however fast
                         self._apply(ev)
                 now = time.monotonic()
                 if pending and now - last_flush >= self.progress_interval:
