@@ -62,6 +62,11 @@ class Settings(BaseSettings):
         frontend_dir: the dashboard's pages (default: those shipped inside the package).
         max_video_seconds: longest uploaded video turned into pose [s] (refused at upload when
             its container states a longer duration; the pose job stops at it otherwise).
+        max_particles, max_iterations, max_samples, max_sweep_cells: the most PSO particles,
+            iterations, optimiser grid points and sweep cells one request may ask for (422
+            above; a sweep's ``workers`` is capped by ``max_workers`` the same way).
+        job_time_limit_s: wall-clock seconds a job may run on the local executor before it is
+            stopped and failed with "time limit" (unset: no limit).
         log_level: the server's log level.
     """
 
@@ -84,6 +89,11 @@ class Settings(BaseSettings):
     viewer_port: int = Field(default=8080, ge=1, le=65535)
     frontend_dir: Path | None = None
     max_video_seconds: float = Field(default=MAX_VIDEO_SECONDS, gt=0, le=86400)  # F2: videos
+    max_particles: int = Field(default=400, ge=2)
+    max_iterations: int = Field(default=2000, ge=1)
+    max_samples: int = Field(default=2000, ge=10)
+    max_sweep_cells: int = Field(default=400, ge=1)
+    job_time_limit_s: float | None = Field(default=3600.0, gt=0)
     log_level: Literal["debug", "info", "warning", "error"] = "info"
 
     @field_validator("cors_origins", "allowed_hosts", mode="before")

@@ -241,6 +241,8 @@ class _Running:
     has_outcome: bool = False
     cancel_requested: bool = False
     conn_open: bool = True
+    started: float = field(default_factory=time.monotonic)
+    timed_out: bool = False
 
 
 @dataclass
@@ -258,6 +260,8 @@ class LocalRunner(JobRunner):
         target: job entry point ``fn(kind, payload, progress) -> dict``; a top-level function
             (it is pickled by reference). Defaults to ``app.jobs.tasks.run_task``.
         preload: modules the fork server imports once, so forked jobs start warm.
+        time_limit: wall-clock seconds a job may run before it is stopped and failed with
+            "time limit" (None: no limit).
     """
 
     executor = "local"
@@ -268,12 +272,14 @@ class LocalRunner(JobRunner):
         *,
         target: Target | None = None,
         preload: tuple[str, ...] = ("app.jobs._preload",),
+        time_limit: float | None = None,
     ) -> None:
         import multiprocessing as mp
 
         if max_workers < 1:
             raise ValueError(f"max_workers must be >= 1, got {max_workers}")
         self.max_workers = max_workers
+        self.time_limit = time_limit
         self._target = target or _default_target()
         self._ctx = mp.get_context("forkserver")
         # The fork server first ties its life to the server's, then imports what jobs need.
@@ -428,7 +434,17 @@ class LocalRunner(JobRunner):
         run.conn.close()
         with self._lock:
             self._running.pop(run.job_id, None)
-        if run.cancel_requested and run.result is None:
+        if run.timed_out and run.result is None:
+            limit = f"{self.time_limit:g}"
+            self._emit(
+                JobEvent(
+                    run.job_id,
+                    "failed",
+                    error=f"time limit: the job ran longer than {limit} s "
+                    "(BIOPLAN_JOB_TIME_LIMIT_S) and was stopped",
+                )
+            )
+        elif run.cancel_requested and run.result is None:
             self._emit(JobEvent(run.job_id, "cancelled", message="cancelled while running"))
         elif run.result is not None:
             self._emit(JobEvent(run.job_id, "succeeded", progress=1.0, result=run.result))
@@ -445,6 +461,16 @@ class LocalRunner(JobRunner):
         with contextlib.suppress(ValueError):  # still running after the join timeout
             run.process.close()
 
+    def _stop_overdue(self, runs: list[_Running]) -> None:
+        """Stop (the whole process group, pools included) every job over the time limit."""
+        if self.time_limit is None:
+            return
+        now = time.monotonic()
+        for run in runs:
+            if not run.timed_out and now - run.started > self.time_limit:
+                run.timed_out = run.cancel_requested = True
+                self._kill(run, signal.SIGKILL)
+
     def _monitor(self) -> None:
         from multiprocessing.connection import wait
 
@@ -457,6 +483,7 @@ class LocalRunner(JobRunner):
                 self._launch_pending()
                 with self._lock:
                     runs = list(self._running.values())
+                self._stop_overdue(runs)
                 handles: dict[Any, tuple[str, _Running | None]] = {self._wake_r: ("wake", None)}
                 for run in runs:
                     if run.conn_open:
@@ -663,9 +690,12 @@ class DaskRunner(JobRunner):
             self._emit(JobEvent(job.job_id, "failed", error=describe_error(exc)))
 
 
-def make_runner(executor: str, *, max_workers: int = 2) -> JobRunner:
-    """The runner for a ``Settings.executor`` value (``local`` or ``dask://HOST:PORT``)."""
+def make_runner(
+    executor: str, *, max_workers: int = 2, time_limit: float | None = None
+) -> JobRunner:
+    """The runner for a ``Settings.executor`` value (``local`` or ``dask://HOST:PORT``);
+    ``time_limit`` [s] applies to the local executor (a Dask cluster has its own)."""
     if executor == "local":
-        return LocalRunner(max_workers)
+        return LocalRunner(max_workers, time_limit=time_limit)
     address = executor.replace("dask://", "tcp://", 1)
     return DaskRunner(address)

@@ -26,6 +26,7 @@ from app.services.cache import ResponseCache
 from app.services.comparisons import ComparisonLoader
 from app.services.human_replay import HumanReplayLoader
 from app.services.jobs import JobService
+from app.services.limits import JobLimits
 from app.services.overlays import RecordingOverlays
 from app.services.robots import RobotCatalog
 from app.viewer.scene import PreparedCache
@@ -126,7 +127,13 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
     jobs = JobService(
         sessions=sessions,
         blobs=blobs,
-        runner=runner or make_runner(settings.executor, max_workers=settings.max_workers),
+        runner=runner
+        or make_runner(
+            settings.executor,
+            max_workers=settings.max_workers,
+            time_limit=settings.job_time_limit_s,
+        ),
+        limits=JobLimits.from_settings(settings),
         broker=broker,
         robots=robots,
         max_attempts=settings.job_max_attempts,

@@ -36,6 +36,7 @@ from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
 from app.services import recordings
 from app.services.broker import JobBroker
 from app.services.errors import ConflictError, NotFoundError
+from app.services.limits import JobLimits
 from app.services.robots import RobotCatalog
 
 logger = logging.getLogger(__name__)
@@ -142,8 +143,10 @@ class JobService:
         progress_interval: float = 0.25,
         max_video_seconds: float = MAX_VIDEO_SECONDS,
         scratch_dir: Path | None = None,
+        limits: JobLimits | None = None,
     ) -> None:
         self.sessions = sessions
+        self.limits = limits or JobLimits()
         self.blobs = blobs
         self.runner = runner
         self.broker = broker
@@ -191,7 +194,12 @@ class JobService:
     def submit(
         self, *, kind: str, params: dict[str, Any], resource: dict[str, Any]
     ) -> dict[str, Any]:
-        """Create a queued job (and its result row) and hand it to the runner."""
+        """Create a queued job (and its result row) and hand it to the runner.
+
+        Raises:
+            ServiceError: the request asks for more work than a configured limit allows.
+        """
+        self.limits.check(params)
         with self.sessions() as session:
             job = crud.create_job(session=session, kind=kind, params=params, resource=resource)
             data = job_to_dict(job)

@@ -168,3 +168,24 @@ def test_reads_can_require_the_token(tmp_path: Path) -> None:
         assert ok.status_code == 200
     with make_client(tmp_path / "b", api_token="s3cret") as c:
         assert c.get("/api/recordings").status_code == 200  # the default: reads open
+
+
+def test_work_per_request_is_capped_by_configuration(tmp_path: Path) -> None:
+    """Issue 14 item 8: ``particles 1000, iterations 10000, n_samples 100000`` asked for
+    8.94 GiB, and ``workers: 64`` started 65 processes past ``BIOPLAN_MAX_WORKERS``."""
+    with make_client(tmp_path, max_particles=50, max_iterations=150, max_samples=300) as c:
+        plan = {"robot": "human_arm_2dof", "methods": ["quintic", "paper"]}
+        for field, value, env in (
+            ("particles", 51, "BIOPLAN_MAX_PARTICLES"),
+            ("iterations", 151, "BIOPLAN_MAX_ITERATIONS"),
+            ("n_samples", 301, "BIOPLAN_MAX_SAMPLES"),
+        ):
+            r = c.post("/api/plans", json={**plan, field: value})
+            detail = assert_problem(r, 422, field=field)["detail"]
+            assert detail == f"{field} {value} exceeds the limit {value - 1} ({env})"
+        sweep = {"robot": "human_arm_2dof", "durations": [1.0], "payloads": [0.0], "workers": 3}
+        r = c.post("/api/sweeps", json=sweep)  # the test service runs 2 workers
+        assert "BIOPLAN_MAX_WORKERS" in assert_problem(r, 422, field="workers")["detail"]
+        assert c.get("/api/jobs").json()["total"] == 0  # nothing queued
+        ok = c.post("/api/plans", json={**plan, "particles": 50, "iterations": 2})
+        assert ok.status_code == 202, ok.text

@@ -99,3 +99,25 @@ def test_concurrency_is_bounded_and_queued_jobs_cancel(
     assert all(e.type != "started" for e in sink.of(12))
     for job_id in (10, 11):
         assert sink.wait_for(job_id, TERMINAL).type == "succeeded"
+
+
+def test_a_job_over_the_time_limit_is_stopped_and_failed() -> None:
+    """Issue 14 item 8: no job had a time limit. With one, an overrunning job's process group
+    is killed and the job fails with "time limit"; a job within it is untouched."""
+    sink = Collector()
+    r = LocalRunner(2, target=target, preload=(), time_limit=1.5)
+    r.start(sink)
+    try:
+        r.submit(1, "sleep", {"seconds": 120})
+        r.submit(2, "echo", {"x": 1})
+        pid = int(sink.wait_for(1, {"progress"}).message.split()[-1])
+        ended = sink.wait_for(1, TERMINAL, timeout=120)
+        assert ended.type == "failed" and ended.error is not None
+        assert ended.error.startswith("time limit:") and "BIOPLAN_JOB_TIME_LIMIT_S" in ended.error
+        assert sink.wait_for(2, TERMINAL).type == "succeeded"
+        deadline = time.monotonic() + 30
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not _alive(pid)
+    finally:
+        r.shutdown()

@@ -1,0 +1,75 @@
+"""How much work one request may ask for: caps from the configuration, checked at submission.
+
+Without them one request (``particles 1000, iterations 10000, n_samples 100000``) asked for
+8.94 GiB, and ``workers: 64`` started 65 processes past ``BIOPLAN_MAX_WORKERS``. Each cap is a
+``Settings`` field; a request over one is refused (422) naming the field, the limit and the
+variable that sets it, before any job is queued.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from app.config import Settings
+from app.services.errors import ServiceError
+
+
+@dataclass(frozen=True)
+class JobLimits:
+    """Largest values a job's parameters may take (None: unlimited).
+
+    Attributes:
+        particles: PSO swarm size.
+        iterations: PSO iterations.
+        n_samples: optimiser grid points of the paper's method.
+        workers: processes of a sweep on the local executor.
+        cells: cells of a sweep (durations x payloads x objectives).
+    """
+
+    particles: int | None = None
+    iterations: int | None = None
+    n_samples: int | None = None
+    workers: int | None = None
+    cells: int | None = None
+
+    @classmethod
+    def from_settings(cls, settings: Settings) -> JobLimits:
+        return cls(
+            particles=settings.max_particles,
+            iterations=settings.max_iterations,
+            n_samples=settings.max_samples,
+            workers=settings.max_workers,
+            cells=settings.max_sweep_cells,
+        )
+
+    def check(self, params: dict[str, Any]) -> None:
+        """Refuse ``params`` (a job's request) that ask for more than a cap.
+
+        Raises:
+            ServiceError: 422 naming the field, the limit and its variable.
+        """
+        for name, env in _ENV.items():
+            limit = getattr(self, name)
+            value = _cells(params) if name == "cells" else params.get(name)
+            if limit is not None and isinstance(value, int) and value > limit:
+                raise ServiceError(f"{name} {value} exceeds the limit {limit} ({env})", field=name)
+
+
+_ENV = {
+    "particles": "BIOPLAN_MAX_PARTICLES",
+    "iterations": "BIOPLAN_MAX_ITERATIONS",
+    "n_samples": "BIOPLAN_MAX_SAMPLES",
+    "workers": "BIOPLAN_MAX_WORKERS",
+    "cells": "BIOPLAN_MAX_SWEEP_CELLS",
+}
+
+
+def _cells(params: dict[str, Any]) -> int | None:
+    grid = [params.get(k) for k in ("durations", "payloads", "objectives")]
+    if not all(isinstance(g, list) for g in grid):
+        return None
+    count = 1
+    for g in grid:
+        count *= len(g)  # type: ignore[arg-type]
+    return count
