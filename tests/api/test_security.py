@@ -189,3 +189,26 @@ def test_work_per_request_is_capped_by_configuration(tmp_path: Path) -> None:
         assert c.get("/api/jobs").json()["total"] == 0  # nothing queued
         ok = c.post("/api/plans", json={**plan, "particles": 50, "iterations": 2})
         assert ok.status_code == 202, ok.text
+
+
+def test_a_file_name_with_control_characters_is_refused(tmp_path: Path) -> None:
+    """Issue 14 item 14: a name with a NUL byte was stored and its download dropped the
+    connection. The multipart body is written by hand: httpx would escape the byte."""
+    boundary = "bioplanboundary"
+    body = (
+        f"--{boundary}\r\n"
+        'Content-Disposition: form-data; name="files"; filename="a\x00b.csv"\r\n'
+        "Content-Type: text/csv\r\n\r\n"
+        "t,x\r\n0,1\r\n0.1,2\r\n0.2,3\r\n"
+        f"\r\n--{boundary}--\r\n"
+    ).encode()
+    headers = {"Content-Type": f"multipart/form-data; boundary={boundary}"}
+    with make_client(tmp_path) as c:
+        r = c.post("/api/recordings", content=body, headers=headers)
+        problem = assert_problem(r, 422, field="files")
+        assert "control characters" in problem["detail"] and "\\x00" in problem["detail"]
+        assert c.get("/api/recordings").json()["total"] == 0
+        named = f'--{boundary}\r\nContent-Disposition: form-data; name="name"\r\n\r\nr1\r\n'
+        robot = named.encode() + body.replace(b'name="files"', b'name="urdf"')
+        r = c.post("/api/robots", content=robot, headers=headers)
+        assert "control characters" in assert_problem(r, 422)["detail"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
+from pathlib import PurePosixPath
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
@@ -216,3 +217,23 @@ def utc(value: datetime | None, field: str) -> datetime | None:
         return value.astimezone(UTC) if value.tzinfo else value.replace(tzinfo=UTC)
     except (OverflowError, ValueError):
         raise ApiError(422, f"{field} is out of range: {value!r}", field=field) from None
+
+
+def upload_name(name: str | None, fallback: str, *, field: str) -> str:
+    """An uploaded file's base name, kept as metadata only (storage is by content hash).
+
+    Raises:
+        ApiError: 422 when the name holds control characters (a NUL byte was stored and its
+            download then dropped the connection).
+    """
+    raw = name or ""
+    if any(ord(ch) < 32 or ord(ch) == 127 for ch in raw):
+        shown = raw.encode("unicode_escape").decode("ascii")
+        raise ApiError(
+            422,
+            f"file name {shown!r} contains control characters: rename the file",
+            field=field,
+            file=shown,
+        )
+    base = PurePosixPath(raw.replace("\\", "/")).name.strip()
+    return base[:255] or fallback

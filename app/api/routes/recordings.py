@@ -7,7 +7,6 @@ from __future__ import annotations
 import contextlib
 import json
 from datetime import datetime
-from pathlib import PurePosixPath
 from typing import Annotated, Any, get_args
 
 import numpy as np
@@ -19,7 +18,7 @@ from starlette.concurrency import run_in_threadpool
 from app.analysis.downsample import minmax_downsample
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath, utc
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath, upload_name, utc
 from app.api.schemas import (
     EMG_RATE_MIN_HZ,
     RATE_MAX_HZ,
@@ -52,12 +51,6 @@ from app.services.recordings import (
 router = APIRouter(prefix="/api/recordings", tags=["recordings"], responses=PROBLEM_RESPONSES)
 
 _SITES: set[str] = {*get_args(Site), "none"}
-
-
-def _safe_name(name: str | None, index: int) -> str:
-    # Only the base name is kept, as metadata; storage is by SHA-256.
-    base = PurePosixPath((name or "").replace("\\", "/")).name.strip()
-    return base[:255] or f"upload-{index + 1}"
 
 
 def _muscle_map(text: str | None) -> dict[str, str] | None:
@@ -162,7 +155,10 @@ def upload_recording(
         "frame_rate": frame_rate,
         "format": format,
     }
-    uploads = [(_safe_name(f.filename, i), f.file.read()) for i, f in enumerate(files)]
+    uploads = [
+        (upload_name(f.filename, f"upload-{i + 1}", field="files"), f.file.read())
+        for i, f in enumerate(files)
+    ]
     if any(is_video_upload(name, data) for name, data in uploads):
         _require_pose_environment(services)
     rec = store_recording(

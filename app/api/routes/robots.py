@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import PurePosixPath
 from typing import Annotated, Any
 
 from fastapi import APIRouter, File, Form, Path, Response, UploadFile
 
 from app.api.deps import RobotsDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
-from app.api.routes._common import PROBLEM_RESPONSES
+from app.api.routes._common import PROBLEM_RESPONSES, upload_name
 from app.api.schemas import ROBOT_NAME, RobotInfo
 from app.services.robots import parse_locks
 
@@ -36,7 +35,7 @@ def get_robot(session: SessionDep, robots: RobotsDep, name: RobotName) -> dict[s
 
 
 def _read_model(upload: UploadFile, field: str, limit: int = MAX_MODEL_BYTES) -> tuple[str, bytes]:
-    name = PurePosixPath((upload.filename or field).replace("\\", "/")).name[:255] or field
+    name = upload_name(upload.filename, field, field=field)
     data = upload.file.read(limit + 1)
     if not data:
         raise ApiError(422, f"{name}: the file is empty", field=field, file=name)
