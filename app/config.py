@@ -67,6 +67,7 @@ class Settings(BaseSettings):
             above; a sweep's ``workers`` is capped by ``max_workers`` the same way).
         job_time_limit_s: wall-clock seconds a job may run on the local executor before it is
             stopped and failed with "time limit" (unset: no limit).
+        min_free_mb: free disk space [MB] under which ``/api/health`` says "degraded".
         log_level: the server's log level.
     """
 
@@ -94,6 +95,7 @@ class Settings(BaseSettings):
     max_samples: int = Field(default=2000, ge=10)
     max_sweep_cells: int = Field(default=400, ge=1)
     job_time_limit_s: float | None = Field(default=3600.0, gt=0)
+    min_free_mb: float = Field(default=200.0, ge=0)
     log_level: Literal["debug", "info", "warning", "error"] = "info"
 
     @field_validator("cors_origins", "allowed_hosts", mode="before")

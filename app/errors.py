@@ -18,3 +18,23 @@ __all__ = ["BioPlanError"]
 
 class BioPlanError(ValueError):
     """Bad input: what is wrong, where (file, line, channel, joint or field), what was expected."""
+
+
+def storage_full(exc: BaseException) -> bool:
+    """Whether ``exc`` (or an exception it wraps) is a full disk or an exceeded quota.
+
+    A full disk is neither bad input nor a bug: the API answers 507 and the job service keeps
+    the events it could not write until there is space again.
+    """
+    import errno
+
+    seen: BaseException | None = exc
+    for _ in range(10):  # the chain is short; never loop on a cycle
+        if seen is None:
+            return False
+        if isinstance(seen, OSError) and seen.errno in (errno.ENOSPC, errno.EDQUOT):
+            return True
+        if "database or disk is full" in str(seen):  # SQLite's SQLITE_FULL
+            return True
+        seen = getattr(seen, "orig", None) or seen.__cause__ or seen.__context__
+    return False

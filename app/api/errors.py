@@ -18,9 +18,10 @@ from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from sqlalchemy.exc import OperationalError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from app.errors import BioPlanError
+from app.errors import BioPlanError, storage_full
 from app.services.errors import ConflictError, NotFoundError
 
 logger = logging.getLogger(__name__)
@@ -170,9 +171,23 @@ async def _bad_input(request: Request, exc: Exception) -> JSONResponse:
     )
 
 
+STORAGE_FULL = "the server's storage is full: nothing was stored; try again once space is freed"
+
+
+async def _storage_error(request: Request, exc: Exception) -> JSONResponse:
+    """A full disk is the server's condition, not the client's input and not a bug: 507."""
+    if not storage_full(exc):
+        raise exc  # a bug: the catch-all middleware logs it and answers 500
+    logger.error("storage full on %s %s: %s", request.method, request.url.path, exc)
+    return problem(507, "Insufficient Storage", STORAGE_FULL)
+
+
 def install_error_handlers(app: FastAPI) -> None:
-    """Register the problem+json handlers on ``app`` (bad input only: see the module doc)."""
+    """Register the problem+json handlers on ``app`` (bad input only: see the module doc;
+    and a full disk, 507)."""
     app.add_exception_handler(ApiError, _api_error)
     app.add_exception_handler(StarletteHTTPException, _http_error)
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.add_exception_handler(BioPlanError, _bad_input)
+    app.add_exception_handler(OSError, _storage_error)
+    app.add_exception_handler(OperationalError, _storage_error)

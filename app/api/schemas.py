@@ -74,9 +74,16 @@ class Page(BaseModel, Generic[T]):
 # ---------------------------------------------------------------------------------- service
 
 
+class Disk(BaseModel):
+    free_mb: float = Field(description="free space where the data directory is [MB]")
+    total_mb: float
+    ok: bool = Field(description="free_mb is at least BIOPLAN_MIN_FREE_MB")
+
+
 class Health(BaseModel):
     status: Literal["ok", "degraded"]
     database: str
+    disk: Disk | None = Field(description="null when the data directory cannot be read")
     executor: str
     workers: int | None
     running: int | None

@@ -30,7 +30,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db import crud
 from app.db.blobs import BlobStore
 from app.db.models import Analysis, JobRecord, utcnow
-from app.errors import BioPlanError
+from app.errors import BioPlanError, storage_full
 from app.jobs.runner import JobEvent, JobRunner
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
 from app.services import recordings
@@ -420,14 +420,28 @@ class JobService:
             return
         self.submit(kind="analysis", params=params, resource={"recording_id": recording_id})
 
+    def _write_again(self, events: list[JobEvent]) -> list[JobEvent]:
+        """Write the ends a full disk refused, in order; returns those still refused."""
+        for i, ev in enumerate(events):
+            try:
+                self._apply(ev)
+            except Exception as exc:
+                if not storage_full(exc):
+                    logger.exception("job event could not be written: %r", ev)
+                    continue
+                return events[i:]
+        return []
+
     def _write_loop(self) -> None:
         pending: dict[int, JobEvent] = {}
+        unwritten: list[JobEvent] = []  # ends a full disk refused, written once there is room
         last_flush = time.monotonic()
         while True:
             try:
                 ev = self._events.get(timeout=self.progress_interval)
             except queue.Empty:
                 ev = None
+            unwritten = self._write_again(unwritten)
             try:
                 if ev is _STOP:
                     return
@@ -445,5 +459,15 @@ class JobService:
                         self._apply(p)
                     pending.clear()
                     last_flush = now
-            except Exception:  # keep writing whatever one bad event did
-                logger.exception("job event could not be written: %r", ev)
+            except Exception as exc:  # keep writing whatever one bad event did
+                if (
+                    isinstance(ev, JobEvent)
+                    and ev.type in TERMINAL_JOB_STATES
+                    and storage_full(exc)
+                ):
+                    logger.error(
+                        "storage full: job %d's end is kept until there is room", ev.job_id
+                    )
+                    unwritten.append(ev)
+                else:
+                    logger.exception("job event could not be written: %r", ev)

@@ -212,3 +212,35 @@ def test_a_file_name_with_control_characters_is_refused(tmp_path: Path) -> None:
         robot = named.encode() + body.replace(b'name="files"', b'name="urdf"')
         r = c.post("/api/robots", content=robot, headers=headers)
         assert "control characters" in assert_problem(r, 422)["detail"]
+
+
+def test_a_full_disk_is_507_and_health_reports_the_disk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 14 item 10: uploads answered 500 on a full disk and health said "ok"."""
+    import errno
+
+    from app.db.blobs import BlobStore
+
+    def full(self: BlobStore, data: bytes) -> str:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    csv = b"t,EMG1\n" + b"".join(f"{i / 1000},{i % 7}\n".encode() for i in range(3000))
+    with make_client(tmp_path / "a") as c:
+        health = c.get("/api/health").json()
+        assert health["status"] == "ok" and health["disk"]["ok"] and health["disk"]["free_mb"] > 0
+        monkeypatch.setattr(BlobStore, "put", full)
+        r = c.post("/api/recordings", files={"files": ("emg.csv", csv)}, data={"emg_rate": "1000"})
+        assert "storage is full" in assert_problem(r, 507)["detail"]
+        assert c.get("/api/recordings").json()["total"] == 0  # nothing half-stored
+        monkeypatch.undo()
+
+        def bug(self: BlobStore, data: bytes) -> str:
+            raise FileNotFoundError("a bug, not a full disk")
+
+        monkeypatch.setattr(BlobStore, "put", bug)
+        r = c.post("/api/recordings", files={"files": ("emg.csv", csv)}, data={"emg_rate": "1000"})
+        assert r.status_code == 500  # a bug stays a 500
+    with make_client(tmp_path / "b", min_free_mb=1e15) as c:
+        health = c.get("/api/health").json()
+        assert health["status"] == "degraded" and health["disk"]["ok"] is False

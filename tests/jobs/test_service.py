@@ -177,3 +177,35 @@ def test_cancel_marks_cancelled_and_failures_keep_their_message(
         assert runner.info()["running"] == 0
     finally:
         svc.close()
+
+
+def test_a_job_end_refused_by_a_full_disk_is_written_once_there_is_room(
+    sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 14 item 10: on a full disk job events were lost (jobs stayed "running" for ever and
+    ran again after a restart). The end is kept and written when the disk has room again."""
+    import errno
+
+    runner = LocalRunner(1, target=service_target, preload=())
+    svc = _service(sessions, runner, tmp_path)
+    real_store = svc._store
+    refusals = {"left": 3}
+
+    def full_disk_then_room(ev: Any) -> None:
+        if refusals["left"] > 0:
+            refusals["left"] -= 1
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real_store(ev)
+
+    monkeypatch.setattr(svc, "_store", full_disk_then_room)
+    svc.start()
+    try:
+        job = svc.submit(
+            kind="plan",
+            params={"robot": "arm", "behave": "count", "n": 2, "dt": 0.01},
+            resource={"robot": "arm"},
+        )
+        row = _wait(sessions, job["id"], {"succeeded", "failed"})
+        assert row.state == "succeeded" and refusals["left"] == 0
+    finally:
+        svc.close()

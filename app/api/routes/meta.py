@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import platform
+import shutil
 import time
+from pathlib import Path
 from typing import Any
 
 from fastapi import APIRouter
@@ -19,7 +21,7 @@ router = APIRouter(prefix="/api", tags=["service"])
 
 @router.get("/health", response_model=Health)
 def health(services: ServicesDep) -> dict[str, Any]:
-    """Liveness and readiness: database reachable, job executor and its workers."""
+    """Liveness and readiness: database reachable, free disk, job executor and its workers."""
     try:
         with services.engine.connect() as conn:
             conn.execute(text("SELECT 1"))
@@ -27,15 +29,27 @@ def health(services: ServicesDep) -> dict[str, Any]:
     except Exception as exc:  # report, do not fail: this endpoint must answer
         database = f"unreachable: {type(exc).__name__}"
     info = services.jobs.runner.info()
+    disk = _disk(services.settings.data_dir, services.settings.min_free_mb)
+    healthy = database == "ok" and disk is not None and disk["ok"]
     return {
-        "status": "ok" if database == "ok" else "degraded",
+        "status": "ok" if healthy else "degraded",
         "database": database,
+        "disk": disk,
         "executor": info["executor"],
         "workers": info.get("workers"),
         "running": info.get("running"),
         "queued": info.get("queued"),
         "uptime_seconds": time.monotonic() - services.started,
     }
+
+
+def _disk(folder: Path, min_free_mb: float) -> dict[str, Any] | None:
+    try:
+        usage = shutil.disk_usage(folder)
+    except OSError:
+        return None
+    free_mb, total_mb = usage.free / 1e6, usage.total / 1e6
+    return {"free_mb": free_mb, "total_mb": total_mb, "ok": free_mb >= min_free_mb}
 
 
 @router.get("/version", response_model=Version)
