@@ -30,7 +30,10 @@ EXAMPLES = 12
 @pytest.fixture(scope="module")
 def schema(tmp_path_factory: pytest.TempPathFactory) -> Any:
     tmp: Path = tmp_path_factory.mktemp("schemathesis")
-    settings = Settings(data_dir=tmp / "data", max_upload_mb=1, viewer=False)
+    # The ASGI client sends ``Host: testserver``; the perimeter answers only names it serves.
+    settings = Settings(
+        data_dir=tmp / "data", max_upload_mb=1, viewer=False, allowed_hosts=["testserver"]
+    )
     app = create_app(settings, runner=RecordingRunner())
     loaded = schemathesis.openapi.from_asgi("/openapi.json", app)  # starts the lifespan
     try:
