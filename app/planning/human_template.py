@@ -115,27 +115,19 @@ class HumanTemplate:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> HumanTemplate:
-        known = set(cls.__dataclass_fields__)
-        unknown = set(data) - known
+    def from_dict(cls, data: Any) -> HumanTemplate:
+        """A template from its :meth:`to_dict` form.
+
+        Raises:
+            BioPlanError: ``data`` is not an object, has an unknown field, or a field has the
+                wrong type or value; the message names the field and what was expected.
+        """
+        if not isinstance(data, dict):
+            raise BioPlanError(f"a HumanTemplate must be a JSON object, got {type(data).__name__}")
+        unknown = set(data) - set(cls.__dataclass_fields__)
         if unknown:
             raise BioPlanError(f"unknown HumanTemplate fields: {sorted(unknown)}")
-        kwargs = dict(data)
-        for name in (
-            "phase_bounds_deg",
-            "normalized_time",
-            "velocity_mean",
-            "velocity_sd",
-            "acceleration_mean",
-            "acceleration_sd",
-            "activation_order",
-            "files",
-            "assumptions",
-        ):
-            if name in kwargs:
-                kwargs[name] = tuple(kwargs[name])
-        if kwargs.get("lift_range_deg") is not None:
-            kwargs["lift_range_deg"] = tuple(kwargs["lift_range_deg"])
+        kwargs = {name: _field_value(name, value) for name, value in data.items()}
         return cls(**kwargs)
 
     def to_json(self) -> str:
@@ -143,7 +135,88 @@ class HumanTemplate:
 
     @classmethod
     def from_json(cls, text: str) -> HumanTemplate:
-        return cls.from_dict(json.loads(text))
+        """A template from its :meth:`to_json` text (BioPlanError for malformed JSON or fields)."""
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise BioPlanError(
+                f"HumanTemplate JSON: {exc.msg} at line {exc.lineno} column {exc.colno}"
+            ) from exc
+        return cls.from_dict(data)
+
+
+#: What each HumanTemplate field holds in JSON: "number", "optional number", "integer",
+#: "string", "numbers" (array), "strings" (array), "pair" (two numbers), "optional pair",
+#: "site fractions" (object of string -> number).
+_FIELD_KINDS: dict[str, str] = {
+    "peak_velocity_angle_deg": "number",
+    "peak_velocity_angle_sd_deg": "number",
+    "phase_bounds_deg": "pair",
+    "peak_velocity_time_fraction": "optional number",
+    "normalized_time": "numbers",
+    "velocity_mean": "numbers",
+    "velocity_sd": "numbers",
+    "acceleration_mean": "numbers",
+    "acceleration_sd": "numbers",
+    "activation_order": "strings",
+    "emg_peak_time_fraction": "site fractions",
+    "n_lifts": "integer",
+    "source": "string",
+    "peak_velocity_range_fraction": "optional number",
+    "peak_velocity_range_fraction_sd": "number",
+    "lift_range_deg": "optional pair",
+    "files": "strings",
+    "emg_lifts": "integer",
+    "assumptions": "strings",
+}
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _field_value(name: str, value: Any) -> Any:
+    """``value`` of field ``name`` as the dataclass holds it, or BioPlanError naming the field."""
+    kind = _FIELD_KINDS[name]
+    if kind.startswith("optional ") and value is None:
+        return None
+    kind = kind.removeprefix("optional ")
+    ok = {
+        "number": lambda: _is_number(value),
+        "integer": lambda: isinstance(value, int) and not isinstance(value, bool) and value >= 0,
+        "string": lambda: isinstance(value, str),
+        "numbers": lambda: isinstance(value, list | tuple) and all(map(_is_number, value)),
+        "strings": lambda: (
+            isinstance(value, list | tuple) and all(isinstance(v, str) for v in value)
+        ),
+        "pair": lambda: (
+            isinstance(value, list | tuple) and len(value) == 2 and all(map(_is_number, value))
+        ),
+        "site fractions": lambda: (
+            isinstance(value, dict)
+            and all(isinstance(k, str) and _is_number(v) for k, v in value.items())
+        ),
+    }[kind]()
+    if not ok:
+        expected = {
+            "number": "a finite number",
+            "integer": "a non-negative integer",
+            "string": "a string",
+            "numbers": "an array of finite numbers",
+            "strings": "an array of strings",
+            "pair": "an array of two finite numbers",
+            "site fractions": "an object of site name -> finite number",
+        }[kind]
+        if name in ("peak_velocity_time_fraction", "peak_velocity_range_fraction"):
+            expected += " or null"
+        if name == "lift_range_deg":
+            expected += " or null"
+        raise BioPlanError(f"HumanTemplate field {name!r}: expected {expected}, got {value!r:.60}")
+    if kind in ("numbers", "strings", "pair"):
+        return tuple(value)
+    if kind == "site fractions":
+        return dict(value)
+    return value
 
 
 def _stroke_is_human_like(q0: float, q1: float) -> bool:

@@ -5,6 +5,7 @@ elbow defined; checked on synthetic curls with a known peak and on the real reco
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -145,3 +146,33 @@ def test_energetics_on_thinned_angles_match_full_rate(monkeypatch: pytest.Monkey
         assert len(a.energetics.t) < len(b.energetics.t) / 4
         for key in ("tau_sq", "abs_work", "pos_work", "peak_power", "delta_potential"):
             assert a.energetics.metrics[key] == pytest.approx(b.energetics.metrics[key], rel=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"peak_velocity_angle_deg": "ninety"}, "'peak_velocity_angle_deg': expected a finite"),
+        ({"phase_bounds_deg": [30.0]}, "'phase_bounds_deg': expected an array of two"),
+        ({"n_lifts": -1}, "'n_lifts': expected a non-negative integer"),
+        ({"velocity_mean": [0.1, float("nan")]}, "'velocity_mean': expected an array of finite"),
+        (
+            {"lift_range_deg": "wide"},
+            "'lift_range_deg': expected an array of two finite numbers or null",
+        ),
+        ({"wings": 2}, "unknown HumanTemplate fields: ['wings']"),
+    ],
+)
+def test_a_malformed_template_names_its_field(change: dict[str, object], message: str) -> None:
+    """``HumanTemplate.from_dict`` raised TypeError/KeyError for malformed input; now a
+    BioPlanError naming the field and what was expected (the CLI's exit 2, the API's 422)."""
+    from app.errors import BioPlanError
+    from app.planning.human_template import HumanTemplate
+
+    good = HumanTemplate().to_dict()
+    assert HumanTemplate.from_dict(good) == HumanTemplate()
+    with pytest.raises(BioPlanError, match=re.escape(message)):
+        HumanTemplate.from_dict({**good, **change})
+    with pytest.raises(BioPlanError, match="must be a JSON object, got list"):
+        HumanTemplate.from_dict([1, 2])  # type: ignore[arg-type]
+    with pytest.raises(BioPlanError, match="line 1 column"):
+        HumanTemplate.from_json("{not json")

@@ -167,7 +167,7 @@ def test_submit_bad_input_exits_2(server: Server) -> None:
 
 
 def test_sse_streams_while_the_job_runs(server: Server) -> None:
-    body = {"robot": "curtain_wall_6dof", "particles": 400, "iterations": 10000,
+    body = {"robot": "curtain_wall_6dof", "particles": 400, "iterations": 2000,
             "n_samples": 1000}  # fmt: skip
     job = httpx.post(server.url + "/api/plans", json=body, timeout=30).json()
     seen, names = [], []

@@ -108,7 +108,7 @@ def test_compare_two_plans(shared_client: TestClient) -> None:
 
 
 def test_cancel_a_running_plan(shared_client: TestClient) -> None:
-    big = {"particles": 1000, "iterations": 10000, "n_samples": 2000, "robot": "curtain_wall_6dof"}
+    big = {"particles": 400, "iterations": 2000, "n_samples": 2000, "robot": "curtain_wall_6dof"}
     job = shared_client.post("/api/plans", json={**TINY, **big}).json()
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline:

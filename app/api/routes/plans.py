@@ -33,6 +33,7 @@ from app.api.schemas import (
     ResultOut,
     SimulationRequest,
 )
+from app.errors import BioPlanError
 from app.services import ServiceError, Services
 
 router = APIRouter(prefix="/api/plans", tags=["plans"], responses=PROBLEM_RESPONSES)
@@ -119,8 +120,7 @@ def check_task(body: PlanRequest | SimulationRequest, session: Session, services
     if body.template is not None:
         try:
             HumanTemplate.from_dict(body.template)
-        except (ValueError, TypeError, KeyError) as exc:
-            # Parsing the client's dict, right here: whatever it trips over is bad input.
+        except BioPlanError as exc:  # names the template's field at fault
             raise ApiError(422, f"not a HumanTemplate: {exc}", field="template") from None
     if body.template_analysis_id is not None:
         try:
