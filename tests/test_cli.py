@@ -320,3 +320,23 @@ def test_bad_method_and_too_short_jerk_limited_are_one_line_errors() -> None:
     )
     assert proc.returncode == 2 and "needs at least 0.7" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_plan_text_shows_every_floor_once() -> None:
+    """The table's floors line showed ΔPE and peak power only, and a second line the rest: now
+    one line with every floor (|ΔPE|, positive work, peak power, electrical with friction)."""
+    args = ("--robot", "human_arm_2dof", "--particles", "8", "--iterations", "5")
+    text = run_cli("plan", *args, "--method", "paper")
+    data = json.loads(run_cli("plan", *args, "--method", "paper", "--json").stdout)
+    assert text.returncode == 0, text.stderr
+    lines = [line for line in text.stdout.splitlines() if line.startswith("floors")]
+    assert len(lines) == 1, text.stdout
+    floors = data["floors"]
+    for label, key, unit in (
+        ("|ΔPE| ", "abs_work", "J"),
+        ("positive work ", "pos_work", "J"),
+        ("peak power ", "peak_power", "W"),
+        ("electrical ", "electrical_energy", "J"),
+        ("friction ", "friction_energy", "J"),
+    ):
+        assert f"{label}{floors[key]:.4g} {unit}" in lines[0], (key, lines[0])

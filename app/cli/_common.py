@@ -326,8 +326,19 @@ def metrics_table(rows: Sequence[tuple[str, dict[str, Any]]], floors: dict[str, 
         )
         angle = values.get("peak_velocity_angle_deg")
         lines.append(f"{label:<20}{cells}{angle:>12.1f}°" if angle is not None else cells)
-    lines.append(
-        f"floors: delta_potential = {floors['delta_potential']:.4g} J, "
-        f"min_peak_power = {floors['min_peak_power']:.4g} W"
-    )
+    lines.append(floors_line(floors))
     return "\n".join(lines)
+
+
+def floors_line(floors: dict[str, Any]) -> str:
+    """The floors no method may go below (the planner's ``floors`` block), in one line."""
+
+    def joules(key: str) -> str:
+        value = floors.get(key)
+        return "not modelled" if value is None else f"{value:.4g} J"
+
+    return (
+        f"floors (no method may be below): |ΔPE| {joules('abs_work')}, positive work "
+        f"{joules('pos_work')}, peak power {floors['peak_power']:.4g} W, electrical "
+        f"{joules('electrical_energy')} (of which friction {joules('friction_energy')})"
+    )

@@ -121,14 +121,6 @@ def _solver_line(name: str, solver: dict[str, Any] | None) -> str | None:
     return f"{name}: ruckig time-synchronised jerk-limited profile"
 
 
-def _floors_line(floors: dict[str, Any]) -> str:
-    return (
-        f"floors (no method may be below): |ΔPE| {floors['abs_work']:.4g} J, positive work "
-        f"{floors['pos_work']:.4g} J, peak power {floors['peak_power']:.4g} W, electrical "
-        f"{floors['electrical_energy']:.4g} J (of which friction {floors['friction_energy']:.4g} J)"
-    )
-
-
 def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) -> str:
     methods = payload["methods"]
     shares = payload["share_of_achievable_pct"]
@@ -137,7 +129,6 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
         f"objective {args.objective}",
         "methods: " + "; ".join(f"{n} = {METHODS[n].label}" for n in methods),
         metrics_table(list(methods.items()), payload["floors"]),
-        _floors_line(payload["floors"]),
     ]
     for name, m in methods.items():
         lo, hi = m["peak_velocity_span_deg"]
@@ -211,8 +202,6 @@ def cmd_profiles(args: argparse.Namespace) -> int:
     text = (
         f"robot {robot.name}, payload {robot.payload.mass:g} kg, duration {args.duration:g} s\n"
         + metrics_table(rows, payload["floors"])
-        + "\n"
-        + _floors_line(payload["floors"])
     )
     mtc = payload.get("min_torque_change_solver")
     if mtc and mtc["objective"] is not None and math.isfinite(mtc["objective"]):
