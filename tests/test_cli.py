@@ -340,3 +340,30 @@ def test_plan_text_shows_every_floor_once() -> None:
         ("friction ", "friction_energy", "J"),
     ):
         assert f"{label}{floors[key]:.4g} {unit}" in lines[0], (key, lines[0])
+
+
+def test_demo_json_is_one_object_with_the_claims(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``bioplan demo --json`` prints one object: the report's paths and its claims as stored in
+    its ``results.json`` (the real demo runs in the README test; here a tiny one)."""
+    from app.cli import main
+    from app.simulation import report
+
+    small = (report.DemoCase("human_arm_2dof", "abs_work", 1.0, 12.0),)
+    real = report.write_demo_report
+
+    def tiny(out_dir: Path, **kw: object) -> Path:
+        return real(
+            out_dir, seed=3, cases=small, particles=6, iterations=3, methods=("quintic", "paper"),
+            sweep_robot=None,
+        )  # fmt: skip
+
+    monkeypatch.setattr(report, "write_demo_report", tiny)
+    assert main(["demo", "--out-dir", str(tmp_path / "r"), "--seed", "3", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)  # the whole of stdout is one JSON document
+    stored = json.loads((tmp_path / "r" / "results.json").read_text())
+    assert data["claims"] == stored["claims"] and data["seed"] == 3
+    assert Path(data["report"]).is_file() and data["report"].endswith("index.html")
+    assert {c["robot"] for c in data["claims"]} == {"human_arm_2dof"}
+    assert all("conditions" in c and "methods_pct" in c for c in data["claims"])
