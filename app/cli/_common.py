@@ -337,6 +337,11 @@ def floors_line(floors: dict[str, Any]) -> str:
         value = floors.get(key)
         return "not modelled" if value is None else f"{value:.4g} J"
 
+    if "peak_power" not in floors:  # a profiles comparison's floors: |ΔPE| and peak power
+        return (
+            f"floors (no profile may be below): |ΔPE| {floors['delta_potential']:.4g} J, "
+            f"peak power {floors['min_peak_power']:.4g} W"
+        )
     return (
         f"floors (no method may be below): |ΔPE| {joules('abs_work')}, positive work "
         f"{joules('pos_work')}, peak power {floors['peak_power']:.4g} W, electrical "
