@@ -103,7 +103,15 @@ _MIN_SEGMENT_INTERVALS = 4
 
 
 class SolverError(BioPlanError):
-    """IPOPT did not solve the problem (infeasible, or no convergence); one line with its status."""
+    """IPOPT did not solve the problem (infeasible, or no convergence); one line with its status.
+
+    Attributes:
+        infeasible: IPOPT proved the limits cannot be met (not merely no convergence).
+    """
+
+    def __init__(self, message: str, *, infeasible: bool = False) -> None:
+        super().__init__(message)
+        self.infeasible = infeasible
 
 
 @dataclass(frozen=True)
@@ -832,6 +840,7 @@ def solve_optimal(
     no_reversal: bool = True,
     report_samples: int = 1000,
     name: str = "optimal",
+    explain: bool = True,
 ) -> OptimalResult:
     """Solve one optimal-control problem by direct transcription and IPOPT.
 
@@ -847,6 +856,9 @@ def solve_optimal(
         no_reversal: no joint ever moves against its stroke (joints with start = goal stay put).
         report_samples: samples of the returned trajectory.
         name: the returned trajectory's name.
+        explain: when infeasible, search the shortest feasible duration and name it and the
+            binding limit in the error (:mod:`app.planning.shortest_duration`; a few cheap
+            solves).
 
     Returns:
         The solution; ``solver.status`` is ``Solve_Succeeded``.
@@ -871,7 +883,11 @@ def solve_optimal(
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
     if status != "Solve_Succeeded":
-        raise SolverError(_failure_message(status, problem))
+        infeasible = _infeasible(status, problem)
+        hint = _feasible_hint(problem) if infeasible and explain else None
+        raise SolverError(
+            _failure_message(status, problem, infeasible, hint), infeasible=infeasible
+        )
     xs = np.asarray(sol["x"], dtype=np.float64).ravel()
     knots, seg_durations = _knots(problem, xs)
     info = SolverInfo(
@@ -893,7 +909,9 @@ _IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.sb": "yes",
     "print_time": False,
     "ipopt.tol": IPOPT_TOL,
-    "ipopt.max_iter": 3000,
+    # Feasible solves here take under 700 iterations; an infeasible request with a slack
+    # objective runs to this limit before the tau_sq probe settles it (_infeasible).
+    "ipopt.max_iter": 1000,
     "ipopt.mu_strategy": "adaptive",
     # The MX graph calls the (reduced) SX dynamics once, mapped over the points; expanding it
     # to SX evaluates faster but costs more to build than it saves on these problems
@@ -926,17 +944,50 @@ def _knots(problem: _Problem, xs: FloatArray) -> tuple[PiecewiseCubic, FloatArra
     return PiecewiseCubic(t=node_t, q=q, qd=qd, qdd=qdd), durations
 
 
-def _failure_message(status: str, problem: _Problem) -> str:
+def _infeasible(status: str, problem: _Problem) -> bool:
+    """Whether the limits cannot be met, not merely that IPOPT did not converge.
+
+    The slack and epigraph objectives make IPOPT wander on an infeasible problem until its
+    iteration limit; the smooth ``tau_sq`` problem of the same constraints proves infeasibility
+    in a few iterations, so a failure of another objective is settled by one ``tau_sq`` solve.
+    """
+    if "Infeasible" in status or "Restoration" in status:
+        return True
+    if problem.objective == "tau_sq":
+        return False
+    try:
+        solve_optimal(
+            problem.robot, problem.start, problem.goal, problem.duration, objective="tau_sq",
+            human=problem.human, n_intervals=problem.n_intervals,
+            no_reversal=problem.no_reversal, report_samples=11, explain=False,
+        )  # fmt: skip
+    except SolverError as exc:
+        return exc.infeasible
+    return False
+
+
+def _feasible_hint(problem: _Problem) -> str:
+    """What is feasible instead: the shortest duration and the limit that binds there."""
+    from app.planning.shortest_duration import shortest_feasible_duration
+
+    found = shortest_feasible_duration(
+        problem.robot, problem.start, problem.goal, problem.duration, human=problem.human,
+        n_intervals=problem.n_intervals, no_reversal=problem.no_reversal,
+    )  # fmt: skip
+    return found.describe()
+
+
+def _failure_message(status: str, problem: _Problem, infeasible: bool, hint: str | None) -> str:
     robot = problem.robot
     what = (
         f"{problem.objective} on {robot.name} in {problem.duration:g} s with "
         f"{robot.payload.mass:g} kg (human constraint {problem.human.kind})"
     )
-    if "Infeasible" in status or "Restoration" in status:
+    if infeasible:
         return (
             f"infeasible: IPOPT found no trajectory for {what} within the joint position, "
-            f"velocity and torque limits ({status}): expected a longer duration, a lighter "
-            "payload or wider limits"
+            f"velocity and torque limits ({status}): "
+            + (hint or "expected a longer duration, a lighter payload or wider limits")
         )
     return f"IPOPT did not converge for {what} ({status}): no result is reported"
 

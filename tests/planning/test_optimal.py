@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -208,6 +209,45 @@ def test_infeasible_request_is_a_one_line_error(human: Robot) -> None:
     with pytest.raises(SolverError, match=r"infeasible.*torque limits") as info:
         plan(heavy, duration=0.6, methods=("quintic", "bound"))
     assert "\n" not in str(info.value)
+    # 60 kg in the hand is more than the elbow can hold still half-way: no duration helps, and
+    # the message says where, which joint and how much (checked against Pinocchio's torque).
+    task = PlanTask.default(heavy)
+    path = task.start + np.linspace(0, 1, 101)[:, None] * (task.goal - task.start)
+    static = np.abs(heavy.dynamics().inverse_dynamics(path, 0 * path, 0 * path))[:, 1]
+    assert static.max() > heavy.tau_max[1] > static[-1]
+    assert "no duration up to 9.6 s is feasible" in str(info.value)
+    assert f"needs {static.max():.1f} Nm at joint {heavy.joint_names[1]}, above its 80 Nm" in str(
+        info.value
+    )
+
+
+def test_infeasible_request_names_the_shortest_feasible_duration(
+    tmp_path: Path, scara: Robot
+) -> None:
+    """The SCARA's elbow alone, torque-limited to 1 Nm, moving D = 2 rad rest to rest: a pure
+    inertia J, so the time-optimal motion is bang-bang, q̈ = ±τ/J, and T* = 2 sqrt(D J / τ)
+    (0.721 s). The transcription's acceleration is continuous and piecewise linear, so it needs
+    a little longer, O(1/N): the reported shortest duration lies in [T*, 1.06 T*], is solvable,
+    and Pinocchio's torques of that solution stay within the limit."""
+    weak = tmp_path / "weak.urdf"
+    weak.write_text(SCARA.replace('effort="500"/>\n  </joint>\n  <link name="fore"',
+                                  'effort="1"/>\n  </joint>\n  <link name="fore"'))  # fmt: skip
+    robot = load_robot(str(weak), payload=0.0)
+    assert robot.tau_max[1] == 1.0 and robot.tau_max[0] == 500.0
+    t_star = 2.0 * math.sqrt(2.0 * SCARA_J / 1.0)
+    start, goal = np.zeros(2), np.array([0.0, 2.0])
+    with pytest.raises(SolverError, match="torque limit of joint elbow") as info:
+        solve_optimal(robot, start, goal, 0.5, objective="abs_work", human=HumanSpec("none", 1))
+    assert info.value.infeasible and "\n" not in str(info.value)
+    shortest = float(re.search(r"at least ([0-9.]+) s", str(info.value)).group(1))  # type: ignore[union-attr]
+    assert t_star <= shortest <= 1.06 * t_star
+    feasible = solve_optimal(robot, start, goal, shortest, objective="tau_sq",
+                             human=HumanSpec("none", 1))  # fmt: skip
+    ev = evaluate_trajectory(robot, feasible.trajectory, PlanTask(start, goal))
+    assert not ev.violations
+    assert np.abs(ev.tau[:, 1]).max() <= 1.0 + 1e-3
+    # The same request with the stock 500 Nm elbow solves: the error was the limit, not the task.
+    solve_optimal(scara, start, goal, 0.5, objective="abs_work", human=HumanSpec("none", 1))
 
 
 def test_no_reversal_keeps_still_joints_still_and_can_be_lifted(human: Robot) -> None:
