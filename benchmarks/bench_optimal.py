@@ -36,8 +36,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {
-    "curtain_wall_6dof": ("tau_sq", "abs_work", "peak_power", "electrical_energy"),
-    "human_arm_2dof": ("tau_sq", "abs_work", "peak_power"),
+    name: ("tau_sq", "abs_work", "pos_work", "peak_power", "peak_torque", "electrical_energy")
+    for name in ("curtain_wall_6dof", "human_arm_2dof")
 }
 TARGET_SECONDS = {"curtain_wall_6dof": 3.0, "human_arm_2dof": 1.0}
 
