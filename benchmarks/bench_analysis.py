@@ -136,7 +136,8 @@ def service_timing(data: bytes, repeats: int) -> dict[str, float]:
 
     with tempfile.TemporaryDirectory() as tmp:
         settings = Settings(data_dir=Path(tmp), viewer=False)
-        with TestClient(create_app(settings)) as client:
+        # The API answers only its own host names (PerimeterMiddleware: no DNS rebinding).
+        with TestClient(create_app(settings), base_url="http://127.0.0.1") as client:
             r = client.post(
                 "/api/recordings",
                 files=[("files", ("long_session.csv", data, "text/csv"))],
