@@ -20,21 +20,27 @@ class BioPlanError(ValueError):
     """Bad input: what is wrong, where (file, line, channel, joint or field), what was expected."""
 
 
-def storage_full(exc: BaseException) -> bool:
-    """Whether ``exc`` (or an exception it wraps) is a full disk or an exceeded quota.
+def storage_problem(exc: BaseException) -> str | None:
+    """``"full"`` when ``exc`` (or an exception it wraps) is a full disk or an exceeded quota,
+    ``"read-only"`` when the data directory cannot be written, else None.
 
-    A full disk is neither bad input nor a bug: the API answers 507 and the job service keeps
-    the events it could not write until there is space again.
+    Neither is bad input nor a bug: the API answers 507 and the job service keeps the events it
+    could not write until it can write again.
     """
     import errno
 
     seen: BaseException | None = exc
     for _ in range(10):  # the chain is short; never loop on a cycle
         if seen is None:
-            return False
+            return None
         if isinstance(seen, OSError) and seen.errno in (errno.ENOSPC, errno.EDQUOT):
-            return True
-        if "database or disk is full" in str(seen):  # SQLite's SQLITE_FULL
-            return True
+            return "full"
+        if isinstance(seen, OSError) and seen.errno == errno.EROFS:
+            return "read-only"
+        text = str(seen)
+        if "database or disk is full" in text:  # SQLite's SQLITE_FULL
+            return "full"
+        if "readonly database" in text:  # SQLite's SQLITE_READONLY
+            return "read-only"
         seen = getattr(seen, "orig", None) or seen.__cause__ or seen.__context__
-    return False
+    return None

@@ -21,7 +21,7 @@ from fastapi.responses import JSONResponse
 from sqlalchemy.exc import OperationalError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from app.errors import BioPlanError, storage_full
+from app.errors import BioPlanError, storage_problem
 from app.services.errors import ConflictError, NotFoundError
 
 logger = logging.getLogger(__name__)
@@ -172,14 +172,20 @@ async def _bad_input(request: Request, exc: Exception) -> JSONResponse:
 
 
 STORAGE_FULL = "the server's storage is full: nothing was stored; try again once space is freed"
+STORAGE_READ_ONLY = (
+    "the server's data directory is read-only: nothing was changed; try again once it is writable"
+)
 
 
 async def _storage_error(request: Request, exc: Exception) -> JSONResponse:
-    """A full disk is the server's condition, not the client's input and not a bug: 507."""
-    if not storage_full(exc):
+    """A full or read-only disk is the server's condition, not the client's input and not a
+    bug: 507."""
+    condition = storage_problem(exc)
+    if condition is None:
         raise exc  # a bug: the catch-all middleware logs it and answers 500
-    logger.error("storage full on %s %s: %s", request.method, request.url.path, exc)
-    return problem(507, "Insufficient Storage", STORAGE_FULL)
+    logger.error("storage %s on %s %s: %s", condition, request.method, request.url.path, exc)
+    detail = STORAGE_FULL if condition == "full" else STORAGE_READ_ONLY
+    return problem(507, "Insufficient Storage", detail)
 
 
 def install_error_handlers(app: FastAPI) -> None:

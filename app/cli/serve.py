@@ -134,8 +134,8 @@ def serve(
             instead of the line for people.
 
     Returns:
-        Exit code: 0 after a clean stop, 2 for bad settings, a busy port or a data directory
-        another server uses, 1 when the server could not start.
+        Exit code: 0 after a clean stop, 2 for bad settings, a busy port, a data directory
+        another server uses or one that is not writable, 1 when the server could not start.
     """
     settings = _settings(host, port, data_dir)
     if settings is None:
@@ -143,11 +143,11 @@ def serve(
     sock = _bind_or_explain(settings.host, settings.port)
     if sock is None:
         return EXIT_BAD_INPUT
-    from app.db.lock import DataDirBusyError, lock_data_dir
+    from app.db.lock import DataDirError, lock_data_dir
 
-    try:  # before migrating or seeding: one server per data directory
+    try:  # before migrating or seeding: one server per (writable) data directory
         data_lock = lock_data_dir(settings.data_dir)
-    except DataDirBusyError as exc:
+    except DataDirError as exc:
         sock.close()
         _say(f"bioplan serve: error: {exc}")
         return EXIT_BAD_INPUT

@@ -8,15 +8,20 @@ which :func:`app.db.crud.collect_garbage` removes at the next start.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import logging
 import os
 import re
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 _SHA256 = re.compile(r"^[0-9a-f]{64}$")
+_DETACHED = ".deleted"  # suffix of a blob moved aside by a deletion not yet committed
+
+logger = logging.getLogger(__name__)
 
 
 class BlobStore:
@@ -70,6 +75,57 @@ class BlobStore:
 
     def delete(self, sha256: str) -> None:
         self.path(sha256).unlink(missing_ok=True)
+
+    def detach(self, hashes: Iterable[str]) -> list[tuple[Path, Path]]:
+        """Move blobs aside, all or none, before the rows that refer to them are deleted.
+
+        Returns:
+            (blob, moved-aside name) pairs, for :meth:`restore` (the deletion was not committed)
+            or :meth:`purge` (it was).
+
+        Raises:
+            OSError: one could not be moved (a read-only or failing disk); those already moved
+                are put back first, so nothing has changed.
+        """
+        moved: list[tuple[Path, Path]] = []
+        try:
+            for sha in sorted(hashes):
+                blob = self.path(sha)
+                if blob.is_file():
+                    aside = blob.with_name(f".{sha}{_DETACHED}")
+                    os.replace(blob, aside)
+                    moved.append((blob, aside))
+        except OSError:
+            self.restore(moved)
+            raise
+        return moved
+
+    @staticmethod
+    def restore(moved: list[tuple[Path, Path]]) -> None:
+        """Put detached blobs back (their rows' deletion was rolled back)."""
+        for blob, aside in reversed(moved):
+            with contextlib.suppress(FileNotFoundError):
+                os.replace(aside, blob)
+
+    @staticmethod
+    def purge(moved: list[tuple[Path, Path]]) -> None:
+        """Remove detached blobs for good (their rows' deletion is committed); one that cannot
+        be removed now is removed by :meth:`recover_detached` at the next start."""
+        for _, aside in moved:
+            try:
+                aside.unlink(missing_ok=True)
+            except OSError as exc:
+                logger.warning("%s left for the next start's clean-up: %s", aside.name, exc)
+
+    def recover_detached(self, referenced: set[str]) -> None:
+        """After a crash between detach and commit: put back the blobs rows still refer to,
+        remove the others."""
+        for aside in self.root.glob(f"*/.*{_DETACHED}"):
+            sha = aside.name[1 : -len(_DETACHED)]
+            if sha in referenced and _SHA256.match(sha):
+                os.replace(aside, self.path(sha))
+            else:
+                aside.unlink(missing_ok=True)
 
     def hashes(self) -> Iterator[str]:
         """SHA-256 of every stored blob."""

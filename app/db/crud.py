@@ -8,6 +8,7 @@ and a deletion removes the rows first and only then the blobs nobody refers to a
 from __future__ import annotations
 
 import hashlib
+import logging
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -32,6 +33,8 @@ from app.db.models import (
     utcnow,
 )
 from app.planning.jsonsafe import json_safe
+
+logger = logging.getLogger(__name__)
 
 #: A SELECT of any columns (SQLAlchemy 2.1 types Select by its column tuple).
 AnySelect = Select[*tuple[Any, ...]]
@@ -326,6 +329,7 @@ def collect_garbage(*, session: Session, blobs: BlobStore) -> int:
     with blobs.lock:
         blobs.remove_temporaries()
         refs = referenced_hashes(session=session)
+        blobs.recover_detached(refs)
         n = 0
         for sha in list(blobs.hashes()):
             if sha not in refs:
@@ -340,16 +344,28 @@ def delete_recording(*, session: Session, blobs: BlobStore, recording_id: int) -
         rec = session.get(RecordingSession, recording_id)
         if rec is None:
             return False
-        hashes = {f.sha256 for f in rec.files}
-        session.delete(rec)
-        session.commit()
-        still = set(
-            session.scalars(select(RecordingFile.sha256).where(RecordingFile.sha256.in_(hashes)))
-        )
-        robots = referenced_hashes(session=session) if hashes - still else set()
-        for sha in hashes - still - robots:
-            blobs.delete(sha)
+        _delete_with_blobs(session, blobs, rec, {f.sha256 for f in rec.files})
     return True
+
+
+def _delete_with_blobs(session: Session, blobs: BlobStore, row: Any, hashes: set[str]) -> None:
+    """Delete ``row`` and the blobs among ``hashes`` no other row refers to, all or nothing
+    (``blobs.lock`` held): the blobs are moved aside first, so a disk that refuses (read-only,
+    failing) leaves both the row and its files as they were, and the error propagates."""
+    session.delete(row)
+    session.flush()
+    try:
+        moved = blobs.detach(hashes - referenced_hashes(session=session))
+    except BaseException:
+        session.rollback()
+        raise
+    try:
+        session.commit()
+    except BaseException:
+        session.rollback()
+        blobs.restore(moved)
+        raise
+    blobs.purge(moved)
 
 
 def update_recording(
@@ -473,11 +489,17 @@ def _succeed(job: JobRecord, message: str = "done") -> None:
 
 
 def _drop_unreferenced(session: Session, blobs: BlobStore, hashes: set[str]) -> None:
-    """Delete the blobs among ``hashes`` that no row refers to any more (``blobs.lock`` held)."""
+    """Delete the blobs among ``hashes`` that no row refers to any more (``blobs.lock`` held,
+    the rows' deletion committed). A blob that cannot be removed now (a read-only or failing
+    disk) stays unreferenced, and :func:`collect_garbage` removes it at the next start: the
+    deletion the client asked for has happened."""
     if hashes:
         refs = referenced_hashes(session=session)
         for sha in hashes - refs:
-            blobs.delete(sha)
+            try:
+                blobs.delete(sha)
+            except OSError as exc:
+                logger.warning("blob %s left for the next start's clean-up: %s", sha, exc)
 
 
 def skeleton_frames(*, session: Session, recording_id: int) -> list[tuple[SkeletonFrame, str]]:
@@ -591,11 +613,7 @@ def delete_robot(*, session: Session, blobs: BlobStore, name: str) -> bool:
             for h in (row.urdf_sha256, row.mjcf_sha256, row.package_sha256, row.sidecar_sha256)
             if h
         }
-        session.delete(row)
-        session.commit()
-        refs = referenced_hashes(session=session)
-        for sha in hashes - refs:
-            blobs.delete(sha)
+        _delete_with_blobs(session, blobs, row, hashes)
     return True
 
 

@@ -15,6 +15,7 @@ and the services it starts take it again (a count, released by the last holder).
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import os
 import threading
@@ -29,8 +30,21 @@ _held: dict[Path, list[int]] = {}  # lock file -> [descriptor, holders in this p
 _guard = threading.Lock()
 
 
-class DataDirBusyError(BioPlanError):
+class DataDirError(BioPlanError):
+    """The data directory cannot be served: not writable, or another server's."""
+
+
+class DataDirBusyError(DataDirError):
     """Another process serves this data directory."""
+
+
+def _unusable(data_dir: Path, exc: OSError) -> DataDirError:
+    reason = "a read-only file system" if exc.errno == errno.EROFS else (exc.strerror or str(exc))
+    return DataDirError(
+        f"the data directory {data_dir} is not writable ({reason}): the server stores its "
+        "database and uploads there; choose a writable folder with --data-dir or "
+        "BIOPLAN_DATA_DIR"
+    )
 
 
 @dataclass(frozen=True)
@@ -58,15 +72,23 @@ def lock_data_dir(data_dir: Path) -> DataDirLock:
 
     Raises:
         DataDirBusyError: another process holds it; the message names its pid and the folder.
+        DataDirError: the folder cannot be created or written (a read-only file system, no
+            permission, a file in the way).
     """
-    data_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        data_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _unusable(data_dir, exc) from None
     path = (data_dir / LOCK_NAME).resolve()
     with _guard:
         entry = _held.get(path)
         if entry is not None:
             entry[1] += 1
             return DataDirLock(path)
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        except OSError as exc:
+            raise _unusable(data_dir, exc) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

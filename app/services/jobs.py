@@ -30,7 +30,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db import crud
 from app.db.blobs import BlobStore
 from app.db.models import Analysis, JobRecord, utcnow
-from app.errors import BioPlanError, storage_full
+from app.errors import BioPlanError, storage_problem
 from app.jobs.runner import JobEvent, JobRunner
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
 from app.services import recordings
@@ -426,7 +426,7 @@ class JobService:
             try:
                 self._apply(ev)
             except Exception as exc:
-                if not storage_full(exc):
+                if storage_problem(exc) is None:
                     logger.exception("job event could not be written: %r", ev)
                     continue
                 return events[i:]
@@ -463,10 +463,11 @@ class JobService:
                 if (
                     isinstance(ev, JobEvent)
                     and ev.type in TERMINAL_JOB_STATES
-                    and storage_full(exc)
+                    and storage_problem(exc) is not None
                 ):
                     logger.error(
-                        "storage full: job %d's end is kept until there is room", ev.job_id
+                        "storage full or read-only: job %d's end is kept until it can be written",
+                        ev.job_id,
                     )
                     unwritten.append(ev)
                 else:

@@ -34,3 +34,18 @@ def test_temporaries_and_missing_files(tmp_path: Path) -> None:
         store.get(sha)
     with pytest.raises(ValueError, match="SHA-256"):
         store.path("../../etc/passwd")
+
+
+def test_detached_blobs_come_back_unless_their_deletion_was_committed(tmp_path: Path) -> None:
+    """A deletion moves its blobs aside before committing; a crash in between must not lose a
+    blob that rows still refer to (the next start puts it back) nor keep one they do not."""
+    store = BlobStore(tmp_path)
+    kept, dropped = store.put(b"still referenced"), store.put(b"deleted")
+    moved = store.detach({kept, dropped})
+    assert not store.exists(kept) and not store.exists(dropped) and len(moved) == 2
+    store.recover_detached({kept})  # the next start, after a crash before the commit
+    assert store.exists(kept) and store.get(kept) == b"still referenced"
+    assert not store.exists(dropped) and list(tmp_path.glob("*/.*")) == []
+    moved = store.detach({kept})
+    store.restore(moved)  # the commit failed: all back
+    assert store.get(kept) == b"still referenced"
