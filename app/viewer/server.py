@@ -63,6 +63,7 @@ Prepare = Callable[[str, int], PreparedComparison]
 
 #: The websocket path that names a tab's comparison.
 _PATH = re.compile(r"^/bioplan/(plan|simulation)/([1-9][0-9]{0,9})/?$")
+_METHOD = re.compile(r"^[a-z_]{1,32}$")
 #: Seconds between updates of the time slider and the plot's cursor while playing. Each update
 #: re-renders viser's control panel; at 10 Hz that cost a software-rendered canvas about a third
 #: of its frames, at 4 Hz about a seventh.
@@ -81,6 +82,19 @@ def parse_client_path(path: str | None) -> tuple[str, int] | None:
     if match is None:
         return None
     return match.group(1), int(match.group(2))
+
+
+def parse_client_methods(path: str | None) -> tuple[str, str] | None:
+    """The two methods ``(solid, ghost)`` a websocket path asks for (``?methods=a,b``, as the
+    Compare page's choice), else None."""
+    if not path or "?" not in path:
+        return None
+    for part in path.split("?", 1)[1].split("&"):
+        key, _, value = part.partition("=")
+        pair = value.split(",")
+        if key == "methods" and len(pair) == 2 and all(_METHOD.match(m) for m in pair):
+            return pair[0], pair[1]
+    return None
 
 
 def _handshake_path(server: Any, client_id: int) -> str | None:
@@ -304,17 +318,21 @@ class ViewerServer:
     def url(self) -> str:
         return f"http://{_url_host(self.host)}:{self.port}"
 
-    def client_url(self, kind: str, result_id: int) -> str:
-        """The iframe address that shows comparison ``kind``/``result_id``.
+    def client_url(self, kind: str, result_id: int, methods: tuple[str, str] | None = None) -> str:
+        """The iframe address that shows comparison ``kind``/``result_id``, with ``methods``
+        (solid, ghost) on the two robots (None: the comparison's default pair).
 
         Also records the request for a tab whose websocket path cannot be read (the fallback).
         """
         with self._lock:
             self._pending.append((time.monotonic(), kind, int(result_id)))
         host = _url_host(self.host)
+        # The websocket address is itself a query value of the page's address: its own query
+        # (the methods) is percent-encoded so that the viewer page passes it on whole.
+        query = "" if methods is None else f"%3Fmethods%3D{methods[0]}%2C{methods[1]}"
         return (
             f"http://{host}:{self.port}/?websocket=ws://{host}:{self.port}/bioplan/"
-            f"{kind}/{int(result_id)}&hideViserLogo"
+            f"{kind}/{int(result_id)}{query}&hideViserLogo"
         )
 
     def sessions(self) -> list[dict[str, Any]]:
@@ -326,7 +344,9 @@ class ViewerServer:
 
     def _target(self, client_id: int) -> tuple[str, int] | None:
         """The comparison a new client wants: its handshake path, else the oldest request."""
-        path = _handshake_path(self._server, client_id)
+        return self._target_of(_handshake_path(self._server, client_id))
+
+    def _target_of(self, path: str | None) -> tuple[str, int] | None:
         now = time.monotonic()
         with self._lock:
             while self._pending and now - self._pending[0][0] > PENDING_SECONDS:
@@ -347,7 +367,8 @@ class ViewerServer:
             return self._pending.popleft()[1:] if self._pending else None
 
     def _on_connect(self, client: Any) -> None:
-        target = self._target(client.client_id)
+        path = _handshake_path(self._server, client.client_id)
+        target = self._target_of(path)
         if target is None:
             client.gui.add_markdown(
                 "**No comparison selected.** Open one from the dashboard's Compare page."
@@ -364,6 +385,7 @@ class ViewerServer:
             client.gui.add_markdown(f"**Cannot show {kind} {result_id}** (see the server log).")
             return
         session = self._build_session(client, kind, result_id, prepared)
+        _choose_methods(session, parse_client_methods(path))
         with self._lock:
             self._sessions[client.client_id] = session
         self.player.add(client.client_id, session.tick)
@@ -545,6 +567,16 @@ def _wire(session: ViewerSession, gui: dict[str, Any]) -> None:
     layout.on_update(lambda _: session.set_layout(_LAYOUT_NAMES[layout.value]))
     gui["solid"].on_update(on_method)
     gui["ghost"].on_update(on_method)
+
+
+def _choose_methods(session: ViewerSession, methods: tuple[str, str] | None) -> None:
+    """Show the Compare page's chosen pair (ignored unless both were planned and differ)."""
+    choices = session.comparison.choices
+    if methods is None or methods[0] == methods[1] or not set(methods) <= set(choices):
+        return
+    session.gui["solid"].value = trajectory_label(methods[0])
+    session.gui["ghost"].value = trajectory_label(methods[1])
+    session.set_methods(*methods)
 
 
 def _url_host(host: str) -> str:

@@ -212,3 +212,26 @@ def test_playing_sends_the_phase_text_only_at_boundaries_and_the_gui_at_4_hz(
     assert 2 <= len(slider) <= 2 + 4 * plan_comparison.duration and slider == sorted(slider)
     assert len(texts) < len(slider)
     assert len([1 for name, key, _ in log if name == "plot" and key == "data"]) == len(slider)
+
+
+def test_the_compare_pages_pair_reaches_the_tab(viewer: ViewerServer) -> None:
+    """The Compare page's "solid"/"ghost" choice travels in the websocket path (percent-encoded
+    inside the iframe's address) and the tab shows that pair; a pair the plan did not make, or
+    one method twice, leaves the default."""
+    url = viewer.client_url("plan", 7, ("human_optimal", "bound"))
+    assert url.endswith("/bioplan/plan/7%3Fmethods%3Dhuman_optimal%2Cbound&hideViserLogo")
+    assert server_module.parse_client_methods("/bioplan/plan/7?methods=bound,paper") == (
+        "bound", "paper"
+    )  # fmt: skip
+    assert server_module.parse_client_methods("/bioplan/plan/7?methods=a") is None
+    known: set[int] = set()
+    # The fixture planned the quintic and the paper's method: the swapped pair is a choice.
+    with _connect(viewer, "/bioplan/plan/7?methods=paper,quintic"):
+        chosen = _session_of(viewer, known)
+    with _connect(viewer, "/bioplan/plan/7?methods=bound,bound"):
+        twice = _session_of(viewer, known)
+    with _connect(viewer, "/bioplan/plan/7?methods=bound,nonsense"):
+        unknown = _session_of(viewer, known)
+    assert (chosen["solid"], chosen["ghost"]) == ("paper", "quintic")
+    assert (twice["solid"], twice["ghost"]) == ("quintic", "paper")
+    assert (unknown["solid"], unknown["ghost"]) == ("quintic", "paper")

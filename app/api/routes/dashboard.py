@@ -107,7 +107,7 @@ def comparison(
             "port": viewer.port,
             "host": viewer.host,
             "path": f"/bioplan/{kind}/{result_id}",
-            "url": viewer.client_url(kind, result_id),
+            "url": viewer.client_url(kind, result_id, pair),
         }
         if viewer is not None and viewer.running
         else {"enabled": False}

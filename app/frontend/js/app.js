@@ -9,7 +9,7 @@ const routes = [
   { re: /^#\/recordings\/(\d+)$/, page: "recordings", load: () => import("./recording.js") },
   { re: /^#\/recordings\/?$/, page: "recordings", load: () => import("./recordings.js") },
   { re: /^#\/plan\/?(?:\?(.*))?$/, page: "plan", load: () => import("./plan.js") },
-  { re: /^#\/compare(?:\/(plan|simulation)\/(\d+))?\/?$/, page: "compare", load: () => import("./compare.js") },
+  { re: /^#\/compare(?:\/(plan|simulation)\/(\d+))?\/?(?:\?methods=([a-z_]+,[a-z_]+))?$/, page: "compare", load: () => import("./compare.js") },
 ];
 
 const main = document.getElementById("app");

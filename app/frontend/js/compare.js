@@ -1,29 +1,52 @@
-// Compare: standard vs optimised. Curves per joint with the phases shaded, the metrics table
-// with changes and physical floors, the sweep heat maps, and the 3-D viewer below.
+// Compare: every planned method side by side. The metrics table has a column per method, each
+// metric with its physical floor (a value below one is flagged), the share of the achievable
+// saving and the peak torques; the curves per joint draw every method; the recorded human's
+// elbow velocity is drawn over the robots'; any two methods go to the 3-D viewer; exports of any
+// method in the formats controllers read.
 
-import { api, qs } from "./api.js";
+import { api, qs, token } from "./api.js";
 import { names } from "./names.js";
-import { NAMES, colours, draw, layout, phaseLabels, phaseLegend, phaseShapes, plotly } from "./plots.js";
-import { banner, clear, fmt, h, messageOf, pct, when } from "./ui.js";
+import { draw, layout, phaseLabels, phaseLegend, phaseShapes, plotly } from "./plots.js";
+import { banner, fmt, h, messageOf, pct, when } from "./ui.js";
 
-const LABELS = ["standard", "optimized"];
-// Results name their floors after the physics (ΔPE, ΔPE/T); the shared names after the metric
-// each one bounds. A floor the result reports under the metric's own name is taken first.
-const FLOOR_KEYS = { abs_work: "delta_potential", pos_work: "delta_potential", peak_power: "min_peak_power" };
-const FLOOR_LABELS = { delta_potential: "ΔPE", min_peak_power: "ΔPE/T" };
+// Older results name their floors after the physics only (ΔPE, ΔPE/T).
+const LEGACY_FLOOR_KEYS = { abs_work: "delta_potential", pos_work: "delta_potential", peak_power: "min_peak_power" };
+const FLOOR_TEXT = {
+  abs_work: "|ΔPE|", pos_work: "max(ΔPE, 0)", peak_power: "|ΔPE|/T", electrical_energy: "ΔPE + friction",
+  delta_potential: "ΔPE", min_peak_power: "ΔPE/T",
+};
+const EXPORT_FORMATS = [
+  ["csv", "CSV (t, q, qd, qdd, tau per joint)"], ["json", "JSON"], ["yaml", "YAML (ROS 2 JointTrajectory)"],
+  ["mcap", "MCAP (rosbag2)"], ["script", "URScript"], ["mot", "OpenSim .mot"],
+];
+const CURVES = ["qd", "tau", "power", "energy"];
 
-/** [key, formula, unit, floor key in result.floors or null] of the per-trajectory metrics. */
-function metricRows(floors) {
-  return names.metrics.filter((m) => !m.per_joint).map((m) => {
-    const key = m.floor === null ? null : m.floor in floors ? m.floor : FLOOR_KEYS[m.floor] ?? null;
-    return [m.name, m.formula, m.unit, key];
-  });
+export function methodInfo(name) {
+  return names.methods.find((m) => m.name === name) || { name, label: name, colour: "#6b7280" };
 }
 
-function title(item, kind) {
-  const c = (item.result && item.result.conditions) || item.job.params || {};
-  const payload = c.payload ?? item.job.params.payload;
-  return `${kind === "simulation" ? "Simulation" : "Plan"} #${item.id}: ${item.robot}, ${payload ?? "default"} kg, ${c.duration ?? item.job.params.duration} s, ${c.objective ?? item.job.params.objective}`;
+/** [floor value, floor key] of a metric in a result's floors, or [null, null]. */
+function floorOf(floors, metric) {
+  if (metric.floor === null) return [null, null];
+  for (const key of [metric.name, metric.floor, LEGACY_FLOOR_KEYS[metric.name]]) {
+    if (key && floors[key] !== undefined && floors[key] !== null) return [floors[key], key];
+  }
+  return [null, null];
+}
+
+function isBelow(value, floor) {
+  return floor !== null && value !== null && value !== undefined && value < floor - 1e-6 * Math.max(1, Math.abs(floor));
+}
+
+/** What tells one comparison from another in the picker. */
+export function title(item, kind) {
+  const c = (item.result && item.result.conditions) || {};
+  const p = item.job.params || {};
+  const planned = (item.result && item.result.methods && Object.keys(item.result.methods)) || [];
+  const what = kind === "simulation" ? "Simulation" : "Plan";
+  const label = item.label ? ` “${item.label}”` : "";
+  const template = p.template_analysis_id ? `, template of analysis #${p.template_analysis_id}` : "";
+  return `${what} #${item.id}${label}: ${item.robot}, ${c.payload ?? p.payload ?? "default"} kg, ${c.duration ?? p.duration} s, ${c.objective ?? p.objective}, ${planned.length || 2} methods${template} · ${when(item.job.finished_at)}`;
 }
 
 /** Per-joint power |τ_j ω_j| [W] and its running integral [J] (trapezoid). */
@@ -34,7 +57,22 @@ function jointPower(t, tau, qd, j) {
   return [p, e];
 }
 
-export async function render(main, [kindArg, idArg]) {
+/** Curves of every planned method: the shown pair's, plus those of the others (fetched as
+ * further pairs, since one answer carries two). */
+async function allCurves(base, data) {
+  const out = { [data.methods.standard]: data.curves.standard, [data.methods.optimized]: data.curves.optimized };
+  const rest = data.planned.filter((m) => !(m in out));
+  const pairs = [];
+  for (let i = 0; i < rest.length; i += 2) pairs.push([rest[i], rest[i + 1] ?? data.methods.standard]);
+  const answers = await Promise.all(pairs.map((pair) => api(`${base}${qs({ points: 400, methods: pair.join(",") })}`)));
+  answers.forEach((a, i) => {
+    out[pairs[i][0]] = a.curves.standard;
+    out[pairs[i][1]] = a.curves.optimized;
+  });
+  return out;
+}
+
+export async function render(main, [kindArg, idArg, methodsArg]) {
   const [plans, sims, sweeps] = await Promise.all([
     api(`/api/plans${qs({ state: "succeeded", limit: 100 })}`),
     api(`/api/simulations${qs({ state: "succeeded", limit: 100 })}`),
@@ -45,11 +83,10 @@ export async function render(main, [kindArg, idArg]) {
     ...plans.items.map((x) => ({ kind: "plan", item: x })),
   ].sort((a, b) => b.item.id - a.item.id);
 
-  const head = h("div", { class: "page-head" }, h("h1", {}, "Compare standard and bio-inspired motion"));
+  const head = h("div", { class: "page-head" }, h("h1", {}, "Compare the planning methods"));
   main.append(head);
   if (!options.length) {
     main.append(banner("info", "No finished plan or simulation yet. "), h("a", { class: "button primary", href: "#/plan" }, "Plan one"));
-    if (sweeps.items.length) main.append(sweepCard(sweeps.items[0]));
     return;
   }
   let kind = kindArg;
@@ -65,178 +102,307 @@ export async function render(main, [kindArg, idArg]) {
   picker.addEventListener("change", () => (location.hash = `#/compare/${picker.value}`));
   head.append(h("div", { class: "actions", style: "min-width:min(100%,520px)" }, picker));
 
+  const base = `/api/viewer/comparisons/${kind}/${id}`;
   let data;
+  let curvesOf;
   try {
-    data = await api(`/api/viewer/comparisons/${kind}/${id}${qs({ points: 400 })}`);
+    data = await api(`${base}${qs({ points: 400, methods: methodsArg })}`);
+    curvesOf = await allCurves(base, data);
   } catch (err) {
     main.append(banner("error", messageOf(err)));
     return;
   }
   const result = data.result;
-  const curves = data.curves;
+  const planned = data.planned;
+  const pair = [data.methods.standard, data.methods.optimized];
 
-  // ---- conditions and metrics -------------------------------------------------------
+  const optimizer = result.optimizer || (result.planned && result.planned.optimizer);
+  if (optimizer && optimizer.stopped_early) {
+    main.append(banner("info", `The paper's method: its PSO stopped early, after ${optimizer.iterations} iterations, because the swarm had stopped improving; the plan is the best it found.`));
+  }
+  main.append(factsCard(selected, data), metricsCard(kind, result, planned, data.joint_names));
+
+  const curvesCard = h("section", { class: "card", id: "curves-card" });
+  const humanCard = h("section", { class: "card", id: "human-card" });
+  main.append(curvesCard, humanCard);
+  await plotly();
+  await drawCurves(curvesCard, data, curvesOf, pair);
+  await drawHuman(humanCard, data, curvesOf);
+
+  const sweep = sweeps.items.find((s) => s.robot === data.robot);
+  if (sweep) main.append(sweepCard(sweep));
+  main.append(viewerCard(kind, id, data, pair), exportCard(kind, id, data, pair));
+}
+
+function factsCard(selected, data) {
+  const result = data.result;
   const cond = result.conditions || {};
   const warnings = result.warnings || [];
-  main.append(
-    h("section", { class: "card" },
-      h("div", { class: "facts" },
-        fact("robot", data.robot),
-        fact("payload", `${fmt(data.payload.mass)} kg`),
-        fact("duration", `${fmt(data.duration)} s`),
-        fact("objective", cond.objective || "–"),
-        fact("elbow velocity peak", `${fmt(result.optimized.peak_velocity_angle_deg, 3)}° (standard ${fmt(result.standard.peak_velocity_angle_deg, 3)}°)`),
-        fact("human template", templateText(selected, result)),
-      ),
-      warnings.length ? h("details", { class: "small", style: "margin-top:8px" }, h("summary", {}, `${warnings.length} warning(s)`), h("ul", {}, warnings.map((w) => h("li", {}, w)))) : null,
+  return h("section", { class: "card" },
+    h("div", { class: "facts" },
+      fact("robot", data.robot),
+      fact("payload", `${fmt(data.payload.mass)} kg`),
+      fact("duration", `${fmt(data.duration)} s`),
+      fact("objective", cond.objective || "–"),
+      fact("methods planned", data.planned.map((m) => methodInfo(m).label).join(", ")),
+      fact("human template", templateText(selected, result)),
     ),
-    metricsCard(kind, result, data.joint_names),
+    warnings.length ? h("details", { class: "small", style: "margin-top:8px" }, h("summary", {}, `${warnings.length} warning(s)`), h("ul", {}, warnings.map((w) => h("li", {}, w)))) : null,
   );
-
-  // ---- curves -----------------------------------------------------------------------
-  const jointNames = curves.joint_names;
-  let joint = data.elbow_joint;
-  const seg = h("div", { class: "seg", role: "group", "aria-label": "Joint" });
-  const grid = h("div", { class: "grid-plots", id: "curves" });
-  const divs = Object.fromEntries(["qd", "qdd", "tau", "power", "energy"].map((k) => [k, h("div", { class: "plot", id: `plot-${k}` })]));
-  Object.values(divs).forEach((d) => grid.append(h("div", {}, d)));
-  grid.append(h("div", { class: "plot-note" }, legendBox()));
-  jointNames.forEach((name, j) => {
-    const b = h("button", { type: "button", class: j === joint ? "on" : "", onclick: () => {
-      joint = j;
-      seg.querySelectorAll("button").forEach((x, k) => x.classList.toggle("on", k === j));
-      drawCurves();
-    } }, name);
-    seg.append(b);
-  });
-  main.append(h("section", { class: "card" },
-    h("div", { class: "row", style: "margin-bottom:8px" }, h("h2", { style: "margin:0" }, "Curves per joint"), h("div", { style: "margin-left:auto; max-width:100%" }, seg)),
-    grid,
-  ));
-
-  const t = curves.t;
-  const tEnd = t[t.length - 1];
-  const phases = data.phase_times;
-  async function drawCurves() {
-    const j = joint;
-    const name = jointNames[j];
-    const specs = {
-      qd: [`${name} velocity [rad/s]`, (c) => c.qd.map((r) => r[j])],
-      qdd: [`${name} acceleration [rad/s²]`, (c) => c.qdd.map((r) => r[j])],
-      tau: [`${name} torque [Nm]`, (c) => c.tau.map((r) => r[j])],
-      power: [`${name} power |τ·ω| [W]`, (c) => jointPower(t, c.tau, c.qd, j)[0]],
-      energy: [`${name} cumulative energy [J]`, (c) => jointPower(t, c.tau, c.qd, j)[1]],
-    };
-    await Promise.all(Object.entries(specs).map(([k, [label, get]]) => {
-      const colour = colours();
-      const traces = LABELS.map((l) => ({ x: t, y: get(curves[l]), mode: "lines", name: NAMES[l], line: { color: colour[l], width: 2 } }));
-      if (k === "power" || k === "energy") {
-        // The robot's total next to the joint's, dotted.
-        LABELS.forEach((l) => traces.push({ x: t, y: curves[l][k], mode: "lines", name: `${NAMES[l]}, all joints`, line: { color: colour[l], width: 1.5, dash: "dot" } }));
-      }
-      return draw(divs[k], traces, layout({
-        height: 270,
-        title: { text: label, font: { size: 13 }, x: 0.01, xanchor: "left" },
-        showlegend: false,
-        margin: { l: 56, r: 10, t: 34, b: 36 },
-        xaxis: { title: { text: "t [s]" }, gridcolor: "#eceff3", range: [t[0], tEnd] },
-        shapes: phaseShapes(phases.optimized, t[0], tEnd, "x", { dashed: phases.standard }),
-        annotations: phaseLabels(phases.optimized),
-      }));
-    }));
-  }
-  await plotly();
-  await drawCurves();
-
-  // ---- sweep ------------------------------------------------------------------------
-  const sweep = sweeps.items.find((s) => s.robot === data.robot) || sweeps.items[0];
-  if (sweep) main.append(sweepCard(sweep));
-
-  // ---- 3-D viewer -------------------------------------------------------------------
-  const viewerCard = h("section", { class: "card", id: "viewer-card" },
-    h("div", { class: "row", style: "margin-bottom:8px" },
-      h("h2", { style: "margin:0" }, "3-D viewer"),
-      h("span", { class: "small muted" }, "blue: standard · amber: bio-inspired · play, pause, speed, scrub and layout in the viewer's panel"),
-      h("span", { class: "actions row", style: "margin-left:auto" },
-        h("a", { class: "button small", id: "export-scene", href: data.exports.scene, download: "" }, "Export 3-D scene (HTML)"),
-        h("a", { class: "button small", id: "export-report", href: data.exports.report, download: "" }, "Export report (HTML)"),
-      ),
-    ),
-  );
-  if (data.viewer.enabled) {
-    // The viewer listens on its own port; on a wildcard bind use the host the page came from.
-    const host = ["0.0.0.0", "::", ""].includes(data.viewer.host) ? location.hostname : data.viewer.host;
-    const url = data.viewer.url.replaceAll(`${data.viewer.host}:`, `${host}:`);
-    viewerCard.append(
-      h("iframe", { class: "viewer-frame", id: "viewer-frame", src: url, title: "3-D comparison viewer", allow: "fullscreen" }),
-      h("p", { class: "small muted" }, "Each tab gets its own scene. ", h("a", { href: url, target: "_blank", rel: "noopener" }, "Open the viewer alone ↗")),
-    );
-  } else {
-    viewerCard.append(banner("info", "The 3-D viewer is not running on this server; the exports still work."));
-  }
-  main.append(viewerCard);
 }
 
 function templateText(option, result) {
   const params = option ? option.item.job.params : {};
   const target = result.target_peak_velocity_angle_deg ?? (result.conditions || {}).target_peak_velocity_angle_deg;
-  const source = params.template_analysis_id ? `analysis #${params.template_analysis_id}` : params.template ? "uploaded" : (result.conditions || {}).template || "paper defaults";
-  return target === undefined ? source : `${source}, target ${fmt(target, 3)}°`;
+  const source = params.template_analysis_id ? `analysis #${params.template_analysis_id}` : params.template ? "uploaded" : (result.conditions || {}).template || "the paper's default";
+  return target === undefined ? source : `${source}, peak at ${fmt(target, 3)}°`;
 }
 
 function fact(k, v) {
   return h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v", style: "font-size:14px" }, v));
 }
 
-function legendBox() {
-  return h("div", { class: "legend-inline" },
-    h("span", {}, h("span", { class: "swatch sw-std" }), "standard quintic"),
-    h("span", {}, h("span", { class: "swatch sw-opt" }), "bio-inspired (PSO)"),
-    h("span", {}, "dotted: all joints (power, energy)"),
-    phaseLegend(false),
-    h("span", {}, "(phases of the optimised motion; blue dots: the standard's)"),
+function methodHead(name) {
+  const m = methodInfo(name);
+  return h("th", { class: "num", dataset: { method: name }, title: m.description || "" },
+    h("span", { class: "swatch", style: `background:${m.colour}` }), m.label);
+}
+
+/** One row per metric, one column per method; the floor beside; below-floor values flagged. */
+function metricsCard(kind, result, planned, jointNames) {
+  const floors = result.floors || {};
+  const side = (name) => (result.methods && result.methods[name]) || (name === "quintic" ? result.standard : name === "paper" ? result.optimized : null);
+  const objective = (result.conditions || {}).objective;
+  const rows = names.metrics.filter((m) => !m.per_joint).map((m) => {
+    const [floor, floorKey] = floorOf(floors, m);
+    const cells = planned.map((name) => {
+      const s = side(name) || {};
+      const value = s[m.name];
+      const change = name === "quintic" ? null : (s.improvement_pct || {})[m.name];
+      const below = isBelow(value, floor);
+      return h("td", { class: `num${below ? " below-floor" : ""}`, dataset: { method: name, value: value ?? "" } },
+        value === null || value === undefined ? h("span", { class: "muted", title: "no motor model for this robot" }, "not modelled") : fmt(value),
+        change === null || change === undefined ? null : h("div", { class: `small ${change > 0.05 ? "better" : change < -0.05 ? "worse" : "muted"}` }, pct(change)),
+        below ? h("div", { class: "worse small", role: "alert" }, "below floor!") : null);
+    });
+    const floorText = floorKey === "electrical_energy" && floors.friction_energy ? `ΔPE + friction ${fmt(floors.friction_energy)} J` : FLOOR_TEXT[floorKey] ?? floorKey;
+    return h("tr", { dataset: { metric: m.name }, class: m.name === objective ? "objective-row" : "" },
+      h("td", {}, h("strong", {}, m.name), m.name === objective ? h("span", { class: "small muted" }, " (objective)") : null, h("div", { class: "small muted" }, m.formula)),
+      h("td", {}, m.unit),
+      cells,
+      h("td", { class: "num", dataset: { floor: floor ?? "" } }, floor === null ? h("span", { class: "muted" }, "–") : [fmt(floor), h("div", { class: "small muted" }, floorText)]),
+    );
+  });
+  const shares = result.share_of_achievable_pct || {};
+  const shareRow = h("tr", { dataset: { metric: "share" } },
+    h("td", {}, h("strong", {}, "share of the achievable saving"), h("div", { class: "small muted" }, `(quintic − method) / (quintic − bound) on ${objective || "the objective"}`)),
+    h("td", {}, "%"),
+    planned.map((name) => h("td", { class: "num", dataset: { method: name, value: shares[name] ?? "" } }, shares[name] === null || shares[name] === undefined ? "–" : `${shares[name].toFixed(1)} %`)),
+    h("td", {}, ""));
+  const angleRow = h("tr", { dataset: { metric: "peak_velocity_angle_deg" } },
+    h("td", {}, h("strong", {}, "elbow peak-velocity angle"), h("div", { class: "small muted" }, `template: ${fmt(result.target_peak_velocity_angle_deg ?? (result.conditions || {}).target_peak_velocity_angle_deg, 3)}°`)),
+    h("td", {}, "°"),
+    planned.map((name) => h("td", { class: "num", dataset: { method: name } }, fmt((side(name) || {}).peak_velocity_angle_deg, 3))),
+    h("td", {}, ""));
+  const anyBelow = rows.some((r) => r.querySelector(".below-floor"));
+  return h("section", { class: "card", id: "metrics-card" },
+    h("h2", {}, kind === "simulation" ? "Metrics measured in the MuJoCo simulation" : "Metrics of the planned trajectories"),
+    anyBelow ? banner("error", "A value is below its physical floor: no rest-to-rest motion can do that, so that number is wrong (a model or integration error); it is flagged in red.") : null,
+    h("div", { class: "table-wrap" },
+      h("table", { id: "metrics-table" },
+        h("thead", {}, h("tr", {}, h("th", {}, "metric"), h("th", {}, "unit"), planned.map(methodHead), h("th", { class: "num" }, "physical floor"))),
+        h("tbody", {}, rows, shareRow, angleRow),
+      ),
+    ),
+    h("p", { class: "small muted" }, "Under each value: its change against the standard quintic, 100 (quintic − method) / quintic; positive (green) uses less. Floors: no rest-to-rest motion does less work than |ΔPE| or has a lower peak power than |ΔPE|/T; electrical energy adds the friction no motion avoids."),
+    torqueTable(result, planned, jointNames, side),
   );
 }
 
-function metricsCard(kind, result, jointNames) {
-  const floors = result.floors || {};
-  const imp = result.improvement_pct || {};
-  const planned = result.planned ? result.planned.improvement_pct || {} : null;
-  const rows = metricRows(floors).map(([key, def, unit, floorKey]) => {
-    const s = result.standard[key];
-    const o = result.optimized[key];
-    const floor = floorKey ? floors[floorKey] : null;
-    const below = floor !== null && floor !== undefined && (s < floor - 1e-9 * Math.abs(floor) || o < floor - 1e-9 * Math.abs(floor));
-    const change = imp[key];
-    return h("tr", { dataset: { metric: key } },
-      h("td", {}, h("strong", {}, key), h("div", { class: "small muted" }, def)),
-      h("td", {}, unit),
-      h("td", { class: "num" }, fmt(s)),
-      h("td", { class: "num" }, fmt(o)),
-      h("td", { class: `num ${change > 0.05 ? "better" : change < -0.05 ? "worse" : ""}` }, pct(change)),
-      planned ? h("td", { class: "num small" }, pct(planned[key])) : null,
-      h("td", { class: "num" }, floor === null || floor === undefined ? h("span", { class: "muted" }, "–") : `${fmt(floor)} (${FLOOR_LABELS[floorKey] ?? floorKey})`),
-      h("td", {}, floor === null || floor === undefined ? "" : below ? h("span", { class: "worse" }, "below floor!") : h("span", { class: "small muted" }, "≥ floor")),
-    );
-  });
-  const joints = jointNames || result.standard.peak_torque.map((_, i) => `J${i + 1}`);
-  const torque = h("table", { id: "torque-table" },
-    h("thead", {}, h("tr", {}, h("th", {}, "peak torque [Nm]"), joints.map((j) => h("th", { class: "num mono" }, j)))),
-    h("tbody", {}, LABELS.map((l) => h("tr", {}, h("td", {}, NAMES[l]), result[l].peak_torque.map((v) => h("td", { class: "num" }, fmt(v)))))),
-  );
-  return h("section", { class: "card" },
-    h("h2", {}, kind === "simulation" ? "Metrics measured in the MuJoCo simulation" : "Metrics of the planned trajectories"),
-    h("div", { class: "table-wrap" },
-      h("table", { id: "metrics-table" },
-        h("thead", {}, h("tr", {},
-          h("th", {}, "metric"), h("th", {}, "unit"), h("th", { class: "num" }, "standard"), h("th", { class: "num" }, "optimised"),
-          h("th", { class: "num" }, "change"), planned ? h("th", { class: "num" }, "planned change") : null,
-          h("th", { class: "num" }, "physical floor"), h("th", {}, ""))),
-        h("tbody", {}, rows),
-      ),
+function torqueTable(result, planned, jointNames, side) {
+  const reference = (side("quintic") || result.standard).peak_torque;
+  const joints = jointNames || reference.map((_, i) => `J${i + 1}`);
+  return h("div", { class: "table-wrap", style: "margin-top:10px" },
+    h("table", { id: "torque-table" },
+      h("thead", {}, h("tr", {}, h("th", {}, "peak torque [Nm]"), joints.map((j) => h("th", { class: "num mono" }, j)))),
+      h("tbody", {}, planned.map((name) => {
+        const values = (side(name) || {}).peak_torque || [];
+        return h("tr", { dataset: { method: name } }, h("td", {}, methodInfo(name).label),
+          values.map((v, j) => {
+            const higher = name !== "quintic" && v > reference[j] * 1.005;
+            return h("td", { class: `num${higher ? " worse" : ""}`, title: higher ? "higher than the standard quintic's" : "" }, fmt(v), higher ? " ↑" : "");
+          }));
+      })),
     ),
-    h("p", { class: "small muted" }, "Change = 100 (standard − optimised) / standard: positive (green) means the bio-inspired plan uses less. Floors: no rest-to-rest motion does less positive work than ΔPE, and none has a lower peak power than ΔPE/T."),
-    h("div", { class: "table-wrap", style: "margin-top:10px" }, torque),
+    h("p", { class: "small muted" }, "↑ red: a peak torque higher than the standard quintic's (the motors must deliver it)."),
+  );
+}
+
+async function drawCurves(card, data, curvesOf, pair) {
+  const jointNames = data.curves.joint_names;
+  let joint = data.elbow_joint;
+  const t = data.curves.t;
+  const tEnd = t[t.length - 1];
+  const seg = h("div", { class: "seg", role: "group", "aria-label": "Joint" });
+  const grid = h("div", { class: "grid-plots", id: "curves" });
+  const divs = Object.fromEntries(CURVES.map((k) => [k, h("div", { class: "plot", id: `plot-${k}` })]));
+  Object.values(divs).forEach((d) => grid.append(h("div", {}, d)));
+  const legend = h("div", { class: "legend-inline", id: "methods-legend" },
+    data.planned.map((m) => h("span", {}, h("span", { class: "swatch", style: `background:${methodInfo(m).colour}` }), methodInfo(m).label, pair.includes(m) ? " (in the viewer)" : "")),
+    phaseLegend(false), h("span", {}, `(phases of ${methodInfo(pair[1]).label})`));
+  const redraw = () => Promise.all(CURVES.map((k) => {
+    const j = joint;
+    const name = jointNames[j];
+    const label = { qd: `${name} velocity [rad/s]`, tau: `${name} torque [Nm]`, power: `${name} power |τ·ω| [W]`, energy: `${name} cumulative energy [J]` }[k];
+    const traces = data.planned.map((m) => {
+      const c = curvesOf[m];
+      const y = k === "qd" ? c.qd.map((r) => r[j]) : k === "tau" ? c.tau.map((r) => r[j]) : jointPower(t, c.tau, c.qd, j)[k === "power" ? 0 : 1];
+      return { x: t, y, mode: "lines", name: methodInfo(m).label, line: { color: methodInfo(m).colour, width: pair.includes(m) ? 2.4 : 1.3 } };
+    });
+    return draw(divs[k], traces, layout({
+      height: 270,
+      title: { text: label, font: { size: 13 }, x: 0.01, xanchor: "left" },
+      showlegend: false,
+      margin: { l: 56, r: 10, t: 34, b: 36 },
+      xaxis: { title: { text: "t [s]" }, gridcolor: "#eceff3", range: [t[0], tEnd] },
+      shapes: phaseShapes(data.phase_times.optimized, t[0], tEnd, "x"),
+      annotations: phaseLabels(data.phase_times.optimized),
+    }));
+  }));
+  jointNames.forEach((name, j) => {
+    seg.append(h("button", { type: "button", class: j === joint ? "on" : "", onclick: () => {
+      joint = j;
+      seg.querySelectorAll("button").forEach((x, k) => x.classList.toggle("on", k === j));
+      redraw();
+    } }, name));
+  });
+  card.append(
+    h("div", { class: "row", style: "margin-bottom:8px" }, h("h2", { style: "margin:0" }, "Curves per joint, every method"), h("div", { style: "margin-left:auto; max-width:100%" }, seg)),
+    legend, grid);
+  await redraw();
+}
+
+/** The robots' elbow velocity over its peak, with the recorded human's lift on the same grid. */
+async function drawHuman(card, data, curvesOf) {
+  const t = data.curves.t;
+  const human = data.curves.human;
+  const info = data.human || {};
+  const div = h("div", { class: "plot", id: "plot-human" });
+  const traces = data.planned.map((m) => ({
+    x: t, y: curvesOf[m].elbow_velocity_normalised, mode: "lines", name: methodInfo(m).label, line: { color: methodInfo(m).colour, width: 1.8 },
+  }));
+  if (human) traces.push({ x: t, y: human.elbow_velocity_normalised, mode: "lines", name: "recorded human", line: { color: "#111827", width: 2.6, dash: "dash" } });
+  const source = human
+    ? `The dashed black line: the recorded person's elbow velocity over its peak during ${info.lift ? `lift ${(info.lift.index ?? 0) + 1} of ${info.lift.file ?? "the recording"} (${fmt(info.lift.start_s, 3)}–${fmt(info.lift.top_s, 3)} s of the recording)` : "the template's lift"}, time-normalised to the plan.`
+    : `No recorded human to draw: ${info.note || "this comparison used the paper's default template"}.`;
+  card.append(
+    h("h2", {}, "Elbow velocity: the robots beside the human"),
+    h("p", { class: "small muted", id: "human-note" }, source),
+    div);
+  await draw(div, traces, layout({
+    height: 300, showlegend: true, margin: { l: 56, r: 10, t: 40, b: 36 },
+    xaxis: { title: { text: "t [s]" }, gridcolor: "#eceff3", range: [t[0], t[t.length - 1]] },
+    yaxis: { title: { text: "elbow velocity / its peak" }, gridcolor: "#eceff3" },
+  }));
+}
+
+function viewerCard(kind, id, data, pair) {
+  const select = (sid, value) => h("select", { id: sid, "aria-label": sid === "method-a" ? "Solid robot" : "Ghost robot" },
+    data.planned.map((m) => h("option", { value: m, selected: m === value }, methodInfo(m).label)));
+  const a = select("method-a", pair[0]);
+  const b = select("method-b", pair[1]);
+  const note = h("span", { class: "small", id: "pair-note" });
+  const show = () => {
+    if (a.value === b.value) {
+      note.textContent = "Choose two different methods.";
+      note.className = "small worse";
+      return;
+    }
+    location.hash = `#/compare/${kind}/${id}?methods=${a.value},${b.value}`;
+  };
+  a.addEventListener("change", show);
+  b.addEventListener("change", show);
+  const card = h("section", { class: "card", id: "viewer-card" },
+    h("div", { class: "row", style: "margin-bottom:8px" },
+      h("h2", { style: "margin:0" }, "3-D viewer"),
+      h("label", { class: "small" }, "solid ", a), h("label", { class: "small" }, "ghost ", b), note,
+      h("span", { class: "small muted" }, `${methodInfo(pair[0]).label} (solid) · ${methodInfo(pair[1]).label} (ghost) · play, pause, speed, scrub and layout in the viewer's panel`),
+    ),
+  );
+  if (data.viewer.enabled) {
+    // The viewer listens on its own port; on a wildcard bind use the host the page came from.
+    const host = ["0.0.0.0", "::", ""].includes(data.viewer.host) ? location.hostname : data.viewer.host;
+    const url = data.viewer.url.replaceAll(`${data.viewer.host}:`, `${host}:`);
+    card.append(
+      h("iframe", { class: "viewer-frame", id: "viewer-frame", src: url, title: "3-D comparison viewer", allow: "fullscreen" }),
+      h("p", { class: "small muted" }, "Each tab gets its own scene. ", h("a", { href: url, target: "_blank", rel: "noopener" }, "Open the viewer alone ↗")),
+    );
+  } else {
+    card.append(banner("info", "The 3-D viewer is not running on this server; the exports still work."));
+  }
+  return card;
+}
+
+/** Fetch a file with the API token, show busy and errors on the button, then save it. */
+async function download(url, button, status) {
+  const label = button.textContent;
+  button.disabled = true;
+  button.textContent = "Preparing…";
+  status.textContent = "";
+  status.className = "small muted";
+  try {
+    const headers = token() ? { Authorization: `Bearer ${token()}` } : {};
+    const response = await fetch(url, { headers });
+    if (!response.ok) {
+      let detail = `HTTP ${response.status}`;
+      try {
+        detail = (await response.json()).detail || detail;
+      } catch {
+        /* not a problem document */
+      }
+      throw new Error(detail);
+    }
+    const disposition = response.headers.get("Content-Disposition") || "";
+    const name = (disposition.match(/filename="([^"]+)"/) || [])[1] || "bioplan-export";
+    const blob = await response.blob();
+    const href = URL.createObjectURL(blob);
+    const link = h("a", { href, download: name, class: "export-link" }, `${name} (${fmt(blob.size / 1024, 3)} KB)`);
+    link.click();
+    status.replaceChildren("Saved: ", link);
+  } catch (err) {
+    status.textContent = messageOf(err);
+    status.className = "small worse";
+  } finally {
+    button.disabled = false;
+    button.textContent = label;
+  }
+}
+
+function exportCard(kind, id, data, pair) {
+  const format = h("select", { id: "export-format", "aria-label": "Export format" }, EXPORT_FORMATS.map(([v, l]) => h("option", { value: v }, l)));
+  const method = h("select", { id: "export-method", "aria-label": "Method to export" },
+    data.planned.map((m) => h("option", { value: m, selected: m === pair[1] }, methodInfo(m).label)));
+  const rate = h("input", { id: "export-rate", type: "number", min: "1", max: "10000", step: "any", placeholder: "format's default", "aria-label": "Sample rate [Hz]", style: "width:140px" });
+  const status = h("span", { class: "small muted", id: "export-status", role: "status" });
+  const button = h("button", { type: "button", class: "primary", id: "export-download" }, "Download trajectory");
+  button.addEventListener("click", () => {
+    const url = `/api/${kind === "simulation" ? "simulations" : "plans"}/${id}/trajectory${qs({ format: format.value, method: method.value, rate: rate.value })}`;
+    download(url, button, status);
+  });
+  const fileStatus = h("span", { class: "small muted", id: "report-status", role: "status" });
+  const fileButton = (fmtName, text) => {
+    const b = h("button", { type: "button", id: `export-${fmtName}` }, text);
+    b.addEventListener("click", () => download(data.exports[fmtName], b, fileStatus));
+    return b;
+  };
+  return h("section", { class: "card", id: "export-card" },
+    h("h2", {}, "Export"),
+    h("div", { class: "row", style: "flex-wrap:wrap; gap:8px" },
+      h("label", { class: "small" }, "format ", format), h("label", { class: "small" }, "method ", method),
+      h("label", { class: "small" }, "rate [Hz] ", rate), button, status),
+    h("div", { class: "row", style: "flex-wrap:wrap; gap:8px; margin-top:10px" },
+      fileButton("scene", "3-D scene (HTML)"), fileButton("report", "Report (HTML)"), fileStatus),
+    h("p", { class: "small muted" }, "Trajectories in the formats robot controllers read (docs/export.md); the scene and report open without the server."),
   );
 }
 
@@ -265,7 +431,7 @@ function sweepCard(sweep) {
   const card = h("section", { class: "card", id: "sweep-card" },
     h("div", { class: "row" }, h("h2", { style: "margin:0" }, `Sweep #${sweep.id}: ${r.robot}`), h("span", { class: "small muted" }, when(sweep.job.finished_at)),
       h("span", { class: "row", style: "margin-left:auto" }, selObj, selMet)),
-    h("p", { class: "small muted" }, "Where the bio-inspired plan wins (green) and where it does not (red): change in % of the standard, per duration and payload."),
+    h("p", { class: "small muted" }, "Where the paper's method wins (green) and where it does not (red): change in % of the standard, per duration and payload."),
     div,
   );
   plotly().then(redraw);

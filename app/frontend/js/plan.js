@@ -4,18 +4,20 @@
 import { api, followJob, qs } from "./api.js";
 import { names } from "./names.js";
 import { colours, draw, layout } from "./plots.js";
+import { robotUploadCard } from "./robot_upload.js";
 import { DEG, banner, clear, fmt, h, messageOf, pct, tag, when } from "./ui.js";
 
 /**
  * The optimisers' convergence from a job's structured progress: one curve per stage that
- * reports a best value (PSO iterations; optimal control), point `done` -> `best`.
+ * reports a best value (PSO iterations; optimal control), point `done` -> the best so far (a
+ * running minimum: it never rises, whatever a stage reports between its iterations).
  */
 export function addProgressPoint(curves, job) {
   if (job.best === null || job.best === undefined || !job.stage) return false;
   const curve = curves[job.stage] || (curves[job.stage] = { x: [], y: [] });
   if (curve.x.length && job.done <= curve.x.at(-1)) return false;
   curve.x.push(job.done);
-  curve.y.push(job.best);
+  curve.y.push(curve.y.length ? Math.min(curve.y.at(-1), job.best) : job.best);
   return true;
 }
 
@@ -28,7 +30,8 @@ export async function render(main, [query]) {
   ]);
 
   // ---- form --------------------------------------------------------------------------
-  const robot = h("select", { id: "robot" }, robots.map((r) => h("option", { value: r.name }, `${r.name}${r.builtin ? "" : " (uploaded)"}`)));
+  const robotOption = (r) => h("option", { value: r.name, selected: params.get("robot") === r.name }, `${r.name}${r.builtin ? "" : " (uploaded)"}`);
+  const robot = h("select", { id: "robot" }, robots.map(robotOption));
   const kind = h("select", { id: "kind" },
     h("option", { value: "simulation" }, "plan + MuJoCo simulation"),
     h("option", { value: "plan" }, "plan only"),
@@ -44,6 +47,13 @@ export async function render(main, [query]) {
       return h("option", { value: String(a.id), selected: params.get("analysis") === String(a.id) }, `analysis #${a.id} of recording #${a.recording_id}: peak ${peak}, ${t.n_lifts ?? 0} lifts`);
     }),
   );
+  const methodBoxes = names.methods.map((m) => h("label", { class: "check", title: m.description },
+    h("input", { type: "checkbox", value: m.name, checked: true, disabled: m.name === "quintic", dataset: { method: m.name } }),
+    h("span", { class: "swatch", style: `background:${m.colour}` }), m.label));
+  const humanConstraint = h("select", { id: "human-constraint" },
+    h("option", { value: "peak" }, "peak: the elbow is fastest where it passes the template's angle"),
+    h("option", { value: "phases" }, "phases: A/B/C time shares within the template's spread"),
+    h("option", { value: "none" }, "none (then it equals the physical bound)"));
   const peak = h("input", { id: "peak-angle", type: "number", min: "1", max: "179", step: "0.5", placeholder: "from the template" });
   const pso = names.pso_defaults;
   const particles = h("input", { id: "particles", type: "number", min: "2", max: "1000", step: "1", value: String(pso.particles) });
@@ -91,6 +101,8 @@ export async function render(main, [query]) {
       iterations: num(iterations) ?? pso.iterations,
       peak_angle_deg: num(peak),
       template_analysis_id: template.value ? Number(template.value) : null,
+      methods: methodBoxes.map((l) => l.querySelector("input")).filter((x) => x.checked).map((x) => x.value),
+      human_constraint: humanConstraint.value,
       start_deg: angles("start"),
       goal_deg: angles("goal"),
     };
@@ -118,6 +130,12 @@ export async function render(main, [query]) {
       h("summary", {}, "Task: start and goal angles [deg]"),
       h("p", { class: "small muted" }, "Empty: the robot's curl task (shoulder 0→20°, elbow 0→150°)."),
       h("div", { class: "table-wrap" }, h("table", {}, h("thead", {}, h("tr", {}, h("th", {}, "joint"), h("th", {}, "limits [deg]"), h("th", {}, "start"), h("th", {}, "goal"))), jointsBody)),
+    ),
+    h("fieldset", { id: "methods-fieldset" },
+      h("legend", {}, "Methods, side by side"),
+      h("div", { class: "checks" }, methodBoxes),
+      h("div", { class: "wide", style: "margin-top:8px" }, h("label", { for: "human-constraint" }, "Human-like optimum's constraint"), humanConstraint),
+      h("p", { class: "small muted" }, "The standard quintic always runs: every saving is measured against it. The physical bound and the human-like optimum are solved by optimal control (CasADi + IPOPT)."),
     ),
     h("fieldset", {},
       h("legend", {}, "Particle swarm"),
@@ -177,9 +195,10 @@ export async function render(main, [query]) {
     const objectiveName = job.params.objective;
     const drawCurve = () => {
       const stages = Object.keys(curves);
-      const traces = stages.map((stage, i) => ({ x: curves[stage].x, y: curves[stage].y, mode: "lines+markers", line: { color: i ? colours().standard : colours().optimized, width: 2 }, marker: { size: 4 }, name: stage }));
+      // New arrays every time: Plotly.react redraws only data it sees change.
+      const traces = stages.map((stage, i) => ({ x: [...curves[stage].x], y: [...curves[stage].y], mode: "lines+markers", line: { color: i ? colours().standard : colours().optimized, width: 2 }, marker: { size: 4 }, name: stage }));
       const xTitle = stages.length === 1 && stages[0] === "pso" ? "PSO iteration" : "iteration";
-      return draw(plotDiv, traces, layout({ height: 240, showlegend: stages.length > 1, xaxis: { title: { text: xTitle }, gridcolor: "#eceff3" }, yaxis: { title: { text: `best ${objectiveName}` }, gridcolor: "#eceff3" } }));
+      return draw(plotDiv, traces, layout({ height: 240, showlegend: stages.length > 1, xaxis: { title: { text: xTitle }, gridcolor: "#eceff3" }, yaxis: { title: { text: `best ${objectiveName} so far` }, gridcolor: "#eceff3" }, datarevision: Date.now() }));
     };
     drawCurve();
     cancel.addEventListener("click", async () => {
@@ -252,7 +271,13 @@ export async function render(main, [query]) {
     }
   }
 
-  main.append(h("div", { class: "grid-2" }, form, h("div", {}, monitor, jobsCard)));
+  const addRobot = robotUploadCard((r) => {
+    robots.push(r);
+    robot.append(robotOption(r));
+    robot.value = r.name;
+    showRobot();
+  });
+  main.append(h("div", { class: "grid-2" }, h("div", {}, form, addRobot), h("div", {}, monitor, jobsCard)));
   refreshJobs();
   return () => stops.forEach((f) => f());
 }

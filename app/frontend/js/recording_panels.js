@@ -1,0 +1,183 @@
+// Panels of the recording detail page that change what is analysed: the data checks (an
+// implausible EMG rate with its one-click fix, the readers' warnings), the channels (muscle
+// mapping and exclusions, rerun without uploading again), the analysis options (every option of
+// POST /api/analyses), and the video frames with the detected skeleton. Each change that starts
+// an analysis job hands it to ``onJob`` (the page follows it and redraws).
+
+import { api } from "./api.js";
+import { banner, fmt, h, messageOf } from "./ui.js";
+
+const SITES = ["deltoid", "triceps", "biceps", "forearm"];
+
+/** A small status line that says what happened, or the server's message. */
+function statusLine(id) {
+  const el = h("div", { id, class: "small", role: "status" });
+  return {
+    el,
+    busy(text) {
+      el.className = "small muted";
+      el.textContent = text;
+    },
+    ok(text) {
+      el.className = "small better";
+      el.textContent = text;
+    },
+    fail(err) {
+      el.className = "small worse";
+      el.setAttribute("role", "alert");
+      el.textContent = messageOf(err);
+    },
+  };
+}
+
+/** The rate warning with its fix, and every reader warning (shown, not folded away). */
+export function checksCard(rec, onJob) {
+  const parts = [];
+  const rc = rec.rate_check;
+  if (rc) {
+    const status = statusLine("rate-status");
+    const fix = h("button", { type: "button", class: "primary small", id: "rate-rerun" }, `Use ${fmt(rc.suggested_rate_hz)} Hz and re-analyse`);
+    fix.addEventListener("click", async () => {
+      fix.disabled = true;
+      status.busy("Reading the files again at the suggested rate…");
+      try {
+        const out = await api(rc.rerun.url, { method: rc.rerun.method, body: rc.rerun.json });
+        status.ok(`EMG rate set to ${fmt(rc.suggested_rate_hz)} Hz.`);
+        if (out && out.analysis_job) onJob(out.analysis_job);
+      } catch (err) {
+        fix.disabled = false;
+        status.fail(err);
+      }
+    });
+    parts.push(h("div", { class: "banner warn", id: "rate-warning", role: "status" },
+      h("strong", {}, `${rc.file}: the stored EMG rate (${fmt(rc.stored_rate_hz)} Hz) looks wrong. `),
+      `${rc.reason} Suggested: ${fmt(rc.suggested_rate_hz)} Hz (channels ${rc.channels.join(", ")}). `,
+      fix, status.el));
+  }
+  if (rec.warnings && rec.warnings.length) {
+    parts.push(h("div", { id: "reader-warnings" }, h("strong", { class: "small" }, "What the readers noted"),
+      h("ul", { class: "small" }, rec.warnings.map((w) => h("li", {}, w)))));
+  }
+  return parts.length ? h("section", { class: "card", id: "checks-card" }, h("h2", {}, "Data checks"), parts) : null;
+}
+
+/** Muscle mapping and exclusions per channel; saving reads the files again and re-analyses. */
+export function channelsCard(rec, onJob) {
+  const emg = rec.files.flatMap((f) => f.channels.filter((c) => c.kind === "emg").map((c) => ({ ...c, file: f.original_name })));
+  if (!emg.length) return null;
+  const status = statusLine("channels-status");
+  const rows = emg.map((c) => {
+    const site = h("select", { "aria-label": `${c.name} site`, dataset: { channel: c.name } },
+      h("option", { value: "none", selected: !c.site }, "not mapped"),
+      SITES.map((s) => h("option", { value: s, selected: c.site === s }, s)));
+    const exclude = h("input", { type: "checkbox", checked: c.excluded, "aria-label": `exclude ${c.name}`, dataset: { channel: c.name } });
+    const note = c.flat ? "flat (an unused input): left out" : c.excluded ? "excluded by you" : "";
+    return { c, site, exclude, row: h("tr", { dataset: { channel: c.name } },
+      h("td", { class: "mono small" }, c.file), h("td", { class: "mono" }, c.name), h("td", {}, site),
+      h("td", {}, exclude), h("td", { class: "small muted" }, note)) };
+  });
+  const save = h("button", { type: "button", class: "primary", id: "channels-save" }, "Save and re-analyse");
+  save.addEventListener("click", async () => {
+    const map = {};
+    for (const r of rows) if ((r.c.site || "none") !== r.site.value) map[r.c.name] = r.site.value;
+    const exclude = rows.filter((r) => r.exclude.checked).map((r) => r.c.name);
+    const body = { exclude_channels: exclude, analyse: true };
+    if (Object.keys(map).length) body.muscle_map = { ...(rec.options.muscle_map || {}), ...map };
+    save.disabled = true;
+    status.busy("Reading the files again with the new mapping…");
+    try {
+      const out = await api(`/api/recordings/${rec.id}`, { method: "PATCH", body });
+      status.ok(`Saved: ${exclude.length} channel(s) excluded${Object.keys(map).length ? `, ${Object.keys(map).length} remapped` : ""}.`);
+      if (out.analysis_job) onJob(out.analysis_job);
+    } catch (err) {
+      status.fail(err);
+    } finally {
+      save.disabled = false;
+    }
+  });
+  return h("details", { class: "card", id: "channels-card" },
+    h("summary", {}, h("strong", {}, "Channels: muscle mapping and exclusions"), h("span", { class: "small muted" }, ` ${emg.filter((c) => c.flat || c.excluded).length} of ${emg.length} EMG channels left out`)),
+    h("div", { class: "table-wrap", style: "margin-top:8px" },
+      h("table", { id: "channels-table" }, h("thead", {}, h("tr", {}, ["file", "channel", "EMG site", "exclude", "note"].map((t) => h("th", {}, t)))), h("tbody", {}, rows.map((r) => r.row)))),
+    h("div", { class: "row", style: "margin-top:8px" }, save, status.el),
+    h("p", { class: "small muted" }, "No upload again: the stored files are read with the new mapping and the analysis is run anew."));
+}
+
+/** Every option of POST /api/analyses, with its default; "Run" starts a job with them. */
+export function optionsCard(rec, defaults, onJob) {
+  const num = (id, value, attrs = {}) => h("input", { id, type: "number", step: "any", value: value ?? "", ...attrs });
+  const f = {
+    emg_rate: num("opt-emg-rate", rec.options.emg_rate, { placeholder: "from the file" }),
+    ab: num("opt-phase-ab", defaults.phase_bounds_deg[0]),
+    bc: num("opt-phase-bc", defaults.phase_bounds_deg[1]),
+    body_mass: num("opt-body-mass", 75),
+    body_height: num("opt-body-height", 1.75),
+    load_mass: num("opt-load", rec.load_kg, { placeholder: "12" }),
+    offset: h("input", { id: "opt-offset", type: "text", placeholder: "none, a number [s] or auto" }),
+    together: h("select", { id: "opt-together" },
+      h("option", { value: "", selected: true }, `as uploaded (${rec.session === "together" ? "recorded together" : "separate trials"})`),
+      h("option", { value: "true" }, "recorded together (one clock)"), h("option", { value: "false" }, "separate trials")),
+    side: h("select", { id: "opt-side" }, ["auto", "left", "right"].map((s) => h("option", { value: s }, s))),
+  };
+  const status = statusLine("options-status");
+  const run = h("button", { type: "button", class: "primary", id: "options-run" }, "Run the analysis with these options");
+  run.addEventListener("click", async () => {
+    const value = (el) => (el.value.trim() === "" ? null : Number(el.value));
+    const body = {
+      recording_id: rec.id,
+      phase_bounds_deg: [value(f.ab), value(f.bc)],
+      body_mass: value(f.body_mass),
+      body_height: value(f.body_height),
+      side: f.side.value,
+    };
+    if (value(f.emg_rate) !== null) body.emg_rate = value(f.emg_rate);
+    if (value(f.load_mass) !== null) body.load_mass = value(f.load_mass);
+    if (f.together.value) body.together = f.together.value === "true";
+    const offset = f.offset.value.trim();
+    if (offset) body.offset = offset === "auto" ? "auto" : Number(offset);
+    run.disabled = true;
+    status.busy("Starting…");
+    try {
+      const job = await api("/api/analyses", { method: "POST", body });
+      status.ok(`Analysis job #${job.id} started.`);
+      onJob(job);
+    } catch (err) {
+      status.fail(err);
+    } finally {
+      run.disabled = false;
+    }
+  });
+  const field = (label, el, hint) => h("div", {}, h("label", { for: el.id }, label, hint ? h("span", { class: "hint" }, ` ${hint}`) : null), el);
+  return h("details", { class: "card", id: "options-card" },
+    h("summary", {}, h("strong", {}, "Analysis options"), h("span", { class: "small muted" }, " EMG rate, phase bounds, body, load, sessions, offset, side")),
+    h("div", { class: "form-grid" },
+      field("EMG rate", f.emg_rate, "[Hz]"), field("Phase A/B bound", f.ab, "[deg elbow flexion]"), field("Phase B/C bound", f.bc, "[deg]"),
+      field("Body mass", f.body_mass, "[kg]"), field("Body height", f.body_height, "[m]"), field("Load", f.load_mass, "[kg]"),
+      field("Files", f.together), field("EMG − pose offset", f.offset, "[s]"), field("Arm (pose)", f.side)),
+    h("div", { class: "row", style: "margin-top:10px" }, run, status.el));
+}
+
+/** A strip of video frames with the detected skeleton, for the user to check the fit. */
+export function framesCard(rec) {
+  const videos = rec.files.filter((f) => f.role === "video");
+  if (!videos.length) return null;
+  const strip = h("div", { class: "frames", id: "skeleton-frames" });
+  const note = h("div", { class: "small muted", id: "pose-note" });
+  const card = h("section", { class: "card", id: "video-card" }, h("h2", {}, "Video: the detected pose"), note, strip);
+  const describe = () => videos.map((v) => {
+    const p = v.pose;
+    if (!p) return `${v.original_name}: no pose extraction yet`;
+    const r = p.result;
+    return r ? `${v.original_name}: pose in ${r.frames_with_pose} of ${r.frames} frames at ${fmt(r.fps)} fps${r.warnings && r.warnings.length ? ` (${r.warnings.join("; ")})` : ""}` : `${v.original_name}: pose job #${p.job.id} ${p.job.state}${p.job.error ? `: ${p.job.error}` : ""}`;
+  }).join(" · ");
+  note.textContent = describe();
+  if (rec.frames_url) {
+    api(rec.frames_url).then((out) => {
+      if (!out.frames.length) strip.append(banner("info", "No frame with a detected person to show."));
+      out.frames.forEach((fr) => strip.append(h("figure", {},
+        h("img", { src: fr.url, alt: `frame ${fr.frame} of ${fr.video} with the detected skeleton`, loading: "lazy" }),
+        h("figcaption", { class: "small muted" }, `${fr.video}, frame ${fr.frame} (${fmt(fr.time_s, 3)} s)`))));
+    }).catch((err) => strip.append(banner("warn", messageOf(err))));
+  }
+  return card;
+}

@@ -1,0 +1,142 @@
+// "Add your robot" on the Plan page: a URDF, an MJCF, or a zip of the robot's folder (meshes
+// resolved from package:// paths), a motor sidecar, which joints play the human shoulder and
+// elbow, and joints locked at values. The robot's joints are read from the chosen file in the
+// browser to offer them by name; the server checks everything again and its message is shown
+// in words, next to the field it concerns.
+
+import { upload } from "./api.js";
+import { h, messageOf } from "./ui.js";
+
+/** The API's field names in the words of the form. */
+const FIELD_WORDS = {
+  name: "Name", urdf: "Model file (URDF)", mjcf: "Model file (MJCF)", package: "Model file (zip)",
+  sidecar: "Motor sidecar", payload: "Payload", shoulder_joint: "Shoulder joint",
+  elbow_joint: "Elbow joint", lock: "Locked joints",
+};
+
+/** The movable joints of a URDF or MJCF text: [{name, kind: "revolute"|"prismatic"}]. */
+export function movableJoints(text) {
+  const doc = new DOMParser().parseFromString(text, "application/xml");
+  if (doc.querySelector("parsererror")) return [];
+  if (doc.documentElement.nodeName === "robot") {
+    return [...doc.querySelectorAll("robot > joint")]
+      .filter((j) => !["fixed", "floating", "planar"].includes(j.getAttribute("type")))
+      .map((j) => ({ name: j.getAttribute("name"), kind: j.getAttribute("type") === "prismatic" ? "prismatic" : "revolute" }));
+  }
+  return [...doc.querySelectorAll("joint")]
+    .filter((j) => j.getAttribute("name") && !["free", "ball"].includes(j.getAttribute("type")))
+    .map((j) => ({ name: j.getAttribute("name"), kind: j.getAttribute("type") === "slide" ? "prismatic" : "revolute" }));
+}
+
+function modelField(file) {
+  const ext = file.name.toLowerCase().split(".").pop();
+  return { urdf: "urdf", xml: "mjcf", mjcf: "mjcf", zip: "package" }[ext] || null;
+}
+
+/** The card; ``onAdded(robot)`` is called with the stored robot (``RobotInfo``). */
+export function robotUploadCard(onAdded) {
+  const name = h("input", { id: "robot-name", type: "text", required: true, pattern: "[A-Za-z0-9_\\-]{1,64}", placeholder: "e.g. my_ur5", "aria-label": "Robot name" });
+  const model = h("input", { id: "robot-model", type: "file", accept: ".urdf,.xml,.mjcf,.zip", "aria-label": "Model file" });
+  const mjcf = h("input", { id: "robot-mjcf", type: "file", accept: ".xml,.mjcf", "aria-label": "MJCF for simulation (optional)" });
+  const sidecar = h("input", { id: "robot-sidecar", type: "file", accept: ".yaml,.yml", "aria-label": "Motor sidecar (optional)" });
+  const payload = h("input", { id: "robot-payload", type: "number", min: "0", max: "10000", step: "0.1", placeholder: "none", "aria-label": "Default payload [kg]" });
+  const jointList = h("datalist", { id: "robot-joint-names" });
+  const shoulder = h("input", { id: "robot-shoulder", type: "text", list: "robot-joint-names", placeholder: "auto", "aria-label": "Shoulder joint" });
+  const elbow = h("input", { id: "robot-elbow", type: "text", list: "robot-joint-names", placeholder: "auto", "aria-label": "Elbow joint" });
+  const locks = h("div", { id: "robot-locks", class: "stack" });
+  const found = h("div", { class: "small muted", id: "robot-joints-found" });
+  const status = h("div", { id: "robot-upload-status", role: "status", class: "small" });
+  const button = h("button", { type: "submit", class: "primary", id: "robot-upload" }, "Add the robot");
+  let joints = [];
+
+  const addLock = () => {
+    const joint = h("input", { type: "text", list: "robot-joint-names", class: "lock-joint", placeholder: "joint", "aria-label": "Joint to lock" });
+    const value = h("input", { type: "number", step: "any", class: "lock-value", placeholder: "deg (m if prismatic)", "aria-label": "Locked value" });
+    const row = h("div", { class: "row" }, joint, value, h("button", { type: "button", class: "small", onclick: () => row.remove() }, "remove"));
+    locks.append(row);
+  };
+
+  model.addEventListener("change", async () => {
+    const file = model.files[0];
+    jointList.replaceChildren();
+    joints = [];
+    found.textContent = "";
+    if (!file) return;
+    if (!modelField(file)) {
+      found.textContent = "Expected a .urdf, an MJCF .xml or a .zip of the robot's folder.";
+      found.className = "small worse";
+      return;
+    }
+    if (!name.value) name.value = file.name.replace(/\.[^.]+$/, "").replace(/[^A-Za-z0-9_-]/g, "_").slice(0, 64);
+    if (modelField(file) === "package") {
+      found.textContent = "A zip: the server reads the joints from the model inside.";
+      found.className = "small muted";
+      return;
+    }
+    joints = movableJoints(await file.text());
+    joints.forEach((j) => jointList.append(h("option", { value: j.name }, j.kind)));
+    found.className = "small muted";
+    found.textContent = joints.length ? `${joints.length} movable joints: ${joints.map((j) => j.name).join(", ")}` : "No movable joint found in this file.";
+  });
+
+  const form = h("form", { id: "robot-form", class: "form-grid", novalidate: true },
+    h("div", {}, h("label", { for: "robot-name" }, "Name"), name),
+    h("div", {}, h("label", { for: "robot-model" }, "Model: URDF, MJCF or zip with meshes"), model, found),
+    h("div", {}, h("label", { for: "robot-mjcf" }, "MJCF for simulation (optional, with a URDF)"), mjcf),
+    h("div", {}, h("label", { for: "robot-sidecar" }, "Motor, gear and payload sidecar (optional YAML, docs/robots.md)"), sidecar),
+    h("div", {}, h("label", { for: "robot-payload" }, "Default payload [kg]"), payload),
+    h("div", {}, h("label", { for: "robot-shoulder" }, "Joint that plays the human shoulder"), shoulder),
+    h("div", {}, h("label", { for: "robot-elbow" }, "Joint that plays the human elbow"), elbow),
+    h("div", {}, h("label", {}, "Locked joints (fingers, grippers, a torso)"), locks, h("button", { type: "button", class: "small", id: "robot-add-lock", onclick: addLock }, "+ lock a joint")),
+    jointList,
+    h("div", { class: "row" }, button, status),
+  );
+
+  form.addEventListener("submit", async (event) => {
+    event.preventDefault();
+    status.className = "small";
+    const file = model.files[0];
+    if (!name.value.trim()) return fail("Name: give the robot a name (letters, digits, _ and -).");
+    if (!file || !modelField(file)) return fail(`${FIELD_WORDS.urdf}: choose a .urdf, an MJCF .xml or a .zip of the robot's folder.`);
+    const body = new FormData();
+    body.append("name", name.value.trim());
+    body.append(modelField(file), file);
+    if (mjcf.files[0]) body.append("mjcf", mjcf.files[0]);
+    if (sidecar.files[0]) body.append("sidecar", sidecar.files[0]);
+    if (payload.value !== "") body.append("payload", payload.value);
+    if (shoulder.value.trim()) body.append("shoulder_joint", shoulder.value.trim());
+    if (elbow.value.trim()) body.append("elbow_joint", elbow.value.trim());
+    for (const row of locks.querySelectorAll(".row")) {
+      const joint = row.querySelector(".lock-joint").value.trim();
+      const value = row.querySelector(".lock-value").value;
+      if (!joint && value === "") continue;
+      if (!joint || value === "") return fail(`${FIELD_WORDS.lock}: each lock needs a joint and a value.`);
+      body.append("lock", `${joint}=${value}`);
+    }
+    button.disabled = true;
+    status.textContent = "Uploading…";
+    try {
+      const robot = await upload("/api/robots", body, (f) => {
+        status.textContent = f < 1 ? `Uploading… ${Math.round(100 * f)} %` : "Checking the model…";
+      });
+      status.className = "small better";
+      status.textContent = `Added ${robot.name}: ${robot.joint_names.length} joints (${robot.joint_names.join(", ")}).`;
+      onAdded(robot);
+    } catch (err) {
+      const field = err.problem && err.problem.field;
+      fail(field && FIELD_WORDS[field] ? `${FIELD_WORDS[field]}: ${messageOf(err)}` : messageOf(err));
+    } finally {
+      button.disabled = false;
+    }
+  });
+
+  function fail(text) {
+    status.className = "small worse";
+    status.setAttribute("role", "alert");
+    status.textContent = text;
+  }
+
+  return h("details", { class: "card", id: "robot-upload-card" },
+    h("summary", {}, h("strong", {}, "Add your robot"), h("span", { class: "small muted" }, " URDF, MJCF or a zip with meshes; shoulder and elbow joints; locks; motors")),
+    form);
+}

@@ -1,0 +1,94 @@
+"""The Plan page: a real third-party robot added from the page (UR5 from example-robot-data),
+the methods and the human constraint reaching the job, the convergence curve that never rises."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from tests.frontend.test_browser import wait_for
+from tests.utils.browser import screenshot
+from tests.utils.example_robots import UR5, robot_file
+from tests.utils.server import Server
+
+SIDECAR = Path(__file__).resolve().parents[2] / "docs" / "examples" / "ur5.sidecar.yaml"
+
+
+def _open_upload(page: Any, server: Server) -> None:
+    page.goto(f"{server.url}/#/plan")
+    page.wait_for_selector("#robot-upload-card")
+    page.click("#robot-upload-card summary")
+
+
+def test_add_a_ur5_from_the_plan_page(live_server: Server, page: Any) -> None:
+    urdf = robot_file(UR5)
+    _open_upload(page, live_server)
+    page.set_input_files("#robot-model", str(urdf))
+    # The joints are read from the file in the browser and offered by name.
+    wait_for(lambda: "elbow_joint" in page.inner_text("#robot-joints-found"), 30, "the joints")
+    offered = page.eval_on_selector_all("#robot-joint-names option", "os => os.map(o => o.value)")
+    assert {"shoulder_lift_joint", "elbow_joint", "wrist_3_joint"} <= set(offered)
+
+    # A wrong joint: the server's message, in the form's words, listing the robot's joints.
+    page.fill("#robot-name", "ur5_wrong")
+    page.fill("#robot-elbow", "nope")
+    page.click("#robot-upload")
+    wait_for(lambda: "Elbow joint" in page.inner_text("#robot-upload-status"), 120, "the refusal")
+    refusal = page.inner_text("#robot-upload-status")
+    assert "nope" in refusal and "shoulder_lift_joint" in refusal, refusal
+    assert all(r["name"] != "ur5_wrong" for r in live_server.get("/api/robots"))
+
+    page.fill("#robot-name", "ur5_page")
+    page.fill("#robot-shoulder", "shoulder_lift_joint")
+    page.fill("#robot-elbow", "elbow_joint")
+    page.click("#robot-add-lock")
+    page.fill(".lock-joint", "wrist_3_joint")
+    page.fill(".lock-value", "30")
+    page.set_input_files("#robot-sidecar", str(SIDECAR))
+    page.click("#robot-upload")
+    wait_for(lambda: "Added ur5_page" in page.inner_text("#robot-upload-status"), 120, "the robot")
+    stored = live_server.get("/api/robots/ur5_page")
+    assert "wrist_3_joint" not in stored["joint_names"]  # locked, so not planned
+    assert len(stored["joint_names"]) == 5
+    assert page.eval_on_selector("#robot", "s => s.value") == "ur5_page"  # ready to plan
+    assert "5 joints" in page.inner_text("#robot-info")
+    screenshot(page, "plan-robot-added")
+
+
+def test_methods_and_constraint_reach_the_job(live_server: Server, page: Any) -> None:
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#methods-fieldset")
+    page.select_option("#robot", "human_arm_2dof")
+    page.select_option("#kind", "plan")
+    for method in ("human_optimal", "jerk_limited"):
+        page.uncheck(f'#methods-fieldset input[data-method="{method}"]')
+    assert page.is_disabled('#methods-fieldset input[data-method="quintic"]')
+    page.select_option("#human-constraint", "phases")
+    page.fill("#particles", "6")
+    page.fill("#iterations", "5")
+    page.click("#submit-plan")
+    page.wait_for_selector("#open-compare", timeout=180_000)
+    plan_id = int((page.get_attribute("#open-compare", "href") or "").rsplit("/", 1)[-1])
+    job = live_server.get(f"/api/jobs/{plan_id}")
+    assert job["params"]["methods"] == ["quintic", "paper", "bound"]
+    assert job["params"]["human_constraint"] == "phases"
+    assert list(live_server.get(f"/api/plans/{plan_id}")["result"]["methods"]) == [
+        "quintic", "paper", "bound",
+    ]  # fmt: skip
+
+
+def test_the_best_so_far_never_rises(live_server: Server, page: Any) -> None:
+    """A stage that reports a worse value than before (as optimal control's iterations can)
+    must not draw a rising "best so far"."""
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#plan-form")
+    ys = page.evaluate(
+        """async () => {
+            const { addProgressPoint } = await import('/js/plan.js');
+            const curves = {};
+            [[1, 5], [2, 3], [3, 4], [3, 1], [4, 2.5], [5, 2]].forEach(([done, best]) =>
+                addProgressPoint(curves, { stage: 'pso', done, best }));
+            return curves.pso.y;
+        }"""
+    )
+    assert ys == [5, 3, 3, 2.5, 2]
