@@ -16,11 +16,23 @@ from tests.utils.browser import CHROMIUM, CHROMIUM_ARGS, new_context, offline_gu
 from tests.utils.server import Server
 
 
+def _pose_env() -> dict[str, str]:
+    """The pose environment this test process finds (./.venv-pose from the repository), named
+    for the server, which runs in another folder."""
+    from app.errors import BioPlanError
+    from app.recordings import find_pose_python
+
+    try:
+        return {"BIOPLAN_POSE_PYTHON": str(find_pose_python())}
+    except BioPlanError:
+        return {}
+
+
 @pytest.fixture(scope="session")
 def live_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     if not CHROMIUM.is_file():
         pytest.skip(f"Chromium not found at {CHROMIUM} (make test installs Debian's chromium)")
-    server = Server(tmp_path_factory.mktemp("live") / "data", demo=True, viewer=True)
+    server = Server(tmp_path_factory.mktemp("live") / "data", demo=True, viewer=True, **_pose_env())
     try:
         server.start(timeout=600)
         yield server

@@ -44,7 +44,10 @@ export async function render(main, [query]) {
     analyses.items.map((a) => {
       const t = a.template || {};
       const peak = t.peak_velocity_angle_deg ? `${fmt(t.peak_velocity_angle_deg, 3)}°` : "?";
-      return h("option", { value: String(a.id), selected: params.get("analysis") === String(a.id) }, `analysis #${a.id} of recording #${a.recording_id}: peak ${peak}, ${t.n_lifts ?? 0} lifts`);
+      const summary = a.summary || {};
+      const of = a.recording_id === null ? "a deleted recording" : `recording #${a.recording_id}`;
+      const source = summary.is_paper_default ? "the paper's default (no lifts with kinematics)" : summary.template_source || `${t.n_lifts ?? 0} lifts`;
+      return h("option", { value: String(a.id), selected: params.get("analysis") === String(a.id) }, `analysis #${a.id} of ${of}: peak ${peak}, ${source}`);
     }),
   );
   const methodBoxes = names.methods.map((m) => h("label", { class: "check", title: m.description },

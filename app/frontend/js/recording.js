@@ -5,11 +5,17 @@
 import { ApiError, api, followJob, qs } from "./api.js";
 import { names } from "./names.js";
 import { draw, layout, phaseFill, phaseLegend, plotly } from "./plots.js";
+import { channelsCard, checksCard, framesCard, optionsCard } from "./recording_panels.js";
 import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
 
 const POINTS = 1600;
 // Channels mapped to a site take the site's colour (app/names.py); the others these.
 const EXTRA_COLORS = ["#6e7781", "#bc4c00", "#116329", "#953800", "#0550ae"];
+
+/** Whether a template is the paper's default rather than this person's lifts. */
+function isPaperDefault(template) {
+  return template.is_paper_default ?? /^paper default/i.test(template.source || "");
+}
 
 function emgScale(unit) {
   // Readers deliver EMG in volts; microvolts read better.
@@ -111,6 +117,12 @@ export async function render(main, [idText]) {
     ),
   );
   main.append(filesCard);
+  // A change that re-analyses hands its job here: the page follows it and redraws.
+  const onJob = (job) => runAnalysis(job);
+  main.append(...[
+    checksCard(rec, onJob), framesCard(rec), channelsCard(rec, onJob),
+    optionsCard(rec, { phase_bounds_deg: names.phase_bounds_deg }, onJob),
+  ].filter(Boolean));
 
   // ---- plot cards --------------------------------------------------------------------
   const emgDiv = h("div", { class: "plot tall", id: "emg-plot" });
@@ -160,6 +172,13 @@ export async function render(main, [idText]) {
     return t0 === null ? undefined : [t0, t1];
   }
 
+  /** The lifts to shade on a file's panel: separate trials have their own clocks, so a
+   * file's panels show its own lifts only (recorded together, every lift is on the one clock). */
+  function liftsOf(analysis, file) {
+    if (rec.session !== "separate" || !file) return analysis.lifts;
+    return analysis.lifts.filter((l) => !l.file || l.file === file);
+  }
+
   async function drawEmg(raw, analysis) {
     if (!raw) {
       if (allEmg.length && window.Plotly) window.Plotly.purge(emgDiv);
@@ -188,7 +207,7 @@ export async function render(main, [idText]) {
       const span = extent(rawY, envY);
       if (analysis && span) {
         // Shading first, so that the signals are drawn over it.
-        under.push(...liftTraces(analysis.lifts, span, axes));
+        under.push(...liftTraces(liftsOf(analysis, info.file), span, axes));
         if (env && env.onsets.length) {
           const top = span[1] - 0.1 * (span[1] - span[0]);
           under.push(rectTrace(env.onsets, top, span[1], { ...axes, name: `${label} onsets`, fillcolor: color, opacity: 0.45 }));
@@ -221,8 +240,9 @@ export async function render(main, [idText]) {
     const under = [];
     const angles = extent(a.elbow_deg.y, a.shoulder_deg.y);
     const velocities = extent(a.elbow_velocity_deg_s.y, a.shoulder_velocity_deg_s.y);
-    if (angles) under.push(...liftTraces(analysis.lifts, angles, { xaxis: "x", yaxis: "y" }));
-    if (velocities) under.push(...liftTraces(analysis.lifts, velocities, { xaxis: "x", yaxis: "y2" }));
+    const angleLifts = liftsOf(analysis, a.file);
+    if (angles) under.push(...liftTraces(angleLifts, angles, { xaxis: "x", yaxis: "y" }));
+    if (velocities) under.push(...liftTraces(angleLifts, velocities, { xaxis: "x", yaxis: "y2" }));
     const lay = layout({ height: 400, uirevision: "angles", hovermode: "x" });
     lay.xaxis = { anchor: "y2", range: range(), title: { text: "t [s]" }, gridcolor: "#eceff3" };
     lay.yaxis = { domain: [0.53, 1], title: { text: "angle [deg]" }, gridcolor: "#eceff3" };
@@ -233,11 +253,13 @@ export async function render(main, [idText]) {
     hook(angleDiv);
   }
 
-  async function drawTemplate(template) {
+  async function drawTemplate(template, lifts) {
     const T = template;
+    const paperDefault = isPaperDefault(T);
     clear(templateFacts).append(
-      fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}° ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`),
-      fact("lifts", String(T.n_lifts)),
+      fact("template from", paperDefault ? "the paper's default (no lifts with kinematics from this person)" : `this person's lifts: ${T.source}`),
+      fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}°${paperDefault ? " (paper)" : ` ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`}`),
+      fact("lifts", `${lifts.length} found, ${paperDefault ? 0 : T.n_lifts} with kinematics`),
       fact("peak at", T.peak_velocity_time_fraction === null ? "–" : `${Math.round(100 * T.peak_velocity_time_fraction)} % of the lift`),
       fact("activation order", (T.activation_order || []).join(" → ") || "–"),
     );
@@ -276,8 +298,14 @@ export async function render(main, [idText]) {
 
   function drawLifts(analysis) {
     clear(liftsBox);
+    // Every warning is shown, and first: with a wrong EMG rate "No lift found" alone misleads.
+    if (analysis.warnings.length) {
+      liftsBox.append(h("div", { class: "banner warn", id: "analysis-warnings", role: "status" },
+        h("strong", {}, `${analysis.warnings.length} note(s) from the analysis`),
+        h("ul", { class: "small" }, analysis.warnings.map((w) => h("li", {}, w)))));
+    }
     if (!analysis.lifts.length) {
-      liftsBox.append(h("p", { class: "muted" }, "No lift found."));
+      liftsBox.append(h("p", { class: "muted", id: "no-lifts" }, "No lift found."));
       return;
     }
     const dur = (lift, name) => {
@@ -303,7 +331,6 @@ export async function render(main, [idText]) {
         ),
       ),
     );
-    if (analysis.warnings.length) liftsBox.append(h("details", { class: "small" }, h("summary", {}, `${analysis.warnings.length} note(s) from the analysis`), h("ul", {}, analysis.warnings.map((w) => h("li", {}, w)))));
   }
 
   // The overlays come from the newest finished analysis job; "ready" once one was loaded,
@@ -328,7 +355,7 @@ export async function render(main, [idText]) {
     clear(analysisNote);
     await drawAngles(analysis);
     if (initial || first) {
-      await drawTemplate(analysis.template);
+      await drawTemplate(analysis.template, analysis.lifts);
       drawLifts(analysis);
     }
   }

@@ -1,12 +1,27 @@
 // Recordings: drag-and-drop upload of a session (one or more files) and the list.
 
-import { api, qs, upload } from "./api.js";
-import { banner, bytes, clear, debounce, h, messageOf, when } from "./ui.js";
+import { api, followJob, qs, upload } from "./api.js";
+import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
 
 const SITES = ["deltoid", "triceps", "biceps", "forearm"];
+/** The API's form fields in the words of this form. */
+const FIELD_WORDS = {
+  files: "Files", subject: "Subject", task: "Task", load_kg: "Load", notes: "Notes", session: "Recorded",
+  muscle_map: "Muscle mapping", rate: "Sampling rate", emg_rate: "EMG rate", image_size: "Image size",
+  frame_rate: "Frame rate", format: "Format",
+};
+
+/** A problem's message with its field in the form's words ("EMG rate: ..."). */
+export function inWords(err) {
+  const field = err && err.problem && err.problem.field;
+  const words = field && FIELD_WORDS[field.split(".")[0]];
+  const text = messageOf(err);
+  return words && !text.startsWith(words) ? `${words}: ${text.replace(new RegExp(`^${field}:\\s*`), "")}` : text;
+}
 
 export function render(main) {
   const files = []; // {file, li, status}
+  const stops = []; // job followers to stop when the page is left
   let busy = false;
 
   // ---- upload card --------------------------------------------------------------------
@@ -15,7 +30,7 @@ export function render(main) {
     "div",
     { class: "drop", id: "drop", tabindex: "0", role: "button", "aria-controls": "file-input" },
     h("strong", {}, "Drop recording files here"),
-    h("div", { class: "small" }, "or click to choose · CSV, Noraxon, Vicon, C3D, EDF, MAT, MediaPipe, OpenSim"),
+    h("div", { class: "small" }, "or click to choose · CSV, Noraxon, Delsys, Vicon, Qualisys, C3D, EDF/BDF, MAT, MediaPipe, OpenSim, videos (mp4, mov, avi)"),
   );
   const list = h("ul", { class: "files", id: "upload-files" });
   const topError = h("div", { id: "upload-error" });
@@ -29,6 +44,9 @@ export function render(main) {
   const emgRate = h("input", { id: "emg-rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
   const frameRate = h("input", { id: "frame-rate", type: "number", min: "0", step: "any", placeholder: "video landmarks" });
   const imageSize = h("input", { id: "image-size", pattern: "\\d+x\\d+", placeholder: "e.g. 1280x720" });
+  const sessionMode = h("select", { id: "session" },
+    h("option", { value: "separate", selected: true }, "separate trials (each file on its own clock)"),
+    h("option", { value: "together" }, "recorded together (one clock, e.g. EMG and the video of the same lifts)"));
   const maps = h("div", { id: "muscle-map" });
   const addMap = (label = "", site = "biceps") => {
     const row = h(
@@ -105,15 +123,79 @@ export function render(main) {
     return Object.keys(out).length ? JSON.stringify(out) : null;
   }
 
+  /** The next upload starts from empty fields: nothing of this session carries over. */
+  function resetFields() {
+    [subject, task, load, notes, rate, emgRate, frameRate, imageSize].forEach((el) => (el.value = ""));
+    sessionMode.value = "separate";
+    clear(maps);
+  }
+
+  /** What the server says of a stored session: the rate check with its one-click fix, the
+   * readers' warnings, the pose jobs of videos (then the analysis), or the analysis job. */
+  function showStored(rec) {
+    const note = banner("info", `Stored as recording #${rec.id}. `);
+    note.id = "upload-stored";
+    note.append(h("a", { href: `#/recordings/${rec.id}` }, "Open it"));
+    topError.append(note);
+    if (rec.rate_check) topError.append(rateCheck(rec));
+    if (rec.warnings && rec.warnings.length) {
+      topError.append(h("div", { class: "banner warn", id: "upload-warnings" }, h("strong", {}, "The readers noted:"), h("ul", { class: "small" }, rec.warnings.map((w) => h("li", {}, w)))));
+    }
+    if (rec.pose_jobs && rec.pose_jobs.length) {
+      rec.pose_jobs.forEach((job) => topError.append(poseProgress(rec, job)));
+      return; // the server analyses the recording once the landmarks are stored
+    }
+    api("/api/analyses", { method: "POST", body: { recording_id: rec.id } })
+      .then((job) => note.append(` · analysis job #${job.id} started`))
+      .catch((err) => topError.append(banner("warn", `The analysis could not be started: ${messageOf(err)}`)));
+  }
+
+  function rateCheck(rec) {
+    const rc = rec.rate_check;
+    const status = h("span", { class: "small", id: "upload-rate-status" });
+    const fix = h("button", { type: "button", class: "small primary", id: "upload-rate-rerun" }, `Use ${fmt(rc.suggested_rate_hz)} Hz and analyse`);
+    fix.addEventListener("click", async () => {
+      fix.disabled = true;
+      try {
+        const out = await api(rc.rerun.url, { method: rc.rerun.method, body: rc.rerun.json });
+        status.textContent = ` Done: read again at ${fmt(rc.suggested_rate_hz)} Hz${out.analysis_job ? `, analysis job #${out.analysis_job.id} started` : ""}.`;
+      } catch (err) {
+        fix.disabled = false;
+        status.textContent = ` ${messageOf(err)}`;
+      }
+    });
+    return h("div", { class: "banner warn", id: "upload-rate-warning", role: "status" },
+      h("strong", {}, `${rc.file}: the stored EMG rate (${fmt(rc.stored_rate_hz)} Hz) looks wrong. `),
+      `${rc.reason} Suggested: ${fmt(rc.suggested_rate_hz)} Hz. `, fix, status);
+  }
+
+  /** A video's pose extraction: frames done of total, then a link to check the skeletons. */
+  function poseProgress(rec, job) {
+    const bar = h("div", {});
+    const text = h("span", { class: "small" }, "pose: queued");
+    const box = h("div", { class: "pose-job", dataset: { job: String(job.id) } }, text, h("div", { class: "progress" }, bar));
+    const follow = followJob(job, (j) => {
+      bar.style.width = `${Math.round(100 * j.progress)}%`;
+      text.textContent = `pose job #${j.id}: ${j.state}${j.of ? `, ${j.done} of ${j.of} frames` : ""}${j.error ? `: ${j.error}` : ""}`;
+    });
+    stops.push(follow.stop);
+    follow.done.then((final) => {
+      bar.parentElement.classList.add(final.state === "succeeded" ? "done" : "failed");
+      if (final.state === "succeeded") box.append(h("a", { href: `#/recordings/${rec.id}`, class: "small" }, "Check the detected skeletons and the analysis →"));
+    });
+    return box;
+  }
+
   async function onSubmit(e) {
     e.preventDefault();
     if (!files.length || busy) return;
     setBusy(true);
     clear(topError);
     files.forEach((f) => clear(f.status));
+    const sent = [...files];
     const form = new FormData();
-    files.forEach((f) => form.append("files", f.file, f.file.name));
-    const fields = { subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, rate: rate.value, emg_rate: emgRate.value, frame_rate: frameRate.value, image_size: imageSize.value, muscle_map: muscleMap() };
+    sent.forEach((f) => form.append("files", f.file, f.file.name));
+    const fields = { session: sessionMode.value, subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, rate: rate.value, emg_rate: emgRate.value, frame_rate: frameRate.value, image_size: imageSize.value, muscle_map: muscleMap() };
     for (const [k, v] of Object.entries(fields)) if (v !== null && String(v).trim() !== "") form.append(k, String(v).trim());
     progress.hidden = false;
     progress.className = "progress";
@@ -125,15 +207,13 @@ export function render(main) {
       });
       bar.style.width = "100%";
       progress.classList.add("done");
-      files.forEach((f) => f.status.append(h("div", { class: "file-ok" }, "stored")));
-      topError.append(banner("info", `Stored as recording #${rec.id}. `), );
-      topError.firstChild.append(h("a", { href: `#/recordings/${rec.id}` }, "Open it"));
-      // Analyse it in the background now: its detail page then opens with the overlays ready.
-      api("/api/analyses", { method: "POST", body: { recording_id: rec.id } })
-        .then((job) => topError.firstChild.append(` · analysis job #${job.id} started`))
-        .catch((err) => topError.append(banner("warn", `The analysis could not be started: ${messageOf(err)}`)));
-      files.length = 0;
-      setTimeout(() => clear(list), 2500);
+      // Only the files sent leave the list: one added meanwhile stays, with its own status.
+      sent.forEach((f) => {
+        f.li.remove();
+        files.splice(files.indexOf(f), 1);
+      });
+      resetFields();
+      showStored(rec);
       refresh();
     } catch (err) {
       progress.classList.add("failed");
@@ -143,9 +223,10 @@ export function render(main) {
       if (culprit) {
         // The server names the file: show its message next to it, the others were not stored.
         culprit.status.append(h("div", { class: "file-error", role: "alert" }, messageOf(err)));
-        files.filter((f) => f !== culprit).forEach((f) => f.status.append(h("div", { class: "meta" }, "not stored: a session is stored whole or not at all")));
+        sent.filter((f) => f !== culprit).forEach((f) => f.status.append(h("div", { class: "meta" }, "not stored: a session is stored whole or not at all")));
+        topError.append(banner("error", `Nothing was stored: ${problem.file} could not be read (its message is next to it).`));
       } else {
-        topError.append(banner("error", messageOf(err)));
+        topError.append(banner("error", inWords(err)));
       }
     } finally {
       setBusy(false);
@@ -166,6 +247,7 @@ export function render(main) {
       h("div", {}, h("label", { for: "task" }, "Task"), task),
       h("div", {}, h("label", { for: "load" }, "Load ", h("span", { class: "hint" }, "[kg]")), load),
       h("div", { class: "wide" }, h("label", { for: "notes" }, "Notes"), notes),
+      h("div", { class: "wide" }, h("label", { for: "session" }, "The files were"), sessionMode),
     ),
     h("details", {},
       h("summary", {}, "Muscle mapping, rates, video size"),
@@ -245,4 +327,5 @@ export function render(main) {
 
   main.append(h("div", { class: "grid-2" }, uploadCard, listCard));
   refresh();
+  return () => stops.forEach((stop) => stop());
 }
