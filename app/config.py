@@ -59,6 +59,10 @@ class Settings(BaseSettings):
         viewer: start the 3-D viewer with the server.
         viewer_host, viewer_port: where the viewer binds (viser takes the next free port when
             this one is busy; ``GET /api/viewer`` reports the real one).
+        viewer_token_ttl_s: seconds a viewer capability (the token in the Compare page's iframe
+            address, one per comparison) stays valid after the API last handed it out.
+        viewer_max_connections, viewer_max_per_token: viewer connections at once, in all and
+            per capability (the excess is refused at the handshake).
         frontend_dir: the dashboard's pages (default: those shipped inside the package).
         max_video_seconds: longest uploaded video turned into pose [s] (refused at upload when
             its container states a longer duration; the pose job stops at it otherwise).
@@ -88,6 +92,9 @@ class Settings(BaseSettings):
     viewer: bool = True
     viewer_host: str = "127.0.0.1"
     viewer_port: int = Field(default=8080, ge=1, le=65535)
+    viewer_token_ttl_s: float = Field(default=3600.0, gt=0, le=7 * 86400)
+    viewer_max_connections: int = Field(default=32, ge=1, le=10000)
+    viewer_max_per_token: int = Field(default=4, ge=1, le=1000)
     frontend_dir: Path | None = None
     max_video_seconds: float = Field(default=MAX_VIDEO_SECONDS, gt=0, le=86400)  # F2: videos
     max_particles: int = Field(default=400, ge=2)

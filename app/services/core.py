@@ -29,6 +29,7 @@ from app.services.jobs import JobService
 from app.services.limits import JobLimits
 from app.services.overlays import RecordingOverlays
 from app.services.robots import RobotCatalog
+from app.viewer.access import ViewerAccess
 from app.viewer.scene import PreparedCache
 from app.viewer.server import ViewerServer
 
@@ -79,11 +80,19 @@ class Services:
         real one.
         """
         if self.viewer is None:
+            settings = self.settings
+            access = ViewerAccess(
+                ttl_s=settings.viewer_token_ttl_s,
+                max_connections=settings.viewer_max_connections,
+                max_per_token=settings.viewer_max_per_token,
+            )
             viewer = ViewerServer(
                 self.comparisons,
-                host=self.settings.viewer_host,
-                port=self.settings.viewer_port,
+                host=settings.viewer_host,
+                port=settings.viewer_port,
                 fps=VIEWER_FPS,
+                access=access,
+                origin_hosts=settings.allowed_hosts,
             )
             viewer.start()
             self.viewer = viewer

@@ -6,37 +6,33 @@ tab's own scene (``client.scene``), GUI (play, pause, speed, scrub, layout, the 
 moment, the power curve in uPlot) and playback clock. So two tabs can show two comparisons at
 once. One ``Player`` thread advances every playing tab.
 
-Which comparison a tab wants: viser 1.1 has no public API for a client's URL (``ClientHandle``
-offers its id, camera, GUI, scene and localStorage, none of which the embedding page can set).
-So there are two ways in, tried in order:
-
-1. The fast path reads the websocket handshake's request path from viser's private connection
-   table (``_handshake_path``). It tells tabs apart exactly. ``tests/viewer/test_server.py``
-   connects a real websocket and fails, naming this function, if a viser upgrade breaks it.
-2. The fallback uses only our own API: ``client_url(kind, id)`` is what the Compare page asks
-   for just before it loads the iframe, so each call records that request, and a client whose
-   path cannot be read takes the oldest request of the last ``PENDING_SECONDS``. A tab that
-   connects on the fast path takes its own request off that queue. Two tabs opened within the
-   same second could swap on the fallback; the log warns once that the fallback is in use.
+Which comparison a tab wants, and whether it may see it (``app.viewer.access``): the Compare
+page's iframe address carries the websocket path ``/bioplan/<kind>/<id>?token=...&methods=a,b``
+with a capability the API issued for that comparison. viser 1.1 has no public API for a
+client's URL, so the handshake's path and ``Origin`` are read from viser's private connection
+table (``_handshake`` below) right after the handshake, before anything is sent; a connection
+without a valid capability, from a foreign origin, or beyond the connection bounds is closed
+there (code 1008) and gets no scene. ``tests/viewer/test_viewer_security.py`` connects real
+websockets and fails, naming ``_handshake``, if a viser upgrade moves that table; until then
+every tab is refused (the check fails closed).
 
 viser takes the next free port when the one asked for is busy: ``start()`` returns the real
-port and ``url`` reports it. Its websocket checks neither origin nor credentials, so it binds to
-loopback unless told otherwise.
+port and ``url`` reports it.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-import re
 import sys
 import threading
 import time
-from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
+from urllib.parse import quote
 
+from app.viewer.access import Grant, Refused, ViewerAccess
 from app.viewer.comparison import (
     LABELS,
     PHASES,
@@ -61,51 +57,24 @@ logger = logging.getLogger(__name__)
 
 Prepare = Callable[[str, int], PreparedComparison]
 
-#: The websocket path that names a tab's comparison.
-_PATH = re.compile(r"^/bioplan/(plan|simulation)/([1-9][0-9]{0,9})/?$")
-_METHOD = re.compile(r"^[a-z_]{1,32}$")
 #: Seconds between updates of the time slider and the plot's cursor while playing. Each update
 #: re-renders viser's control panel; at 10 Hz that cost a software-rendered canvas about a third
 #: of its frames, at 4 Hz about a seventh.
 GUI_PERIOD = 0.25
-#: Seconds a Compare page's request waits for a tab whose websocket path cannot be read.
-PENDING_SECONDS = 120.0
 _LAYOUT_NAMES: dict[str, Layout] = {"side by side": "side_by_side", "ghost overlay": "ghost"}
 _SPEED_NAMES = {f"{s:g}x": s for s in SPEEDS}
 
 
-def parse_client_path(path: str | None) -> tuple[str, int] | None:
-    """``(kind, id)`` from a websocket path ``/bioplan/<plan|simulation>/<id>``, else None."""
-    if not path:
-        return None
-    match = _PATH.match(path.split("?", 1)[0])
-    if match is None:
-        return None
-    return match.group(1), int(match.group(2))
-
-
-def parse_client_methods(path: str | None) -> tuple[str, str] | None:
-    """The two methods ``(solid, ghost)`` a websocket path asks for (``?methods=a,b``, as the
-    Compare page's choice), else None."""
-    if not path or "?" not in path:
-        return None
-    for part in path.split("?", 1)[1].split("&"):
-        key, _, value = part.partition("=")
-        pair = value.split(",")
-        if key == "methods" and len(pair) == 2 and all(_METHOD.match(m) for m in pair):
-            return pair[0], pair[1]
-    return None
-
-
-def _handshake_path(server: Any, client_id: int) -> str | None:
-    """The request path of a client's websocket handshake, or None when it cannot be read.
+def _handshake(server: Any, client_id: int) -> tuple[str, str | None] | None:
+    """The request path and ``Origin`` of a client's websocket handshake, or None when they
+    cannot be read.
 
     Private viser internals (viser 1.1 keeps each live ``websockets`` connection by client id);
-    see the module docstring for the fallback.
+    see the module docstring.
     """
     try:
-        connection = server._websock_server._live_connections[client_id]
-        return str(connection.request.path)
+        request = server._websock_server._live_connections[client_id].request
+        return str(request.path), request.headers.get("Origin")
     except (AttributeError, KeyError, TypeError):
         return None
 
@@ -240,6 +209,10 @@ class ViewerServer:
         port: port to ask for; viser moves to the next free one when it is busy.
         fps: playback updates per second.
         autoplay: start playing as soon as a tab connects.
+        access: capabilities and connection bounds (default: ``ViewerAccess()``).
+        origin_hosts: host names the viewer's page may be loaded from besides the loopback
+            names and ``host`` (``BIOPLAN_ALLOWED_HOSTS``); with a wildcard ``host`` and none,
+            any name at the viewer's port.
     """
 
     def __init__(
@@ -250,18 +223,22 @@ class ViewerServer:
         port: int = 8080,
         fps: float = 60.0,
         autoplay: bool = True,
+        access: ViewerAccess | None = None,
+        origin_hosts: Iterable[str] = (),
     ) -> None:
         self.prepare = prepare
         self.host = host
         self.requested_port = port
         self.autoplay = autoplay
         self.player = Player(fps)
+        self.access = access or ViewerAccess()
+        extra = {h.strip("[]").lower() for h in origin_hosts}
+        self._any_origin_host = host in ("0.0.0.0", "::", "") and not extra
+        self._origin_hosts = {"127.0.0.1", "localhost", "::1", host.strip("[]").lower()} | extra
         self._server: Any = None
         self._sessions: dict[int, ViewerSession] = {}
+        self._grants: dict[int, Grant] = {}
         self._lock = threading.Lock()
-        #: (monotonic time, kind, id) the Compare page asked for, oldest first.
-        self._pending: deque[tuple[float, str, int]] = deque(maxlen=64)
-        self._warned_fallback = False
 
     # lifecycle ---------------------------------------------------------------------------
 
@@ -286,6 +263,10 @@ class ViewerServer:
         )
         server.scene.set_up_direction("+z")
         configure_lighting(server.scene)
+        # Checked right after the handshake, before viser sends anything (its own connect
+        # callbacks run later, after the first camera message).
+        server._websock_server.on_client_connect(self._admit)
+        server._websock_server.on_client_disconnect(self._release)
         server.on_client_connect(self._on_connect)
         server.on_client_disconnect(self._on_disconnect)
         self._server = server
@@ -320,20 +301,22 @@ class ViewerServer:
 
     def client_url(self, kind: str, result_id: int, methods: tuple[str, str] | None = None) -> str:
         """The iframe address that shows comparison ``kind``/``result_id``, with ``methods``
-        (solid, ghost) on the two robots (None: the comparison's default pair).
+        (solid, ghost) on the two robots (None: the comparison's default pair), and a
+        capability for that comparison only (``app.viewer.access``)."""
+        # The websocket address is itself a query value of the page's address: percent-encoded
+        # so that the viewer page passes its own query (token, methods) on whole.
+        websocket = quote(self.websocket_url(kind, result_id, methods), safe="")
+        return f"{self.url}/?websocket={websocket}&hideViserLogo"
 
-        Also records the request for a tab whose websocket path cannot be read (the fallback).
-        """
-        with self._lock:
-            self._pending.append((time.monotonic(), kind, int(result_id)))
-        host = _url_host(self.host)
-        # The websocket address is itself a query value of the page's address: its own query
-        # (the methods) is percent-encoded so that the viewer page passes it on whole.
-        query = "" if methods is None else f"%3Fmethods%3D{methods[0]}%2C{methods[1]}"
-        return (
-            f"http://{host}:{self.port}/?websocket=ws://{host}:{self.port}/bioplan/"
-            f"{kind}/{int(result_id)}{query}&hideViserLogo"
+    def websocket_url(
+        self, kind: str, result_id: int, methods: tuple[str, str] | None = None
+    ) -> str:
+        """The websocket address of a comparison's tab, with a fresh capability."""
+        token = self.access.issue(kind, int(result_id))
+        query = f"token={token}" + (
+            "" if methods is None else f"&methods={methods[0]},{methods[1]}"
         )
+        return f"ws://{_url_host(self.host)}:{self.port}/bioplan/{kind}/{int(result_id)}?{query}"
 
     def sessions(self) -> list[dict[str, Any]]:
         with self._lock:
@@ -342,39 +325,41 @@ class ViewerServer:
 
     # clients -----------------------------------------------------------------------------
 
-    def _target(self, client_id: int) -> tuple[str, int] | None:
-        """The comparison a new client wants: its handshake path, else the oldest request."""
-        return self._target_of(_handshake_path(self._server, client_id))
+    def _origin_ok(self, origin: str) -> bool:
+        """Whether a browser's ``Origin`` is the viewer's own page (the iframe's document)."""
+        scheme, _, rest = origin.strip().lower().partition("://")
+        host, _, port = rest.rstrip("/").rpartition(":")
+        if scheme not in ("http", "https") or port != str(self.port):
+            return False
+        return self._any_origin_host or host.strip("[]") in self._origin_hosts
 
-    def _target_of(self, path: str | None) -> tuple[str, int] | None:
-        now = time.monotonic()
+    async def _admit(self, conn: Any) -> None:
+        """Right after the handshake: a tab with a valid capability from the viewer's own page,
+        within the bounds, is admitted; any other is closed before anything is sent."""
+        handshake = _handshake(self._server, conn.client_id)
+        path, origin = handshake if handshake is not None else (None, None)
+        try:
+            grant = self.access.admit(conn.client_id, path, origin, self._origin_ok)
+        except Refused as exc:
+            logger.warning("viewer connection refused: %s", exc)
+            connection = self._server._websock_server._live_connections.get(conn.client_id)
+            if connection is not None:
+                await connection.close(1008, str(exc)[:120])
+            return
         with self._lock:
-            while self._pending and now - self._pending[0][0] > PENDING_SECONDS:
-                self._pending.popleft()
-            if path is not None:
-                target = parse_client_path(path)
-                for entry in self._pending:
-                    if entry[1:] == target:
-                        self._pending.remove(entry)  # this tab's request is served
-                        break
-                return target
-            if not self._warned_fallback:
-                self._warned_fallback = True
-                logger.warning(
-                    "cannot read viewer clients' websocket paths (viser's internals changed?); "
-                    "matching tabs to the Compare page's requests in order instead"
-                )
-            return self._pending.popleft()[1:] if self._pending else None
+            self._grants[conn.client_id] = grant
+
+    async def _release(self, conn: Any) -> None:
+        self.access.release(conn.client_id)
+        with self._lock:
+            self._grants.pop(conn.client_id, None)
 
     def _on_connect(self, client: Any) -> None:
-        path = _handshake_path(self._server, client.client_id)
-        target = self._target_of(path)
-        if target is None:
-            client.gui.add_markdown(
-                "**No comparison selected.** Open one from the dashboard's Compare page."
-            )
-            return
-        kind, result_id = target
+        with self._lock:
+            grant = self._grants.get(client.client_id)
+        if grant is None:
+            return  # refused at the handshake: closed, nothing to show
+        kind, result_id = grant.kind, grant.id
         try:
             prepared = self.prepare(kind, result_id)
         except LookupError as exc:  # unknown, unfinished or deleted
@@ -385,7 +370,7 @@ class ViewerServer:
             client.gui.add_markdown(f"**Cannot show {kind} {result_id}** (see the server log).")
             return
         session = self._build_session(client, kind, result_id, prepared)
-        _choose_methods(session, parse_client_methods(path))
+        _choose_methods(session, grant.methods)
         with self._lock:
             self._sessions[client.client_id] = session
         self.player.add(client.client_id, session.tick)

@@ -8,6 +8,7 @@ import socket
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
+from urllib.parse import parse_qs, unquote, urlsplit
 
 import numpy as np
 import pytest
@@ -86,7 +87,10 @@ def test_comparison_curves_and_viewer_link(dashboard: tuple[TestClient, Any]) ->
     a, b = body["phase_times"]["optimized"]
     assert 0.0 < a < b < body["duration"]
     assert body["viewer"]["enabled"]
-    assert body["viewer"]["url"].endswith(f"/bioplan/simulation/{sim}&hideViserLogo")
+    # The iframe's address carries a capability for this comparison (app.viewer.access).
+    websocket = unquote(body["viewer"]["url"].split("websocket=")[1].split("&hideViserLogo")[0])
+    assert f"/bioplan/simulation/{sim}?token=" in websocket
+    assert len(parse_qs(urlsplit(websocket).query)["token"][0]) >= 32
     plan = client.get(f"/api/viewer/comparisons/plan/{ids['plan']}").json()
     # The demo plan used the demo recording's template (not the paper's defaults).
     assert plan["result"]["conditions"]["template_lifts"] == 4

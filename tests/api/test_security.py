@@ -244,3 +244,34 @@ def test_a_full_disk_is_507_and_health_reports_the_disk(
     with make_client(tmp_path / "b", min_free_mb=1e15) as c:
         health = c.get("/api/health").json()
         assert health["status"] == "degraded" and health["disk"]["ok"] is False
+
+
+def test_no_server_paths_or_library_locations_in_answers(tmp_path: Path) -> None:
+    """Issue 14 item 6: errors showed server paths and versions. Bad files of every kind, bad
+    robots and bad requests: no answer names the data directory, the installation or a
+    temporary folder (a file is named as uploaded)."""
+    bad_files = {
+        "a.mat": b"MATLAB 5.0 MAT-file garbage" + b"\0" * 200,
+        "b.c3d": b"\x02\x50" + b"\0" * 600,
+        "c.h5": b"\x89HDF\r\n\x1a\n" + b"\0" * 100,
+        "d.edf": b"0       " + b"x" * 300,
+        "e.csv": b"a,b\n1,2\nx,y\n",
+        "f.json": b"{not json",
+        "h.mp4": b"\0\0\0\x18ftypmp42" + b"\0" * 100,
+    }
+    broken_urdf = b'<robot name="r"><link'
+    mjcf = b'<mujoco><include file="nothere.xml"/></mujoco>'
+    with make_client(tmp_path) as c:
+        answers = [c.post("/api/recordings", files={"files": (n, b)}) for n, b in bad_files.items()]
+        answers += [
+            c.post("/api/robots", data={"name": "r1"}, files={"urdf": ("r.urdf", broken_urdf)}),
+            c.post("/api/robots", data={"name": "r2"}, files={"mjcf": ("m.xml", mjcf)}),
+            c.post("/api/plans", json={"robot": "nope"}),
+            c.get("/api/recordings/1/files/1"),
+            c.get("/api/plans/1/trajectory?format=csv"),
+        ]
+    server_places = (str(tmp_path), "site-packages", "/usr/lib", "/tmp/", ".venv", "Traceback")
+    for r in answers:
+        assert 400 <= r.status_code < 500, r.text
+        leaks = [p for p in server_places if p in r.text]
+        assert not leaks, (r.request.url, leaks, r.text)

@@ -3,6 +3,7 @@ scene would send, a real websocket client like viser's page, a free listening so
 
 from __future__ import annotations
 
+import contextlib
 import socket
 from typing import Any
 
@@ -58,12 +59,16 @@ def listening_socket() -> socket.socket:
     return sock
 
 
-def connect_client(viewer: ViewerServer, path: str, *, width: int = 800) -> Any:
-    """A websocket client like viser's own page: its version as subprotocol, any path, and the
-    camera message the page sends first (viser calls a client connected only after it)."""
+def connect_client(
+    viewer: ViewerServer, path: str, *, width: int = 800, origin: str | None = None
+) -> Any:
+    """A websocket client like viser's own page: its version as subprotocol, any path, the
+    ``Origin`` a browser would send (None: none, as a non-browser client), and the camera
+    message the page sends first (viser calls a client connected only after it)."""
     import msgspec
     import viser
     from viser._messages import ViewerCameraMessage
+    from websockets.exceptions import ConnectionClosed
     from websockets.sync.client import connect
 
     ws = connect(
@@ -71,6 +76,7 @@ def connect_client(viewer: ViewerServer, path: str, *, width: int = 800) -> Any:
         subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
         max_size=None,
         open_timeout=20,
+        origin=origin,  # type: ignore[arg-type]
     )
     camera = ViewerCameraMessage(
         wxyz=(1.0, 0.0, 0.0, 0.0),
@@ -83,7 +89,15 @@ def connect_client(viewer: ViewerServer, path: str, *, width: int = 800) -> Any:
         look_at=(0.0, 0.0, 0.5),
         up_direction=(0.0, 0.0, 1.0),
     )
-    ws.send(
-        msgspec.msgpack.encode({"type": "ViewerCameraMessage", **camera.as_serializable_dict()})
-    )
+    message = {"type": "ViewerCameraMessage", **camera.as_serializable_dict()}
+    with contextlib.suppress(ConnectionClosed):  # refused at once: the caller sees the close
+        ws.send(msgspec.msgpack.encode(message))
     return ws
+
+
+def issued_path(
+    viewer: ViewerServer, kind: str, result_id: int, methods: tuple[str, str] | None = None
+) -> str:
+    """The websocket path (with its capability) that the API hands the Compare page."""
+    url = viewer.websocket_url(kind, result_id, methods)
+    return url.split(f":{viewer.port}", 1)[1]

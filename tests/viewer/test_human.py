@@ -221,6 +221,7 @@ def test_over_a_real_websocket_the_human_moves_and_a_narrow_tab_gets_a_minimised
 ) -> None:
     from app.viewer.server import ViewerServer
     from tests.viewer._fakes import connect_client as _connect
+    from tests.viewer._fakes import issued_path
     from tests.viewer._fakes import listening_socket as _listening_socket
 
     with _listening_socket() as sock:
@@ -228,7 +229,7 @@ def test_over_a_real_websocket_the_human_moves_and_a_narrow_tab_gets_a_minimised
     viewer = ViewerServer(PreparedCache(lambda k, i: with_human), port=port, autoplay=True)
     viewer.start()
     try:
-        with _connect(viewer, "/bioplan/plan/7", width=400) as ws:
+        with _connect(viewer, issued_path(viewer, "plan", 7), width=400) as ws:
             messages = _messages(ws, _human_played)
             session = next(iter(viewer._sessions.values()))
             session.set_methods("paper", "quintic")  # what the two dropdowns do

@@ -14,10 +14,12 @@ from typing import Any
 import pytest
 
 from app.viewer import server as server_module
+from app.viewer.access import parse_client_path
 from app.viewer.comparison import Comparison
 from app.viewer.scene import PreparedCache
-from app.viewer.server import ViewerServer, parse_client_path
+from app.viewer.server import ViewerServer
 from tests.viewer._fakes import connect_client as _connect
+from tests.viewer._fakes import issued_path
 from tests.viewer._fakes import listening_socket as _listening_socket
 
 
@@ -38,7 +40,8 @@ from tests.viewer._fakes import listening_socket as _listening_socket
     ],
 )
 def test_client_paths(path: str | None, expected: tuple[str, int] | None) -> None:
-    assert parse_client_path(path) == expected
+    parsed = parse_client_path(path)
+    assert (parsed if parsed is None else parsed[:2]) == expected
 
 
 def test_busy_port_moves_and_the_real_port_is_reported(
@@ -56,9 +59,9 @@ def test_busy_port_moves_and_the_real_port_is_reported(
         page = urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10).read()
         assert b"<html" in page.lower() and len(page) > 100_000
         assert viewer.url == f"http://127.0.0.1:{port}"
-        assert viewer.client_url("plan", 7) == (
-            f"http://127.0.0.1:{port}/?websocket=ws://127.0.0.1:{port}/bioplan/plan/7&hideViserLogo"
-        )
+        url = viewer.client_url("plan", 7)
+        prefix = f"http://127.0.0.1:{port}/?websocket=ws%3A%2F%2F127.0.0.1%3A{port}%2Fbioplan%2Fplan%2F7%3Ftoken%3D"
+        assert url.startswith(prefix) and url.endswith("&hideViserLogo")
         assert viewer.sessions() == []
     finally:
         viewer.stop()
@@ -106,53 +109,18 @@ def test_the_handshake_path_names_the_comparison(viewer: ViewerServer) -> None:
     opened at the same moment.
     """
     known: set[int] = set()
-    broken = " (viser no longer gives _handshake_path the websocket's path?)"
-    with _connect(viewer, "/bioplan/simulation/31"):
+    broken = " (viser no longer gives _handshake the websocket's path?)"
+    with _connect(viewer, issued_path(viewer, "simulation", 31)):
         first = _session_of(viewer, known, hint=broken)
-        path = server_module._handshake_path(viewer._server, first["client_id"])
-        assert path == "/bioplan/simulation/31", (
-            "viser no longer exposes the websocket path where _handshake_path reads it"
+        handshake = server_module._handshake(viewer._server, first["client_id"])
+        assert handshake is not None and handshake[0].startswith("/bioplan/simulation/31?token="), (
+            "viser no longer exposes the websocket path where _handshake reads it"
         )
-        with _connect(viewer, "/bioplan/plan/7"):
+        with _connect(viewer, issued_path(viewer, "plan", 7)):
             second = _session_of(viewer, known, hint=broken)
     assert (first["kind"], first["id"]) == ("simulation", 31)
     assert (second["kind"], second["id"]) == ("plan", 7)
-    assert viewer._target(first["client_id"] + 100) is None  # no such connection, no request
-
-
-def test_without_a_readable_path_tabs_get_the_comparison_their_page_asked_for(
-    viewer: ViewerServer, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
-) -> None:
-    """The fallback: a viser that hides the path still shows each tab what its page asked for."""
-    known: set[int] = set()
-    # The fast path serves its own page's request, so the queue keeps only unserved ones.
-    viewer.client_url("plan", 5)
-    with _connect(viewer, "/bioplan/plan/5"):
-        assert _session_of(viewer, known)["id"] == 5
-    assert not viewer._pending
-
-    monkeypatch.setattr(server_module, "_handshake_path", lambda server, client_id: None)
-    viewer.client_url("simulation", 12)  # what two Compare pages ask, in this order
-    viewer.client_url("plan", 3)
-    with caplog.at_level(logging.WARNING, logger="app.viewer.server"):
-        with _connect(viewer, "/"):
-            first = _session_of(viewer, known)
-            with _connect(viewer, "/"):
-                second = _session_of(viewer, known)
-        # Each request is served once: a third tab without one gets the hint instead.
-        assert viewer._target(1000) is None
-    assert (first["kind"], first["id"]) == ("simulation", 12)
-    assert (second["kind"], second["id"]) == ("plan", 3)
-    assert caplog.text.count("cannot read viewer clients' websocket paths") == 1
-
-
-def test_old_requests_expire(viewer: ViewerServer, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(server_module, "_handshake_path", lambda server, client_id: None)
-    viewer.client_url("plan", 4)
-    later = time.monotonic() + server_module.PENDING_SECONDS + 1.0
-    monkeypatch.setattr(server_module.time, "monotonic", lambda: later)
-    assert viewer._target(99) is None
-    assert not viewer._pending
+    assert server_module._handshake(viewer._server, first["client_id"] + 100) is None
 
 
 class _Recorder:
@@ -219,18 +187,14 @@ def test_the_compare_pages_pair_reaches_the_tab(viewer: ViewerServer) -> None:
     inside the iframe's address) and the tab shows that pair; a pair the plan did not make, or
     one method twice, leaves the default."""
     url = viewer.client_url("plan", 7, ("human_optimal", "bound"))
-    assert url.endswith("/bioplan/plan/7%3Fmethods%3Dhuman_optimal%2Cbound&hideViserLogo")
-    assert server_module.parse_client_methods("/bioplan/plan/7?methods=bound,paper") == (
-        "bound", "paper"
-    )  # fmt: skip
-    assert server_module.parse_client_methods("/bioplan/plan/7?methods=a") is None
+    assert url.endswith("%26methods%3Dhuman_optimal%2Cbound&hideViserLogo")
     known: set[int] = set()
     # The fixture planned the quintic and the paper's method: the swapped pair is a choice.
-    with _connect(viewer, "/bioplan/plan/7?methods=paper,quintic"):
+    with _connect(viewer, issued_path(viewer, "plan", 7, ("paper", "quintic"))):
         chosen = _session_of(viewer, known)
-    with _connect(viewer, "/bioplan/plan/7?methods=bound,bound"):
+    with _connect(viewer, issued_path(viewer, "plan", 7, ("bound", "bound"))):
         twice = _session_of(viewer, known)
-    with _connect(viewer, "/bioplan/plan/7?methods=bound,nonsense"):
+    with _connect(viewer, issued_path(viewer, "plan", 7, ("bound", "nonsense"))):
         unknown = _session_of(viewer, known)
     assert (chosen["solid"], chosen["ghost"]) == ("paper", "quintic")
     assert (twice["solid"], twice["ghost"]) == ("quintic", "paper")
