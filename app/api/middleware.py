@@ -25,39 +25,43 @@ logger = logging.getLogger(__name__)
 
 
 class BodyTooLarge(StarletteHTTPException):
-    """The request body exceeds the upload limit (raised while it streams in)."""
+    """The request body exceeds its limit (raised while it streams in)."""
 
-    def __init__(self, limit: int) -> None:
+    def __init__(self, limit: int, variable: str) -> None:
         super().__init__(
-            413,
-            f"the request body is larger than the upload limit of {limit} bytes "
-            "(BIOPLAN_MAX_UPLOAD_MB)",
+            413, f"the request body is larger than the limit of {limit} bytes ({variable})"
         )
 
 
 class BodyLimitMiddleware:
-    """Refuses request bodies over ``limit`` bytes: at once when Content-Length says so, else
-    as soon as the streamed bytes pass the limit (nothing larger is ever buffered or parsed).
+    """Refuses request bodies over their limit: ``limit`` bytes for uploads (multipart forms),
+    ``json_limit`` for every other body (JSON requests: no free-form field, a template's
+    ``source`` say, can make a stored job and every list of jobs huge). At once when
+    Content-Length says so, else as soon as the streamed bytes pass it (nothing larger is ever
+    buffered or parsed).
     """
 
-    def __init__(self, app: ASGIApp, limit: int) -> None:
+    def __init__(self, app: ASGIApp, limit: int, json_limit: int) -> None:
         self.app = app
         self.limit = limit
+        self.json_limit = json_limit
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        for key, value in scope.get("headers", []):
-            if key == b"content-length":
-                try:
-                    declared = int(value)
-                except ValueError:
-                    break
-                if declared > self.limit:
-                    exc = BodyTooLarge(self.limit)
-                    await problem(413, "Content Too Large", exc.detail)(scope, receive, send)
-                    return
+        headers = dict(scope.get("headers", []))
+        upload = headers.get(b"content-type", b"").lower().startswith(b"multipart/")
+        limit = self.limit if upload else min(self.limit, self.json_limit)
+        variable = "BIOPLAN_MAX_UPLOAD_MB" if limit == self.limit else "BIOPLAN_MAX_JSON_KB"
+        try:
+            declared = int(headers.get(b"content-length", b"-1"))
+        except ValueError:
+            declared = -1
+        if declared > limit:
+            exc = BodyTooLarge(limit, variable)
+            await problem(413, "Content Too Large", exc.detail)(scope, receive, send)
+            return
         seen = 0
 
         async def counting_receive() -> Message:
@@ -65,10 +69,10 @@ class BodyLimitMiddleware:
             message = await receive()
             if message["type"] == "http.request":
                 seen += len(message.get("body", b""))
-                if seen > self.limit:
+                if seen > limit:
                     # An HTTPException passes through FastAPI's body parsing unchanged and
                     # reaches the problem handler.
-                    raise BodyTooLarge(self.limit)
+                    raise BodyTooLarge(limit, variable)
             return message
 
         await self.app(scope, counting_receive, send)
@@ -215,7 +219,11 @@ def install_middleware(app: FastAPI, settings: Settings) -> None:
     """Add the middleware. Outermost first: CORS (when configured, so every answer, a 413 or a
     500 too, carries its headers), the catch-all 500, the perimeter, the body-size limit."""
     # The upload limit is enforced while the body streams in, not after it is buffered.
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_upload_bytes)
+    app.add_middleware(
+        BodyLimitMiddleware,
+        limit=settings.max_upload_bytes,
+        json_limit=int(settings.max_json_kb * 1024),
+    )
     # Before any body is read: host, cross-site writes, token.
     app.add_middleware(PerimeterMiddleware, settings=settings)
     app.add_middleware(CatchAllMiddleware)

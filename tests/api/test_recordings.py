@@ -129,7 +129,7 @@ def test_upload_limit_is_enforced(tmp_path: Path) -> None:
             content=chunks(),
             headers={"Content-Type": f"multipart/form-data; boundary={boundary}"},
         )
-        assert "upload limit" in assert_problem(r, 413)["detail"]
+        assert "BIOPLAN_MAX_UPLOAD_MB" in assert_problem(r, 413)["detail"]
         assert c.get("/api/recordings").json()["total"] == 0
 
 

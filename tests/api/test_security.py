@@ -275,3 +275,21 @@ def test_no_server_paths_or_library_locations_in_answers(tmp_path: Path) -> None
         assert 400 <= r.status_code < 500, r.text
         leaks = [p for p in server_places if p in r.text]
         assert not leaks, (r.request.url, leaks, r.text)
+
+
+def test_a_huge_json_field_is_refused_before_it_is_stored(tmp_path: Path) -> None:
+    """Issue 14 item 11: five job templates with a 20 MiB ``source`` made ``GET /api/jobs``
+    105 MB. A request that is not an upload is capped as a whole (BIOPLAN_MAX_JSON_KB), before
+    anything is parsed or stored; uploads keep their own, larger limit."""
+    template = {"source": "x" * (2 * 1024 * 1024), "peak_velocity_angle_deg": 62.0}
+    with make_client(tmp_path) as c:
+        r = c.post("/api/plans", json={"robot": "human_arm_2dof", "template": template})
+        assert "BIOPLAN_MAX_JSON_KB" in assert_problem(r, 413)["detail"]
+        assert c.get("/api/jobs").json()["total"] == 0
+        csv = b"t,EMG1\n" + b"".join(f"{i / 1000},{i % 7}\n".encode() for i in range(120_000))
+        assert len(csv) > 1024 * 1024  # far larger than the JSON limit, an upload all the same
+        up = c.post("/api/recordings", files={"files": ("emg.csv", csv)}, data={"emg_rate": "1000"})
+        assert up.status_code == 201, up.text
+    with make_client(tmp_path / "small", max_json_kb=1) as c:
+        r = c.post("/api/plans", json={"robot": "human_arm_2dof", "notes": "y" * 2000})
+        assert "1024 bytes" in assert_problem(r, 413)["detail"]  # the configured limit
