@@ -22,6 +22,9 @@ from app.services import RobotCatalog, job_to_dict
 
 #: Ids in paths: positive and within a 32-bit integer, so no database overflows.
 IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
+#: The most samples per series a read returns: enough for min/max decimation on any screen
+#: (two per pixel of a 4K plot); 100 000 let 16 clients push other requests' p99 to 11 s.
+MAX_POINTS = 10_000
 
 #: The error answers every route documents, with the problem's schema.
 PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {

@@ -18,7 +18,7 @@ from fastapi.responses import FileResponse
 
 from app.api.deps import ServicesDep
 from app.api.errors import ApiError
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath
+from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath
 from app.viewer.export import report_html, scene_html
 
 router = APIRouter(prefix="/api/viewer", tags=["viewer"], responses=PROBLEM_RESPONSES)
@@ -89,7 +89,7 @@ def comparison(
     services: ServicesDep,
     kind: ComparisonKind,
     result_id: IdPath,
-    points: Annotated[int, Query(ge=2, le=20000, description="samples per curve")] = 400,
+    points: Annotated[int, Query(ge=2, le=MAX_POINTS, description="samples per curve")] = 400,
     methods: MethodsQuery = None,
 ) -> dict[str, Any]:
     """A finished plan's or simulation's curves per joint (SI units), phases, metrics, floors,
@@ -154,7 +154,7 @@ def export(
 def recording_analysis(
     services: ServicesDep,
     recording_id: IdPath,
-    points: Annotated[int, Query(ge=2, le=100000, description="samples per series")] = 2000,
+    points: Annotated[int, Query(ge=2, le=MAX_POINTS, description="samples per series")] = 2000,
     t0: Annotated[float | None, Query(description="window start [s]")] = None,
     t1: Annotated[float | None, Query(description="window end [s]")] = None,
 ) -> dict[str, Any]:

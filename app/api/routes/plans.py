@@ -11,6 +11,7 @@ from sqlalchemy.orm import Session
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import (
+    MAX_POINTS,
     PROBLEM_RESPONSES,
     FormatQuery,
     IdPath,
@@ -220,7 +221,7 @@ def get_plan(session: SessionDep, plan_id: IdPath) -> dict[str, Any]:
 def get_plan_arrays(
     session: SessionDep,
     plan_id: IdPath,
-    points: Annotated[int, Query(ge=2, le=100000)] = 500,
+    points: Annotated[int, Query(ge=2, le=MAX_POINTS)] = 500,
     name: Annotated[list[str] | None, Query(description="array names (default: all)")] = None,
 ) -> dict[str, Any]:
     """Time grid and, per trajectory, q, qd, qdd, tau [SI], power [W], energy [J]."""

@@ -18,7 +18,7 @@ from starlette.concurrency import run_in_threadpool
 from app.analysis.downsample import minmax_downsample
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath, upload_name, utc
+from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath, upload_name, utc
 from app.api.schemas import (
     EMG_RATE_MIN_HZ,
     RATE_MAX_HZ,
@@ -378,7 +378,7 @@ def get_signals(
         Query(description="channel ids (default: all channels)"),
     ] = None,
     name: Annotated[list[str] | None, Query(description="channel names")] = None,
-    points: Annotated[int, Query(ge=2, le=100000, description="points per series")] = 2000,
+    points: Annotated[int, Query(ge=2, le=MAX_POINTS, description="points per series")] = 2000,
     t0: Annotated[float | None, Query(description="window start [s]")] = None,
     t1: Annotated[float | None, Query(description="window end [s]")] = None,
 ) -> dict[str, Any]:

@@ -8,6 +8,7 @@ from fastapi import APIRouter, Query, Response
 
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import (
+    MAX_POINTS,
     PROBLEM_RESPONSES,
     FormatQuery,
     IdPath,
@@ -60,7 +61,7 @@ def get_simulation(session: SessionDep, simulation_id: IdPath) -> dict[str, Any]
 def get_simulation_arrays(
     session: SessionDep,
     simulation_id: IdPath,
-    points: Annotated[int, Query(ge=2, le=100000)] = 500,
+    points: Annotated[int, Query(ge=2, le=MAX_POINTS)] = 500,
     name: Annotated[list[str] | None, Query(description="array names (default: all)")] = None,
 ) -> dict[str, Any]:
     return arrays_out(session, "simulation", simulation_id, points=points, names=name)
