@@ -350,16 +350,19 @@ def _robot_files(spec: dict[str, Any], folder: Path) -> dict[str, Any]:
             files[key] = path
         else:
             files[key] = _member(root, spec.get(f"{key}_member"), key)
-    return {**files, "package_dirs": package_dirs}
+    return {**files, "package_dirs": package_dirs, "root": folder}
 
 
 def _load_uploaded(spec: dict[str, Any], files: dict[str, Any], payload: float | None) -> Any:
     """``load_robot`` of an uploaded robot's files with its roles and locks (display units)."""
     from app.planning.robots import RobotError, load_robot, locks_from_display
+    from app.planning.robots._package import check_mjcf_files
 
     urdf, mjcf = files["urdf"], files["mjcf"]
     if urdf is None and mjcf is None:
         raise RobotError("the robot has no URDF and no MJCF: expected at least one model file")
+    if mjcf is not None:
+        check_mjcf_files(mjcf, files["root"])  # before MuJoCo opens anything it names
     locks = spec.get("locks") or {}
     if locks:
         if urdf is None:
@@ -441,6 +444,7 @@ def _robot_files_in(spec: dict[str, Any], folder: Path) -> dict[str, Any]:
             files[key] = _member(folder, spec.get(f"{key}_member"), key)
     has_package = spec.get("package") is not None
     files["package_dirs"] = _package_dirs(folder.resolve()) if has_package else ()
+    files["root"] = folder
     return files
 
 

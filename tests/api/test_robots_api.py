@@ -261,3 +261,45 @@ def test_an_mjcf_alone_is_a_robot(client: TestClient) -> None:
     body = {"robot": "mj_arm", "methods": ["quintic"], "particles": 4, "iterations": 2}
     plan = _finished(client, "/api/plans", body)
     assert isinstance(plan["result"], dict) and "quintic" in plan["result"]["methods"]
+
+
+def test_mjcf_files_are_confined_to_the_upload(client: TestClient) -> None:
+    """Issue 14 item 5: an uploaded MJCF's ``<include file="/etc/passwd"/>`` was read (and the
+    error told whether a file exists). Paths outside the upload are refused from the text
+    alone, with one message whether the file exists or not; an include inside a zip works."""
+    import io
+    import zipfile
+
+    from app.planning import load_robot
+
+    arm = load_robot("human_arm_2dof").mjcf_path.read_text()
+    outside = {
+        "include": '<mujoco><include file="{p}"/></mujoco>',
+        "mesh": '<mujoco><asset><mesh name="m" file="{p}"/></asset><worldbody/></mujoco>',
+        "meshdir": '<mujoco><compiler meshdir="{p}"/><worldbody/></mujoco>',
+    }
+    for element, template in outside.items():
+        answers = []
+        for target in ("/etc/passwd", "/etc/no-such-file-here", "../../etc/passwd", "C:\\x"):
+            model = template.format(p=target).encode()
+            r = client.post("/api/robots", data={"name": "mj_x"}, files={"mjcf": ("m.xml", model)})
+            problem = assert_problem(r, 422)
+            assert "outside the uploaded robot's files" in problem["detail"], problem
+            answers.append(problem["detail"].replace(target, "<path>"))
+        assert len(set(answers)) == 1, answers  # no existence oracle
+        assert f"<{element}" in answers[0] or "<compiler" in answers[0]
+    # An include of a file inside the upload (a zip) is fine.
+    head, _, rest = arm.partition("<worldbody>")
+    body, _, tail = rest.partition("</worldbody>")
+    main = f'{head}<include file="parts/body.xml"/>{tail}'
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("arm/robot.xml", main)
+        z.writestr("arm/parts/body.xml", f"<mujoco><worldbody>{body}</worldbody></mujoco>")
+    r = client.post(
+        "/api/robots",
+        data={"name": "mj_zip", "mjcf_member": "arm/robot.xml"},
+        files={"package": ("arm.zip", buf.getvalue())},
+    )
+    assert r.status_code == 201, r.text
+    assert r.json()["joint_names"] == list(load_robot("human_arm_2dof").joint_names)

@@ -15,10 +15,18 @@ import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
+from typing import NoReturn
 
 from app.planning.robots._types import RobotError
 
-__all__ = ["MAX_BYTES", "MAX_FILES", "RobotPackage", "open_robot_package", "resolve_mesh"]
+__all__ = [
+    "MAX_BYTES",
+    "MAX_FILES",
+    "RobotPackage",
+    "check_mjcf_files",
+    "open_robot_package",
+    "resolve_mesh",
+]
 
 MAX_FILES = 5_000
 MAX_BYTES = 1 << 30  # 1 GiB unpacked
@@ -183,3 +191,87 @@ def resolve_mesh(
             continue
         return resolved
     return None
+
+
+#: MJCF elements whose ``file`` attribute names an asset, with the compiler attribute giving
+#: its folder (``assetdir`` stands in for both when the specific one is not set).
+_MJCF_ASSET_DIRS = {
+    "mesh": "meshdir",
+    "skin": "meshdir",
+    "texture": "texturedir",
+    "hfield": "meshdir",
+}
+
+
+def _inside(folder: PurePosixPath, value: str) -> PurePosixPath | None:
+    """``folder / value`` normalised, or None when it is absolute or climbs out of the root
+    (``folder`` is relative to the root). Pure path arithmetic: nothing is opened."""
+    text = value.replace("\\", "/")
+    if text.startswith("/") or (len(text) > 1 and text[1] == ":") or "://" in text:
+        return None
+    parts: list[str] = []
+    for part in (*folder.parts, *PurePosixPath(text).parts):
+        if part == "..":
+            if not parts:
+                return None
+            parts.pop()
+        elif part != ".":
+            parts.append(part)
+    return PurePosixPath(*parts)
+
+
+def check_mjcf_files(mjcf: Path, root: Path) -> None:
+    """Refuse an uploaded MJCF whose ``<include>`` or asset files lie outside its upload.
+
+    MuJoCo would open any path the file names (``<include file="/etc/passwd"/>`` was read, and
+    whether a file exists could be told from the error). Every ``file`` attribute and the
+    compiler's ``meshdir``/``texturedir``/``assetdir`` must be relative paths that stay inside
+    ``root``; this is decided from the text alone, so the message is the same whether such a
+    file exists or not. Included files inside the upload are checked the same way.
+
+    Raises:
+        RobotError: names the file, the element and the attribute.
+    """
+    import xml.etree.ElementTree as ET
+
+    root = root.resolve()
+    pending, seen = [mjcf.resolve()], set()
+    while pending:
+        path = pending.pop()
+        if path in seen or not path.is_file():
+            continue  # a missing include inside the upload: MuJoCo says so itself
+        seen.add(path)
+        rel = PurePosixPath(path.parent.relative_to(root).as_posix())
+        try:
+            tree = ET.parse(path)
+        except ET.ParseError:
+            continue  # MuJoCo reports the syntax error with its line
+        dirs = {"meshdir": rel, "texturedir": rel}
+        for compiler in tree.iter("compiler"):
+            for attr in ("assetdir", "meshdir", "texturedir"):
+                value = compiler.get(attr)
+                if value is None:
+                    continue
+                inside = _inside(rel, value)
+                if inside is None:
+                    _refuse(mjcf, "compiler", attr, value)
+                for key in ("meshdir", "texturedir") if attr == "assetdir" else (attr,):
+                    dirs[key] = inside
+        for element in tree.iter():
+            value = element.get("file")
+            if value is None or not isinstance(element.tag, str):
+                continue
+            folder = dirs.get(_MJCF_ASSET_DIRS.get(element.tag, ""), rel)
+            inside = _inside(folder if element.tag != "include" else rel, value)
+            if inside is None:
+                _refuse(mjcf, element.tag, "file", value)
+            elif element.tag == "include":
+                pending.append(root / inside)
+
+
+def _refuse(mjcf: Path, tag: str, attr: str, value: str) -> NoReturn:
+    shown = value if len(value) <= 80 else value[:77] + "..."
+    raise RobotError(
+        f'{mjcf.name}: <{tag} {attr}="{shown}">: a path outside the uploaded robot\'s files: '
+        "expected a relative path inside the upload (a zip holds the included files and meshes)"
+    )
