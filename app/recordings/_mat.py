@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from app.errors import BioPlanError
 from app.recordings._common import (
     F64,
     Options,
@@ -99,15 +100,25 @@ def _walk_v5(obj: Any, path: tuple[str, ...], out: Leaves, depth: int = 0) -> No
         out[path] = np.asarray([float(obj)])
 
 
-def _walk_h5(f: Any, node: Any, path: tuple[str, ...], out: Leaves, depth: int = 0) -> None:
+#: Bytes one MAT 7.3 file may decode to, all datasets together: a recording is far smaller,
+#: while gzip chunks that were never written inflate from a few KB to any size.
+MAX_DECODED_BYTES = 512 << 20
+
+
+def _walk_h5(
+    f: Any, node: Any, path: tuple[str, ...], out: Leaves, depth: int = 0, budget: Any = None
+) -> None:
+    """Leaves of an HDF5 (MAT 7.3) file; ``budget`` ([bytes left]) is checked against each
+    dataset's declared size before it is read, so nothing over the limit is ever allocated."""
     import h5py
 
+    budget = [MAX_DECODED_BYTES] if budget is None else budget
     if depth > 20:
         return
     if isinstance(node, h5py.Group):
         for k in node:
             if not k.startswith("#"):
-                _walk_h5(f, node[k], (*path, k), out, depth + 1)
+                _walk_h5(f, node[k], (*path, k), out, depth + 1, budget)
         return
     if not isinstance(node, h5py.Dataset):
         return
@@ -115,8 +126,13 @@ def _walk_h5(f: Any, node: Any, path: tuple[str, ...], out: Leaves, depth: int =
     cls = cls.decode("latin-1") if isinstance(cls, bytes) else str(cls)
     if node.attrs.get("MATLAB_empty", 0):
         return
-    if node.size > 50_000_000:
-        return
+    budget[0] -= int(node.size) * max(int(node.dtype.itemsize), 1)
+    if budget[0] < 0:
+        raise BioPlanError(
+            f"its datasets decode to more than {MAX_DECODED_BYTES >> 20} MB in all (at "
+            f"{'/'.join(path) or 'the root'}, shape {tuple(node.shape)}): a recording is far "
+            "smaller (a damaged or hostile file)"
+        )
     value = node[()]
     if cls == "char":
         arr = np.asarray(value)
@@ -135,7 +151,7 @@ def _walk_h5(f: Any, node: Any, path: tuple[str, ...], out: Leaves, depth: int =
         texts: list[str] = []
         for i, item in enumerate(items):
             sub: Leaves = {}
-            _walk_h5(f, item, (*path, str(i)), sub, depth + 1)
+            _walk_h5(f, item, (*path, str(i)), sub, depth + 1, budget)
             if len(sub) == 1 and isinstance(next(iter(sub.values())), str):
                 texts.append(next(iter(sub.values())))
             else:
@@ -161,6 +177,8 @@ def _leaves(src: Source, data: bytes) -> tuple[Leaves, str]:
         try:
             with h5py.File(io.BytesIO(data), "r") as f:
                 _walk_h5(f, f, (), out)
+        except BioPlanError as exc:
+            raise src.error(str(exc), expected="a MATLAB v7.3 recording") from None
         except OSError as exc:
             raise src.error(
                 f"HDF5 (MATLAB v7.3) content cannot be read: {exc}",

@@ -94,24 +94,33 @@ def loadmat5(data: bytes) -> dict[str, Any]:
     else:
         raise BioPlanError(f"endian indicator {indicator!r} (expected 'IM' or 'MI')")
     out: dict[str, Any] = {}
-    _elements(_Reader(data, endian), 128, len(data), out, depth=0)
+    _elements(_Reader(data, endian), 128, len(data), out, depth=0, budget=[_MAX_INFLATED])
     return out
 
 
-def _elements(r: _Reader, pos: int, end: int, out: dict[str, Any], *, depth: int) -> None:
+def _elements(
+    r: _Reader, pos: int, end: int, out: dict[str, Any], *, depth: int, budget: list[int]
+) -> None:
+    """Variables between ``pos`` and ``end``; ``budget`` holds the bytes every compressed
+    variable of the file may still inflate to, together (a bomb of many variables, each under
+    the limit, is refused as surely as one large one)."""
     while pos + 8 <= end:
         mtype, nbytes, start, nxt = r.tag(pos, "a variable")
         if mtype == _MI_COMPRESSED:
             inflater = zlib.decompressobj()
             try:
                 inner = inflater.decompress(
-                    r.need(start, nbytes, "compressed variable"), _MAX_INFLATED
+                    r.need(start, nbytes, "compressed variable"), max(budget[0], 1)
                 )
             except zlib.error as exc:
                 raise BioPlanError(f"compressed variable cannot be inflated: {exc}") from None
-            if inflater.unconsumed_tail:
-                raise BioPlanError("compressed variable inflates beyond 512 MB")
-            _elements(_Reader(inner, r.endian), 0, len(inner), out, depth=depth + 1)
+            budget[0] -= len(inner)
+            if inflater.unconsumed_tail or budget[0] < 0:
+                raise BioPlanError(
+                    f"its compressed variables inflate beyond {_MAX_INFLATED >> 20} MB in all "
+                    "(a recording is far smaller: a damaged or hostile file)"
+                )
+            _elements(_Reader(inner, r.endian), 0, len(inner), out, depth=depth + 1, budget=budget)
         elif mtype == _MI_MATRIX:
             name, value = _matrix(r, start, start + nbytes, depth=depth)
             if name and value is not None:

@@ -293,3 +293,65 @@ def test_a_huge_json_field_is_refused_before_it_is_stored(tmp_path: Path) -> Non
     with make_client(tmp_path / "small", max_json_kb=1) as c:
         r = c.post("/api/plans", json={"robot": "human_arm_2dof", "notes": "y" * 2000})
         assert "1024 bytes" in assert_problem(r, 413)["detail"]  # the configured limit
+
+
+def _mat5_bomb(variables: int, inflated_mb: int) -> bytes:
+    """A MAT v5 file of compressed variables that inflate to ``inflated_mb`` MB each: elements
+    of zeros a reader skips (a few KB on disk; built in chunks, never held inflated here)."""
+    import struct
+    import zlib
+
+    header = b"MATLAB 5.0 MAT-file, bomb".ljust(116, b" ") + b"\0" * 8 + b"\x00\x01IM"
+    chunk = b"\0" * (1 << 20)
+    out = [header]
+    for _ in range(variables):
+        z = zlib.compressobj()
+        body = []
+        for _ in range(inflated_mb):
+            body += [z.compress(struct.pack("<II", 2, len(chunk))), z.compress(chunk)]  # miUINT8
+        data = b"".join([*body, z.flush()])
+        out.append(struct.pack("<II", 15, len(data)) + data)  # miCOMPRESSED
+    return b"".join(out)
+
+
+def test_decompression_bombs_are_refused_before_they_grow(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 14 item 7: a 5 KB MAT 7.3 took 4.8 GB and 53 s, a 5.6 MB MAT v5 6.6 GB and 155 s.
+    The decoded size is capped per file, all datasets or variables together (each one alone
+    under the old per-dataset limit): HDF5 by the declared shapes before anything is read, MAT
+    v5 while inflating."""
+    import h5py
+
+    from app.recordings import _mat5
+
+    bomb = tmp_path / "bomb.mat"
+    with h5py.File(bomb, "w") as f:
+        for k in range(3):  # 3 x 240 MB declared, never written: a few KB on disk
+            f.create_dataset(f"emg{k}", shape=(30_000_000,), dtype="f8", chunks=(1 << 16,),
+                             compression="gzip")  # fmt: skip
+    assert bomb.stat().st_size < 100_000
+    monkeypatch.setattr(_mat5, "_MAX_INFLATED", 8 << 20)  # the same rule, a smaller test
+    v5 = _mat5_bomb(variables=3, inflated_mb=5)  # each under 8 MB, 15 MB in all
+    assert len(v5) < 100_000
+    with make_client(tmp_path / "server") as c:
+        r = c.post("/api/recordings", files={"files": ("bomb.mat", bomb.read_bytes())})
+        problem = assert_problem(r, 422, file="bomb.mat")
+        assert "512 MB in all" in problem["detail"] and "emg" in problem["detail"]
+        r = c.post("/api/recordings", files={"files": ("v5.mat", v5)})
+        assert "inflate beyond 8 MB in all" in assert_problem(r, 422, file="v5.mat")["detail"]
+        assert c.get("/api/recordings").json()["total"] == 0
+        assert c.get("/api/health").status_code == 200
+
+
+def test_an_mjcf_replicate_bomb_is_refused_before_compiling(tmp_path: Path) -> None:
+    """Issue 14 item 7: a 1.8 KB MJCF of nested ``<replicate>`` took 7.5 GB for 129 s."""
+    nested = '<body><geom size=".01"/></body>'
+    for _ in range(4):
+        nested = f'<replicate count="12" offset="0 0 .01">{nested}</replicate>'
+    model = f"<mujoco><worldbody>{nested}</worldbody></mujoco>".encode()
+    assert len(model) < 1000
+    with make_client(tmp_path) as c:
+        r = c.post("/api/robots", data={"name": "bomb"}, files={"mjcf": ("bomb.xml", model)})
+        problem = assert_problem(r, 422)
+        assert "replicate" in problem["detail"] and "at most 1000" in problem["detail"]

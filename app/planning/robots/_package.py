@@ -15,7 +15,7 @@ import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from app.planning.robots._types import RobotError
 
@@ -257,6 +257,12 @@ def check_mjcf_files(mjcf: Path, root: Path) -> None:
                     _refuse(mjcf, "compiler", attr, value)
                 for key in ("meshdir", "texturedir") if attr == "assetdir" else (attr,):
                     dirs[key] = inside
+        copies = _replicated(tree.getroot(), 1)
+        if copies > MAX_REPLICATED:
+            raise RobotError(
+                f"{mjcf.name}: its <replicate> elements make {copies} copies in all: expected "
+                f"at most {MAX_REPLICATED} (a robot arm needs none; nested replicates multiply)"
+            )
         for element in tree.iter():
             value = element.get("file")
             if value is None or not isinstance(element.tag, str):
@@ -267,6 +273,29 @@ def check_mjcf_files(mjcf: Path, root: Path) -> None:
                 _refuse(mjcf, element.tag, "file", value)
             elif element.tag == "include":
                 pending.append(root / inside)
+
+
+#: Copies all ``<replicate>`` elements of an uploaded MJCF may make together: nested ones
+#: multiply, and a 1.8 KB file of them took 7.5 GB and two minutes to compile.
+MAX_REPLICATED = 1000
+
+
+def _replicated(element: Any, factor: int) -> int:
+    """Copies the ``<replicate>`` elements under ``element`` make, each counted with the
+    product of the counts around it (``factor``). Stops counting once over the limit."""
+    total = 0
+    for child in element:
+        inner = factor
+        if child.tag == "replicate":
+            try:
+                inner = factor * max(int(child.get("count", "1")), 1)
+            except ValueError:
+                inner = factor  # MuJoCo reports the bad count itself
+            total += inner
+        if total > MAX_REPLICATED or inner > MAX_REPLICATED:
+            return max(total, inner)
+        total += _replicated(child, inner)
+    return total
 
 
 def _refuse(mjcf: Path, tag: str, attr: str, value: str) -> NoReturn:
