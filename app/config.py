@@ -50,6 +50,7 @@ class Settings(BaseSettings):
         host, port: where ``bioplan serve`` binds; a non-loopback host needs ``api_token``.
         max_upload_mb: largest request body accepted [MB], enforced while it streams in.
         max_json_kb: largest body of a request that is not an upload (JSON) [KiB].
+        max_parallel_parses: uploads (recordings, robots) parsed at once; more wait their turn.
         cors_origins: origins allowed by CORS (none by default: CORS closed); they may also
             write across sites.
         allowed_hosts: names the server answers to in the ``Host`` header besides the loopback
@@ -88,6 +89,7 @@ class Settings(BaseSettings):
     port: int = Field(default=8000, ge=1, le=65535)
     max_upload_mb: float = Field(default=200.0, gt=0)
     max_json_kb: float = Field(default=256.0, gt=0)
+    max_parallel_parses: int = Field(default=2, ge=1, le=64)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     allowed_hosts: Annotated[list[str], NoDecode] = Field(default_factory=list)
     protect_reads: bool = False

@@ -8,6 +8,7 @@ running. ``Services.start_viewer`` starts the 3-D viewer on them. ``stop_service
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -56,6 +57,8 @@ class Services:
         viewer: the 3-D viewer, once started.
         data_lock: this server's hold on its data directory (one server per folder).
         recordings_cache: cached ``GET /api/recordings`` pages.
+        parse_slots: uploads parsed at once (``BIOPLAN_MAX_PARALLEL_PARSES``); the others wait
+            their turn, so a burst of large uploads cannot take every worker thread from reads.
         started: ``time.monotonic()`` at start.
     """
 
@@ -71,6 +74,9 @@ class Services:
     viewer: ViewerServer | None = None
     data_lock: DataDirLock | None = None
     recordings_cache: ResponseCache = field(default_factory=ResponseCache)
+    parse_slots: threading.BoundedSemaphore = field(
+        default_factory=lambda: threading.BoundedSemaphore(2)
+    )
     started: float = field(default_factory=time.monotonic)
 
     def start_viewer(self) -> ViewerServer:
@@ -163,6 +169,7 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
             ComparisonLoader(sessions, robots), human=HumanReplayLoader(sessions)
         ),
         data_lock=data_lock,
+        parse_slots=threading.BoundedSemaphore(settings.max_parallel_parses),
     )
 
 

@@ -355,3 +355,49 @@ def test_an_mjcf_replicate_bomb_is_refused_before_compiling(tmp_path: Path) -> N
         r = c.post("/api/robots", data={"name": "bomb"}, files={"mjcf": ("bomb.xml", model)})
         problem = assert_problem(r, 422)
         assert "replicate" in problem["detail"] and "at most 1000" in problem["detail"]
+
+
+@pytest.mark.parametrize("slots", [1, 2])
+def test_uploads_are_parsed_a_bounded_number_at_a_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, slots: int
+) -> None:
+    """Issue 14 item 11: 64 concurrent 50 MB uploads pushed the list route to p99 17.9 s.
+    Uploads queue for BIOPLAN_MAX_PARALLEL_PARSES parse slots; reads are not held up."""
+    import threading
+    import time
+
+    from app.api.routes import recordings as route
+
+    active, peak, lock = [0], [0], threading.Lock()
+    real = route.store_recording
+
+    def slow(**kwargs: object) -> object:
+        with lock:
+            active[0] += 1
+            peak[0] = max(peak[0], active[0])
+        time.sleep(0.5)  # a parse that takes a while
+        with lock:
+            active[0] -= 1
+        return real(**kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(route, "store_recording", slow)
+    csv = b"t,EMG1\n" + b"".join(f"{i / 1000},{i % 7}\n".encode() for i in range(3000))
+    with make_client(tmp_path, max_parallel_parses=slots) as c:
+        codes: list[int] = []
+
+        def upload(k: int) -> None:
+            files = {"files": (f"e{k}.csv", csv.replace(b",6\n", f",{k % 5}\n".encode(), 1))}
+            codes.append(
+                c.post("/api/recordings", files=files, data={"emg_rate": "1000"}).status_code
+            )
+
+        threads = [threading.Thread(target=upload, args=(k,)) for k in range(4)]
+        for t in threads:
+            t.start()
+        time.sleep(0.2)
+        listed = c.get("/api/recordings")  # a read while uploads wait: answered
+        for t in threads:
+            t.join(120)
+        assert listed.status_code == 200
+        assert codes == [201] * 4
+    assert peak[0] == slots  # never more at once, and the slots are used

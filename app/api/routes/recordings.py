@@ -161,15 +161,16 @@ def upload_recording(
     ]
     if any(is_video_upload(name, data) for name, data in uploads):
         _require_pose_environment(services)
-    rec = store_recording(
-        session=session,
-        blobs=services.blobs,
-        files=uploads,
-        meta={"subject": subject, "task": task, "load_kg": load_kg, "notes": notes},
-        options={k: v for k, v in options.items() if v is not None},
-        session_mode=session_mode,
-        max_video_seconds=services.settings.max_video_seconds,
-    )
+    with services.parse_slots:  # a bounded number parse at once; reads keep their threads
+        rec = store_recording(
+            session=session,
+            blobs=services.blobs,
+            files=uploads,
+            meta={"subject": subject, "task": task, "load_kg": load_kg, "notes": notes},
+            options={k: v for k, v in options.items() if v is not None},
+            session_mode=session_mode,
+            max_video_seconds=services.settings.max_video_seconds,
+        )
     services.recordings_cache.invalidate()
     pose = _submit_pose(services, rec, videos_without_pose(rec))
     return _detail(session, rec.id, pose_jobs=pose)

@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, File, Form, Path, Response, UploadFile
 
-from app.api.deps import RobotsDep, SessionDep, WriteAccess
+from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, upload_name
 from app.api.schemas import ROBOT_NAME, RobotInfo
@@ -56,6 +56,7 @@ Member = Annotated[
 
 @router.post("", status_code=201, response_model=RobotInfo, dependencies=[WriteAccess])
 def upload_robot(
+    services: ServicesDep,
     session: SessionDep,
     robots: RobotsDep,
     name: Annotated[str, Form(pattern=ROBOT_NAME, description="name used in requests")],
@@ -90,23 +91,24 @@ def upload_robot(
     joint."""
     if len(lock or []) > MAX_LOCKS:
         raise ApiError(422, f"at most {MAX_LOCKS} locks", field="lock")
-    return robots.upload(
-        session,
-        name=name,
-        urdf=_optional(urdf, "urdf"),
-        mjcf=_optional(mjcf, "mjcf"),
-        package=_optional(package, "package", MAX_PACKAGE_BYTES),
-        sidecar=_optional(sidecar, "sidecar"),
-        payload=payload,
-        options={
-            "shoulder_joint": shoulder_joint,
-            "elbow_joint": elbow_joint,
-            "locks": parse_locks(lock or []),
-            "urdf_member": urdf_member,
-            "mjcf_member": mjcf_member,
-            "sidecar_member": sidecar_member,
-        },
-    )
+    with services.parse_slots:  # a bounded number of models are compiled at once
+        return robots.upload(
+            session,
+            name=name,
+            urdf=_optional(urdf, "urdf"),
+            mjcf=_optional(mjcf, "mjcf"),
+            package=_optional(package, "package", MAX_PACKAGE_BYTES),
+            sidecar=_optional(sidecar, "sidecar"),
+            payload=payload,
+            options={
+                "shoulder_joint": shoulder_joint,
+                "elbow_joint": elbow_joint,
+                "locks": parse_locks(lock or []),
+                "urdf_member": urdf_member,
+                "mjcf_member": mjcf_member,
+                "sidecar_member": sidecar_member,
+            },
+        )
 
 
 @router.delete("/{name}", status_code=204, dependencies=[WriteAccess])
