@@ -51,6 +51,8 @@ class Settings(BaseSettings):
         max_upload_mb: largest request body accepted [MB], enforced while it streams in.
         max_json_kb: largest body of a request that is not an upload (JSON) [KiB].
         max_parallel_parses: uploads (recordings, robots) parsed at once; more wait their turn.
+        head_timeout_s: seconds a client has to send a complete request head (request line and
+            headers) after connecting or after the previous response; then it is disconnected.
         cors_origins: origins allowed by CORS (none by default: CORS closed); they may also
             write across sites.
         allowed_hosts: names the server answers to in the ``Host`` header besides the loopback
@@ -90,6 +92,7 @@ class Settings(BaseSettings):
     max_upload_mb: float = Field(default=200.0, gt=0)
     max_json_kb: float = Field(default=256.0, gt=0)
     max_parallel_parses: int = Field(default=2, ge=1, le=64)
+    head_timeout_s: float = Field(default=10.0, gt=0, le=3600)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     allowed_hosts: Annotated[list[str], NoDecode] = Field(default_factory=list)
     protect_reads: bool = False

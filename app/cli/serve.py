@@ -201,6 +201,8 @@ def _run(settings: Any, sock: socket.socket, *, demo: bool, json_out: bool) -> i
         "bioplan serve: starting the job runner"
         + (" and the 3-D viewer" if settings.viewer else "")
     )
+    from app.api.http_protocol import head_timeout_protocol
+
     app = create_app(settings)
     config = uvicorn.Config(
         app,
@@ -208,6 +210,9 @@ def _run(settings: Any, sock: socket.socket, *, demo: bool, json_out: bool) -> i
         log_level=settings.log_level,
         log_config=_uvicorn_logging(),
         timeout_graceful_shutdown=5,
+        # A request's head within head_timeout_s; an idle kept-alive connection for 5 s.
+        http=head_timeout_protocol(settings.head_timeout_s),
+        timeout_keep_alive=5,
     )
     server = uvicorn.Server(config)
     url = f"http://{_url_host(settings.host)}:{settings.port}/"
