@@ -9,10 +9,13 @@
    measured from the server's death (target < 2 s), with ``--hogs N`` CPU hogs running.
 5. ``make-run``: ``git clone`` this repository into a temporary folder and ``make run``: the time
    until the URL is printed and the page answers (target < 2 min; uv's cache as it is).
+6. ``load``: p50/p99 of ``GET /api/recordings`` with 16 and then 64 clients while two 50 MB
+   uploads are parsed and a sweep runs (issue 14; target p99 < 100 ms at 16 clients).
 
     .venv/bin/python benchmarks/bench_api.py [--quick] [--skip-dask] [--json]
     .venv/bin/python benchmarks/bench_api.py --only faults --runs 5 --hogs 2
     .venv/bin/python benchmarks/bench_api.py --only make-run --runs 3
+    .venv/bin/python benchmarks/bench_api.py --only load
 
 Numbers depend on the machine; the script prints its CPU count and load with them.
 """
@@ -313,6 +316,52 @@ def bench_service(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def bench_load(*, seconds: float) -> dict[str, Any]:
+    """List latency at 16 and 64 clients while two 50 MB uploads are parsed and a sweep runs
+    (the uploads are sent again whenever they finish, so the window is loaded throughout)."""
+    import threading
+
+    big = _csv(int(50e6 / 55))
+    sweep = {"robot": "curtain_wall_6dof", "durations": [0.8, 1.0, 1.2, 1.4],
+             "payloads": [0, 4, 8], "objectives": ["abs_work"]}  # fmt: skip
+    out: dict[str, Any] = {"upload_mb": len(big) / 1e6, "sweep": sweep}
+    with tempfile.TemporaryDirectory(prefix="bioplan-load-") as tmp:
+        server = Server(Path(tmp) / "data", BIOPLAN_MAX_WORKERS="2").start()
+        try:
+            for clients in (16, 64):
+                with httpx.Client(base_url=server.url, timeout=60) as c:
+                    job = c.post("/api/sweeps", json=sweep).json()
+                stop = threading.Event()
+                parsed = [0]
+
+                def uploader(
+                    k: int, stop: threading.Event = stop, parsed: list[int] = parsed
+                ) -> None:
+                    with httpx.Client(base_url=server.url, timeout=600) as c:
+                        while not stop.is_set():
+                            data = big.replace(b"0,", f"{k},".encode(), 1)
+                            r = c.post("/api/recordings", files=[("files", ("big.csv", data))])
+                            parsed[0] += r.status_code == 201
+
+                threads = [threading.Thread(target=uploader, args=(k,)) for k in range(2)]
+                for t in threads:
+                    t.start()
+                time.sleep(1.0)  # both uploads under way
+                result = bench_list_latency(server, clients=clients, seconds=seconds,
+                                            n_recordings=0)  # fmt: skip
+                with httpx.Client(base_url=server.url, timeout=60) as c:
+                    state = c.get(f"/api/jobs/{job['id']}").json()["state"]
+                    c.post(f"/api/jobs/{job['id']}/cancel")
+                stop.set()
+                for t in threads:
+                    t.join(600)
+                result.update(uploads_parsed=parsed[0], sweep_state_at_end=state)
+                out[f"clients_{clients}"] = result
+        finally:
+            server.stop()
+    return out
+
+
 def _jobs_on_dask(data: Path, n_jobs: int, plan_body: dict[str, Any]) -> dict[str, Any]:
     from distributed import LocalCluster
 
@@ -330,6 +379,14 @@ def _jobs_on_dask(data: Path, n_jobs: int, plan_body: dict[str, Any]) -> dict[st
 
 def _print(out: dict[str, Any]) -> None:
     print(f"machine: {out['machine']}")
+    for key, lat in out.get("load", {}).items():
+        if key.startswith("clients_"):
+            print(
+                f"load, {lat['clients']} clients listing while 2 x 50 MB uploads parse and a "
+                f"sweep runs: p50 {lat['p50_ms']:.1f} ms, p99 {lat['p99_ms']:.1f} ms, max "
+                f"{lat['max_ms']:.0f} ms, {lat['requests']} requests, {lat['errors']} errors; "
+                f"{lat['uploads_parsed']} uploads parsed, sweep {lat['sweep_state_at_end']}"
+            )
     for key in ("list_latency", "list_latency_with_uploads"):
         if key in out:
             lat = out[key]
@@ -366,7 +423,10 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true", help="smaller runs (smoke test)")
     parser.add_argument("--skip-dask", action="store_true", help="leave out the Dask run")
     parser.add_argument(
-        "--only", choices=("service", "faults", "make-run"), default=None, help="one benchmark"
+        "--only",
+        choices=("service", "faults", "make-run", "load"),
+        default=None,
+        help="one benchmark",
     )
     parser.add_argument("--runs", type=int, default=3, help="repetitions (faults, make-run)")
     parser.add_argument("--hogs", type=int, default=2, help="CPU hogs beside the faults runs")
@@ -379,6 +439,8 @@ def main() -> int:
         out["faults"] = bench_faults(runs=args.runs, hogs=args.hogs)
     if args.only == "make-run":  # slow and it clones: only when asked for
         out["make_run"] = bench_make_run(runs=args.runs)
+    if args.only == "load":
+        out["load"] = bench_load(seconds=5 if args.quick else 20)
     out["machine"]["load_1min_after"] = os.getloadavg()[0]
     if args.json:
         print(json.dumps(out, indent=2))
