@@ -40,9 +40,14 @@ def test_pages_and_assets_are_served(dashboard: tuple[TestClient, Any]) -> None:
     for path, kind in (("/style.css", "text/css"), ("/js/compare.js", "javascript")):
         r = client.get(path)
         assert r.status_code == 200 and kind in r.headers["content-type"], path
-    plotly = client.get("/api/viewer/assets/plotly.min.js")
+    plotly = client.get("/api/viewer/assets/plotly.min.js")  # httpx accepts gzip
     assert plotly.status_code == 200
     assert plotly.content == plotly_js_path().read_bytes()
+    # The largest asset goes compressed (issue 15: a first useful paint under 1 s).
+    assert plotly.headers["content-encoding"] == "gzip"
+    assert plotly.num_bytes_downloaded < 0.4 * len(plotly.content)
+    plain = client.get("/api/viewer/assets/plotly.min.js", headers={"Accept-Encoding": "identity"})
+    assert "content-encoding" not in plain.headers and plain.content == plotly.content
     again = client.get(
         "/api/viewer/assets/plotly.min.js", headers={"If-None-Match": plotly.headers["etag"]}
     )

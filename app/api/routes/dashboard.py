@@ -49,13 +49,27 @@ def _etag(path: Path) -> str:
     responses={200: {"content": {"text/javascript": {}}, "description": "Plotly.js"}},
 )
 def plotly_js(request: Request) -> Response:
-    """Plotly.js from the installed ``plotly`` package (no CDN: the dashboard works offline)."""
+    """Plotly.js from the installed ``plotly`` package (no CDN: the dashboard works offline);
+    gzip-compressed once (4.8 MB -> about 1.4 MB) for browsers that accept it, cached by ETag."""
     path = plotly_js_path()
     etag = f'"{_etag(path)}"'
-    headers = {"Cache-Control": "public, max-age=86400", "ETag": etag}
+    headers = {"Cache-Control": "public, max-age=86400", "ETag": etag, "Vary": "Accept-Encoding"}
     if request.headers.get("if-none-match") == etag:
         return Response(status_code=304, headers=headers)
+    if "gzip" in request.headers.get("accept-encoding", "").lower():
+        return Response(
+            _gzipped(path),
+            media_type="text/javascript",
+            headers={**headers, "Content-Encoding": "gzip"},
+        )
     return FileResponse(path, media_type="text/javascript", headers=headers)
+
+
+@functools.cache
+def _gzipped(path: Path) -> bytes:
+    import gzip
+
+    return gzip.compress(path.read_bytes(), compresslevel=6, mtime=0)
 
 
 MethodsQuery = Annotated[
