@@ -152,3 +152,21 @@ def test_a_video_becomes_pose_with_skeleton_frames(live_server: Server, page: An
     assert page.locator("#skeleton-frames img").count() >= 3
     assert "pose in" in page.inner_text("#pose-note")
     screenshot(page, "video-skeletons")
+
+
+def test_the_first_visit_guide_leads_to_the_demo(live_server: Server, page: Any) -> None:
+    """Issue 15: the home page gave no guidance. A first visit explains what BioPlan does and
+    opens the demo comparison in one click; hidden, it stays hidden in this browser."""
+    page.goto(f"{live_server.url}/")
+    page.wait_for_selector("#home-guide")
+    assert "What BioPlan does" in page.inner_text("#home-guide")
+    page.click("#guide-demo")
+    # The newest comparison (on a first visit, the demo; here other tests may have added one).
+    page.wait_for_selector("#metrics-table", timeout=120_000)
+    assert page.locator("#metrics-table thead th[data-method]").count() >= 2
+    page.goto(f"{live_server.url}/#/recordings")
+    page.click("#guide-hide")
+    assert page.locator("#home-guide").count() == 0
+    page.reload()
+    page.wait_for_selector("#upload-form")
+    assert page.locator("#home-guide").count() == 0

@@ -11,6 +11,29 @@ const FIELD_WORDS = {
   frame_rate: "Frame rate", format: "Format",
 };
 
+const GUIDE_KEY = "bioplan.guide.hidden";
+
+/** The first-visit guide: what BioPlan does and the demo one click away (hidden for good once
+ * the user says so; kept in this browser's localStorage). */
+function homeGuide() {
+  if (localStorage.getItem(GUIDE_KEY) === "1") return null;
+  const card = h("section", { class: "card guide", id: "home-guide" },
+    h("h2", {}, "What BioPlan does"),
+    h("p", {}, "People lifting a heavy dumbbell accelerate while the load is easy, carry the momentum through the posture where they are weakest, and let gravity finish the lift. BioPlan measures that in your recordings and plans robot motions that copy it, to save energy and cut peak power."),
+    h("ol", {},
+      h("li", {}, h("strong", {}, "Recordings: "), "upload surface EMG (deltoid, triceps, biceps, forearm) with pose from motion capture, MediaPipe or a video. The analysis finds the lifts, their A/B/C phases and the human template."),
+      h("li", {}, h("strong", {}, "Plan: "), "on a built-in robot or your own URDF/MJCF, the paper's method, the best human-like motion, the physical bound and an industrial jerk-limited profile, side by side."),
+      h("li", {}, h("strong", {}, "Compare: "), "every metric with its physical floor, the curves, the 3-D viewer with the recorded human beside the robot, and exports for robot controllers.")),
+    h("div", { class: "row" },
+      h("a", { class: "button primary", href: "#/compare", id: "guide-demo" }, "Open the demo comparison →"),
+      h("a", { class: "button", href: "#/plan" }, "Plan a motion"),
+      h("button", { type: "button", class: "small", id: "guide-hide", onclick: () => {
+        localStorage.setItem(GUIDE_KEY, "1");
+        card.remove();
+      } }, "Hide this guide")));
+  return card;
+}
+
 /** A problem's message with its field in the form's words ("EMG rate: ..."). */
 export function inWords(err) {
   const field = err && err.problem && err.problem.field;
@@ -325,6 +348,8 @@ export function render(main) {
   }
   search.addEventListener("input", debounce(refresh, 250));
 
+  const guide = homeGuide();
+  if (guide) main.append(guide);
   main.append(h("div", { class: "grid-2" }, uploadCard, listCard));
   refresh();
   return () => stops.forEach((stop) => stop());
