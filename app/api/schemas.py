@@ -126,8 +126,8 @@ class ViewerInfo(BaseModel):
 # -------------------------------------------------------------------------------------- jobs
 
 
-class Job(BaseModel):
-    """A background job (analysis, plan, simulation or sweep)."""
+class _JobState(BaseModel):
+    """What every form of a job carries."""
 
     id: int
     kind: JobKind
@@ -140,7 +140,6 @@ class Job(BaseModel):
     message: str = Field(description="one line for people (never parsed: read the fields)")
     error: str | None = Field(description="why it failed (state 'failed')")
     attempts: int = Field(description="how many times it was started")
-    params: dict[str, Any] = Field(description="the request, with the CLI's field names")
     created_at: datetime
     started_at: datetime | None
     finished_at: datetime | None
@@ -148,6 +147,19 @@ class Job(BaseModel):
     run_seconds: float | None = Field(description="running time so far or in all [s]")
     result_url: str
     events_url: str
+
+
+class Job(_JobState):
+    """A background job (analysis, pose, plan, simulation, sweep or profiles)."""
+
+    params: dict[str, Any] = Field(description="the request, with the CLI's field names")
+
+
+class JobSummary(_JobState):
+    """A job as the job drawer shows it (``GET /api/events/jobs``): no request, one line."""
+
+    about: str = Field(description="what it works on: 'curtain_wall_6dof, 4 kg, 1 s, abs_work'")
+    recording_id: int | None = Field(description="the recording an analysis or pose job reads")
 
 
 # -------------------------------------------------------------------------------- recordings

@@ -7,7 +7,7 @@ the API's routes call these and stay thin. Bad requests found here raise
 :class:`~app.services.errors.ServiceError` (a ``BioPlanError``).
 """
 
-from app.services.broker import JobBroker, Subscription
+from app.services.broker import ALL_JOBS, JobBroker, Subscription
 from app.services.cache import ResponseCache
 from app.services.comparisons import ComparisonLoader, load_robot_spec
 from app.services.core import Services, start_services, stop_services
@@ -26,12 +26,13 @@ from app.services.errors import (
     ServiceError,
     UnknownRobotError,
 )
-from app.services.jobs import KIND_PATHS, JobService, job_to_dict
+from app.services.jobs import KIND_PATHS, JobService, job_summary, job_to_dict
 from app.services.overlays import RecordingOverlays
 from app.services.recordings import parse_upload, store_recording
 from app.services.robots import RobotCatalog
 
 __all__ = [
+    "ALL_JOBS",
     "DEMO_MUSCLES",
     "DEMO_NAME",
     "KIND_PATHS",
@@ -48,6 +49,7 @@ __all__ = [
     "Services",
     "Subscription",
     "UnknownRobotError",
+    "job_summary",
     "job_to_dict",
     "load_robot_spec",
     "parse_upload",

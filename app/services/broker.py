@@ -7,6 +7,9 @@ import threading
 from collections import defaultdict
 from typing import Any
 
+#: The subscription key of a subscriber to every job's updates (job ids start at 1).
+ALL_JOBS = 0
+
 
 class Subscription:
     """A subscriber's queue of job updates, bound to the event loop that created it."""
@@ -41,7 +44,8 @@ class JobBroker:
         self._lock = threading.Lock()
 
     def subscribe(self, job_id: int) -> Subscription:
-        """Must be called from a running event loop (the SSE endpoint)."""
+        """Must be called from a running event loop (the SSE endpoint); ``ALL_JOBS`` receives
+        every job's updates."""
         sub = Subscription(self, job_id)
         with self._lock:
             self._subs[job_id].add(sub)
@@ -57,7 +61,7 @@ class JobBroker:
 
     def publish(self, job_id: int, update: dict[str, Any]) -> None:
         with self._lock:
-            subs = list(self._subs.get(job_id, ()))
+            subs = list(self._subs.get(job_id, ())) + list(self._subs.get(ALL_JOBS, ()))
         for sub in subs:
             try:
                 sub.loop.call_soon_threadsafe(sub.put, update)
@@ -65,5 +69,6 @@ class JobBroker:
                 self.unsubscribe(sub)
 
     def subscribers(self, job_id: int) -> int:
+        """Subscribers that receive this job's updates (its own and those of every job)."""
         with self._lock:
-            return len(self._subs.get(job_id, ()))
+            return len(self._subs.get(job_id, ())) + len(self._subs.get(ALL_JOBS, ()))

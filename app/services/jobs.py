@@ -21,6 +21,7 @@ import logging
 import queue
 import threading
 import time
+from collections.abc import Iterable
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -97,6 +98,36 @@ def job_to_dict(job: JobRecord) -> dict[str, Any]:
         "result_url": f"/api/{KIND_PATHS.get(job.kind, job.kind)}/{job.id}",
         "events_url": f"/api/jobs/{job.id}/events",
     }
+
+
+def _about(kind: str, params: dict[str, Any]) -> str:
+    """One line saying what a job works on ("curtain_wall_6dof, 4 kg, 1 s, abs_work")."""
+    if kind in ("analysis", "pose"):
+        return f"recording #{params.get('recording_id')}"
+    parts = [str(params.get("robot", ""))]
+    if kind == "sweep":
+        cells = len(params.get("durations") or ()) * len(params.get("payloads") or ())
+        parts.append(f"{cells} cells" if cells else "")
+        parts.append(", ".join(params.get("objectives") or ()))
+    else:
+        if params.get("payload") is not None:
+            parts.append(f"{params['payload']:g} kg")
+        if isinstance(params.get("duration"), int | float):
+            parts.append(f"{params['duration']:g} s")
+        parts.append(str(params.get("objective") or ""))
+    return ", ".join(p for p in parts if p)
+
+
+def job_summary(job: dict[str, Any]) -> dict[str, Any]:
+    """A job's drawer form (``app.api.schemas.JobSummary``) from its JSON form: no request
+    (it can be large: a template), but one line on what it works on and, for analysis and
+    pose jobs, the recording they read."""
+    params = job["params"]
+    summary = {k: v for k, v in job.items() if k != "params"}
+    summary["about"] = _about(job["kind"], params)
+    rid = params.get("recording_id")
+    summary["recording_id"] = rid if isinstance(rid, int) else None
+    return summary
 
 
 def _progress_columns(ev: JobEvent) -> dict[str, Any]:
@@ -203,6 +234,7 @@ class JobService:
         with self.sessions() as session:
             job = crud.create_job(session=session, kind=kind, params=params, resource=resource)
             data = job_to_dict(job)
+        self._publish(job.id)  # the job drawers see it queued
         self._dispatch(job.id)
         return data
 
@@ -228,6 +260,18 @@ class JobService:
         with self.sessions() as session:
             job = crud.get_job(session=session, job_id=job_id)
             return None if job is None else job_to_dict(job)
+
+    def recent(self, limit: int, also: Iterable[int] = ()) -> list[dict[str, Any]]:
+        """Drawer forms of the newest ``limit`` jobs, every active job and the jobs ``also``
+        names (those a client shows as active), newest first."""
+        with self.sessions() as session:
+            newest, _ = crud.list_jobs(session=session, limit=limit)
+            found = {j.id: j for j in newest + crud.active_jobs(session=session)}
+            for job_id in set(also) - found.keys():
+                job = crud.get_job(session=session, job_id=job_id)
+                if job is not None:
+                    found[job_id] = job
+            return [job_summary(job_to_dict(found[i])) for i in sorted(found, reverse=True)]
 
     def get(self, job_id: int) -> dict[str, Any]:
         """The job's JSON form.

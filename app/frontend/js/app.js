@@ -1,6 +1,7 @@
 // The dashboard shell: hash routes, navigation, service status, API token.
 
 import { api, setToken, token } from "./api.js";
+import { mountJobDrawer } from "./jobs_drawer.js";
 import { loadNames } from "./names.js";
 import { colours } from "./plots.js";
 import { banner, clear, messageOf } from "./ui.js";
@@ -14,6 +15,7 @@ const routes = [
 
 const main = document.getElementById("app");
 let current = null; // the page's cleanup function
+let drawerMounted = false;
 
 async function route() {
   const hash = location.hash || "#/recordings";
@@ -35,6 +37,11 @@ async function route() {
   const [r, m] = match;
   try {
     await loadNames();
+    if (!drawerMounted) {
+      // The job drawer reads the shared job states, so it is mounted once they are loaded.
+      mountJobDrawer(document.getElementById("jobs-button"), document.getElementById("job-drawer"));
+      drawerMounted = true;
+    }
     // The stylesheet's trajectory colours follow the shared names too.
     for (const [k, v] of Object.entries({ "--std": colours().standard, "--opt": colours().optimized })) {
       document.documentElement.style.setProperty(k, v);

@@ -5,7 +5,7 @@ import { api, followJob, qs } from "./api.js";
 import { names } from "./names.js";
 import { colours, draw, layout } from "./plots.js";
 import { robotUploadCard } from "./robot_upload.js";
-import { DEG, banner, clear, fmt, h, messageOf, pct, tag, when } from "./ui.js";
+import { DEG, banner, clear, fmt, h, messageOf, pct, tag } from "./ui.js";
 
 /**
  * The optimisers' convergence from a job's structured progress: one curve per stage that
@@ -157,31 +157,6 @@ export async function render(main, [query]) {
     h("h2", {}, "Progress"),
     h("p", { class: "muted" }, "Submit a plan: its progress, the optimiser's convergence and the result appear here."),
   );
-  const jobsBody = h("tbody", { id: "jobs-body" });
-  const jobsCard = h("section", { class: "card" }, h("h2", {}, "Recent jobs"),
-    h("div", { class: "table-wrap" }, h("table", {}, h("thead", {}, h("tr", {}, ["#", "kind", "state", "robot", "created", "run [s]", ""].map((c, i) => h("th", { class: i === 5 ? "num" : "" }, c)))), jobsBody)));
-
-  async function refreshJobs() {
-    try {
-      const page = await api(`/api/jobs${qs({ limit: 12 })}`);
-      clear(jobsBody);
-      for (const j of page.items) {
-        const link = j.state === "succeeded" && ["plan", "simulation"].includes(j.kind)
-          ? h("a", { href: `#/compare/${j.kind}/${j.id}` }, "compare")
-          : j.state === "succeeded" && j.kind === "analysis" ? h("a", { href: `#/plan?analysis=${j.id}` }, "use template") : "";
-        jobsBody.append(h("tr", {},
-          h("td", { class: "mono" }, j.id), h("td", {}, j.kind), h("td", {}, tag(j.state)),
-          h("td", { class: "mono small" }, j.params.robot || (j.params.recording_id ? `recording #${j.params.recording_id}` : "")),
-          h("td", { class: "small nowrap" }, when(j.created_at)),
-          h("td", { class: "num" }, j.run_seconds === null ? "–" : fmt(j.run_seconds, 3)),
-          h("td", {}, link),
-        ));
-      }
-    } catch {
-      /* the list is secondary */
-    }
-  }
-
   function startMonitor(job) {
     const bar = h("div", {});
     const prog = h("div", { class: "progress", id: "job-progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": "0" }, bar);
@@ -224,7 +199,6 @@ export async function render(main, [query]) {
     stops.push(follow.stop);
     follow.done.then(async (final) => {
       cancel.hidden = true;
-      refreshJobs();
       if (final.state === "succeeded") {
         prog.classList.add("done");
         const out = await api(final.result_url);
@@ -265,7 +239,6 @@ export async function render(main, [query]) {
       const route = kind.value === "simulation" ? "/api/simulations" : "/api/plans";
       const job = await api(route, { method: "POST", body: b });
       startMonitor(job);
-      refreshJobs();
     } catch (err) {
       const field = err.problem && err.problem.field ? ` (${err.problem.field})` : "";
       formError.append(banner("error", `${messageOf(err)}${field}`));
@@ -280,7 +253,6 @@ export async function render(main, [query]) {
     robot.value = r.name;
     showRobot();
   });
-  main.append(h("div", { class: "grid-2" }, h("div", {}, form, addRobot), h("div", {}, monitor, jobsCard)));
-  refreshJobs();
+  main.append(h("div", { class: "grid-2" }, h("div", {}, form, addRobot), h("div", {}, monitor)));
   return () => stops.forEach((f) => f());
 }

@@ -1,0 +1,124 @@
+// The job drawer on every page: running and recent jobs with progress, cancel and a link to the
+// result, updated live from one Server-Sent Events stream (GET /api/events/jobs). It lives in
+// the shell, not in a page, so it survives navigation; the server keeps the jobs, so a reload
+// shows them again.
+
+import { api, qs } from "./api.js";
+import { isTerminal } from "./names.js";
+import { clear, fmt, h, messageOf, tag, when } from "./ui.js";
+
+const OPEN_KEY = "bioplan.drawer.open";
+const RECENT = 20;
+/** Seconds between polls when the stream cannot be used (a proxy, reads needing a token). */
+const POLL_SECONDS = 5;
+
+const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", simulation: "Simulation", sweep: "Sweep", profiles: "Profiles" };
+
+/** Where a finished job's result is shown in the dashboard (null: nowhere). */
+export function resultLink(job) {
+  if (job.kind === "plan" || job.kind === "simulation") return [`#/compare/${job.kind}/${job.id}`, "Compare"];
+  if ((job.kind === "analysis" || job.kind === "pose") && job.recording_id) return [`#/recordings/${job.recording_id}`, "Recording"];
+  if (job.kind === "sweep") return ["#/compare", "Heat maps"];
+  return null;
+}
+
+function jobItem(job, onCancel) {
+  const active = !isTerminal(job.state);
+  const pctDone = Math.round(100 * job.progress);
+  const link = job.state === "succeeded" ? resultLink(job) : null;
+  const detail = job.state === "failed" ? job.error : job.state === "succeeded" ? null : job.message;
+  return h("li", { class: `job-item ${job.state}`, dataset: { jobId: String(job.id), state: job.state } },
+    h("div", { class: "row" },
+      h("strong", {}, `${KIND_WORDS[job.kind] || job.kind} #${job.id}`), tag(job.state),
+      h("span", { class: "small muted", style: "margin-left:auto" }, active ? (job.run_seconds === null ? "waiting" : `${fmt(job.run_seconds, 3)} s`) : when(job.finished_at))),
+    h("div", { class: "small mono" }, job.about),
+    active ? h("div", { class: "progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": String(pctDone) },
+      h("div", { style: `width:${pctDone}%` })) : null,
+    detail ? h("div", { class: `small ${job.state === "failed" ? "error-text" : "muted"}` }, detail) : null,
+    h("div", { class: "row" },
+      link ? h("a", { class: "job-open", href: link[0] }, `${link[1]} →`) : null,
+      job.kind === "analysis" && job.state === "succeeded" ? h("a", { href: `#/plan?analysis=${job.id}` }, "Use template") : null,
+      active ? h("button", { type: "button", class: "danger small job-cancel", style: "margin-left:auto", onclick: (e) => onCancel(job, e.currentTarget) }, "Cancel") : null));
+}
+
+/** Mount the drawer: the header button toggles it; returns nothing (it lives as long as the page). */
+export function mountJobDrawer(button, drawer) {
+  const jobs = new Map(); // id -> JobSummary
+  const list = h("ul", { class: "job-list", id: "job-list" });
+  const note = h("div", { id: "job-drawer-note", class: "small muted" });
+  const count = button.querySelector("#jobs-count");
+  clear(drawer).append(
+    h("div", { class: "row" }, h("h2", { style: "margin:0" }, "Jobs"),
+      h("button", { type: "button", class: "small", id: "job-drawer-close", style: "margin-left:auto", onclick: () => setOpen(false) }, "Close")),
+    note, list);
+
+  function setOpen(open) {
+    drawer.hidden = !open;
+    button.setAttribute("aria-expanded", String(open));
+    localStorage.setItem(OPEN_KEY, open ? "1" : "0");
+  }
+  button.addEventListener("click", () => setOpen(drawer.hidden));
+  setOpen(localStorage.getItem(OPEN_KEY) === "1");
+
+  async function cancel(job, btn) {
+    btn.disabled = true;
+    try {
+      upsert(await api(`/api/jobs/${job.id}/cancel`, { method: "POST" }));
+    } catch (err) {
+      note.textContent = `Job #${job.id} could not be cancelled: ${messageOf(err)}`;
+      btn.disabled = false;
+    }
+  }
+
+  function render() {
+    const sorted = [...jobs.values()].sort((a, b) => b.id - a.id);
+    const running = sorted.filter((j) => !isTerminal(j.state));
+    // Every active job, then the newest finished ones.
+    const shown = running.concat(sorted.filter((j) => isTerminal(j.state)).slice(0, RECENT));
+    clear(list).append(...shown.map((j) => jobItem(j, cancel)));
+    if (!shown.length) list.append(h("li", { class: "muted small" }, "No jobs yet: analyses, plans, simulations and sweeps appear here while they run."));
+    count.textContent = running.length ? String(running.length) : "";
+    count.hidden = !running.length;
+    button.title = running.length ? `${running.length} job(s) running` : "No job running";
+  }
+
+  function upsert(job) {
+    const { params, ...rest } = job; // a full Job from a cancel: the drawer keeps the summary form
+    const old = jobs.get(job.id);
+    jobs.set(job.id, { ...old, ...rest, about: rest.about ?? old?.about ?? "", recording_id: rest.recording_id ?? old?.recording_id ?? params?.recording_id ?? null });
+    render();
+  }
+
+  let poll = null;
+  async function pollOnce() {
+    try {
+      const page = await api(`/api/jobs${qs({ limit: RECENT })}`);
+      for (const j of page.items) upsert({ ...j, about: j.params.robot || (j.params.recording_id ? `recording #${j.params.recording_id}` : "") });
+    } catch (err) {
+      note.textContent = `Jobs cannot be read: ${messageOf(err)}`;
+    }
+  }
+
+  function connect() {
+    const source = new EventSource(`/api/events/jobs${qs({ recent: RECENT })}`);
+    source.addEventListener("jobs", (e) => {
+      jobs.clear();
+      for (const j of JSON.parse(e.data)) jobs.set(j.id, j);
+      note.textContent = "";
+      if (poll) clearInterval(poll);
+      poll = null;
+      render();
+    });
+    source.addEventListener("job", (e) => upsert(JSON.parse(e.data)));
+    source.onerror = () => {
+      // The browser reconnects by itself unless the server refused the stream (then: poll).
+      if (source.readyState === EventSource.CLOSED && !poll) {
+        note.textContent = "Live updates are unavailable; refreshed every few seconds.";
+        pollOnce();
+        poll = setInterval(pollOnce, POLL_SECONDS * 1000);
+      }
+    };
+  }
+  render();
+  connect();
+}
