@@ -11,7 +11,15 @@ from __future__ import annotations
 from datetime import datetime
 from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    StringConstraints,
+    ValidationInfo,
+    field_validator,
+)
 
 from app.names import (
     HUMAN_CONSTRAINTS,
@@ -47,6 +55,17 @@ ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
 T = TypeVar("T")
 
 _strict = ConfigDict(extra="forbid")
+
+
+def blank_label_is_none(value: Any) -> Any:
+    """A label without its surrounding blanks; an empty one is no label."""
+    return (value.strip() or None) if isinstance(value, str) else value
+
+
+#: The user's short name for a recording, plan or simulation (at most 200 characters).
+Label = Annotated[
+    Annotated[str, StringConstraints(max_length=200)] | None, BeforeValidator(blank_label_is_none)
+]
 
 
 class Problem(BaseModel):
@@ -140,6 +159,7 @@ class _JobState(BaseModel):
     message: str = Field(description="one line for people (never parsed: read the fields)")
     error: str | None = Field(description="why it failed (state 'failed')")
     attempts: int = Field(description="how many times it was started")
+    label: str | None = Field(description="the user's short name for the result")
     created_at: datetime
     started_at: datetime | None
     finished_at: datetime | None
@@ -248,6 +268,7 @@ class RecordingSummary(BaseModel):
     task: str | None
     load_kg: float | None
     notes: str | None
+    label: str | None = Field(description="the user's short name for the session")
     created_at: datetime
     n_files: int
     formats: list[str]
@@ -282,6 +303,7 @@ class RecordingPatch(BaseModel):
     subject: str | None = Field(default=None, max_length=200)
     task: str | None = Field(default=None, max_length=200)
     notes: str | None = Field(default=None, max_length=10000)
+    label: Label = Field(default=None, description="a short name; null or blank: none")
     load_kg: float | None = Field(default=None, ge=0, le=100, description="load lifted [kg]")
     session: SessionMode | None = Field(default=None, description="separate or together")
     muscle_map: dict[ChannelName, SiteOrNone] | None = Field(
@@ -446,6 +468,7 @@ class PoseOut(BaseModel):
 class _RobotTask(BaseModel):
     model_config = _strict
 
+    label: Label = Field(default=None, description="a short name for the result (not planned)")
     robot: str = Field(
         default="curtain_wall_6dof",
         pattern=ROBOT_NAME,
@@ -618,8 +641,17 @@ class ResultOut(BaseModel):
 
     id: int
     robot: str
+    label: str | None = Field(description="the user's short name for it")
     job: Job
     result: dict[str, Any] | None
+
+
+class LabelPatch(BaseModel):
+    """Rename a plan or simulation."""
+
+    model_config = _strict
+
+    label: Label = Field(description="the new short name; null or blank: none")
 
 
 class ArraysOut(BaseModel):

@@ -102,7 +102,7 @@ def create_recording(
     Args:
         session: open database session.
         blobs: the file store.
-        meta: ``subject, task, load_kg, notes, options, session_mode`` of the session.
+        meta: ``subject, task, load_kg, notes, label, options, session_mode`` of the session.
         files: parsed files, at least one; a file's ``parent`` is the index of an earlier one.
     """
     if not files:
@@ -114,6 +114,7 @@ def create_recording(
         task=meta.get("task"),
         load_kg=meta.get("load_kg"),
         notes=meta.get("notes"),
+        label=meta.get("label"),
         options=json_safe(meta.get("options") or {}),
         session_mode=meta.get("session_mode") or "separate",
         created_at=utcnow(),
@@ -171,6 +172,7 @@ def _recording_filters(
                 RecordingSession.subject.ilike(like),
                 RecordingSession.task.ilike(like),
                 RecordingSession.notes.ilike(like),
+                RecordingSession.label.ilike(like),
                 RecordingSession.files.any(RecordingFile.original_name.ilike(like)),
             )
         )
@@ -253,6 +255,7 @@ def list_recording_summaries(
         RecordingSession.task,
         RecordingSession.load_kg,
         RecordingSession.notes,
+        RecordingSession.label,
         RecordingSession.created_at,
         RecordingSession.session_mode.label("session"),
     )
@@ -621,7 +624,12 @@ def delete_robot(*, session: Session, blobs: BlobStore, name: str) -> bool:
 
 
 def create_job(
-    *, session: Session, kind: str, params: dict[str, Any], resource: dict[str, Any]
+    *,
+    session: Session,
+    kind: str,
+    params: dict[str, Any],
+    resource: dict[str, Any],
+    label: str | None = None,
 ) -> JobRecord:
     """Create a queued job and its (empty) result row in one transaction.
 
@@ -638,6 +646,7 @@ def create_job(
         progress=0.0,
         message="queued",
         params=json_safe(params),
+        label=label,
         attempts=0,
         created_at=now,
         updated_at=now,

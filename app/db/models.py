@@ -91,6 +91,8 @@ class RecordingSession(Base):
     task: Mapped[str | None] = mapped_column(String(200), index=True)
     load_kg: Mapped[float | None] = mapped_column(Float)
     notes: Mapped[str | None] = mapped_column(Text)
+    #: the user's short name for the session ("S01 curls, heavy"), None when not given.
+    label: Mapped[str | None] = mapped_column(String(200))
     #: reader options used at upload (rate overrides, muscle map, image size, frame rate), so an
     #: analysis rereads the raw bytes the same way.
     options: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
@@ -227,6 +229,8 @@ class JobRecord(Base):
     error: Mapped[str | None] = mapped_column(Text)
     #: the request, with the CLI's field names.
     params: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    #: the user's short name for the job's result ("UR5 slow, heavy"), None when not given.
+    label: Mapped[str | None] = mapped_column(String(200))
     attempts: Mapped[int] = mapped_column(Integer, default=0)
     created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
     started_at: Mapped[datetime | None] = mapped_column()

@@ -90,6 +90,7 @@ def job_to_dict(job: JobRecord) -> dict[str, Any]:
         "error": job.error,
         "attempts": job.attempts,
         "params": job.params,
+        "label": job.label,
         "created_at": _aware(job.created_at),
         "started_at": _aware(job.started_at),
         "finished_at": _aware(job.finished_at),
@@ -223,16 +224,24 @@ class JobService:
     # API --------------------------------------------------------------------------------------
 
     def submit(
-        self, *, kind: str, params: dict[str, Any], resource: dict[str, Any]
+        self,
+        *,
+        kind: str,
+        params: dict[str, Any],
+        resource: dict[str, Any],
+        label: str | None = None,
     ) -> dict[str, Any]:
-        """Create a queued job (and its result row) and hand it to the runner.
+        """Create a queued job (and its result row) and hand it to the runner; ``label`` is
+        the user's name for its result.
 
         Raises:
             ServiceError: the request asks for more work than a configured limit allows.
         """
         self.limits.check(params)
         with self.sessions() as session:
-            job = crud.create_job(session=session, kind=kind, params=params, resource=resource)
+            job = crud.create_job(
+                session=session, kind=kind, params=params, resource=resource, label=label
+            )
             data = job_to_dict(job)
         self._publish(job.id)  # the job drawers see it queued
         self._dispatch(job.id)

@@ -28,6 +28,7 @@ def summary(rec: RecordingSession) -> dict[str, Any]:
         "task": rec.task,
         "load_kg": rec.load_kg,
         "notes": rec.notes,
+        "label": rec.label,
         "created_at": rec.created_at,
         "n_files": len(uploaded),
         "formats": sorted({f.format for f in uploaded}),

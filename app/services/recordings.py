@@ -359,7 +359,7 @@ def get_recording(session: Session, recording_id: int) -> RecordingSession:
 # ----------------------------------------------------------------------------------- changes
 
 
-_META_FIELDS = ("subject", "task", "notes", "load_kg")
+_META_FIELDS = ("subject", "task", "notes", "load_kg", "label")
 
 
 def update_recording(
@@ -371,7 +371,7 @@ def update_recording(
 
     Args:
         changes: the fields the request sets (absent: unchanged; None clears an option):
-            ``subject, task, notes, load_kg, session`` and the keys of ``READER_OPTIONS`` and
+            ``subject, task, notes, load_kg, label, session`` and the keys of ``READER_OPTIONS`` and
             ``ANALYSIS_DEFAULTS``.
 
     Raises:

@@ -98,3 +98,41 @@ def test_0003_adds_structured_progress_and_loses_no_row(db_url: str) -> None:
             assert conn.execute(text("SELECT count(*) FROM plans")).scalar() == 1
     finally:
         engine.dispose()
+
+
+def test_0006_adds_labels_and_loses_no_row(db_url: str) -> None:
+    """Issue 15 item 6: a plan and a recording stored before labels existed survive 0006 both
+    ways, unlabelled (and the plan's result row is not cascaded away when SQLite recreates
+    ``jobs`` on the way down)."""
+    engine = make_engine(db_url)
+    try:
+        upgrade(db_url, "0005_recapi")
+        with engine.begin() as conn:
+            conn.execute(
+                text(
+                    "INSERT INTO jobs (id, kind, state, progress, message, params, attempts,"
+                    " created_at, updated_at, stage, done, of) VALUES (4, 'plan', 'succeeded',"
+                    " 1.0, 'done', '{}', 1, CURRENT_TIMESTAMP, CURRENT_TIMESTAMP, '', 1, 1)"
+                )
+            )
+            conn.execute(text("INSERT INTO plans (id, robot) VALUES (4, 'human_arm_2dof')"))
+            conn.execute(
+                text(
+                    "INSERT INTO recording_sessions (id, subject, options, session_mode,"
+                    " created_at) VALUES (2, 'S01', '{}', 'separate', CURRENT_TIMESTAMP)"
+                )
+            )
+        upgrade(db_url)
+        with engine.connect() as conn:
+            assert conn.execute(text("SELECT label FROM jobs")).one()[0] is None
+            assert conn.execute(text("SELECT label FROM recording_sessions")).one()[0] is None
+        with engine.begin() as conn:
+            conn.execute(text("UPDATE jobs SET label = 'slow and heavy'"))
+        downgrade(db_url, "0005_recapi")
+        for table in ("jobs", "recording_sessions"):
+            assert "label" not in {c["name"] for c in inspect(engine).get_columns(table)}
+        with engine.connect() as conn:
+            for table in ("jobs", "plans", "recording_sessions"):
+                assert conn.execute(text(f"SELECT count(*) FROM {table}")).scalar() == 1
+    finally:
+        engine.dispose()

@@ -154,3 +154,34 @@ def test_export_any_method_at_any_rate(live_server: Server, page: Any, tmp_path:
     with page.expect_download(timeout=120_000) as report:
         page.click("#export-report")
     assert b"<html" in Path(report.value.path()).read_bytes()[:2000].lower()
+
+
+def test_a_labelled_plan_is_named_in_the_picker_and_renamed(live_server: Server, page: Any) -> None:
+    """Issue 15 item 6: eight entries were all titled alike. A label given on the Plan page
+    names the comparison in the picker; renamed on the Compare page, it stays renamed."""
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#methods-fieldset")
+    page.select_option("#robot", "human_arm_2dof")
+    page.select_option("#kind", "plan")
+    page.fill("#plan-label", "light and quick")
+    page.fill("#particles", "8")
+    page.fill("#iterations", "5")
+    page.click("#submit-plan")
+    page.wait_for_selector("#open-compare, #job-result .banner", timeout=180_000)
+    assert page.locator("#open-compare").count(), page.inner_text("#job-result")
+    plan_id = int((page.get_attribute("#open-compare", "href") or "").rsplit("/", 1)[-1])
+    assert live_server.get(f"/api/plans/{plan_id}")["label"] == "light and quick"
+
+    page.click("#open-compare")
+    page.wait_for_selector("#metrics-table", timeout=120_000)
+    chosen = "#comparison-select option:checked"
+    assert "“light and quick”" in page.inner_text(chosen)
+    assert page.input_value("#label-input") == "light and quick"
+    page.fill("#label-input", "renamed on compare")
+    page.click("#label-save")
+    wait_for(lambda: "renamed" in page.inner_text("#label-status"), 30, "the rename")
+    assert "“renamed on compare”" in page.inner_text(chosen)
+    assert live_server.get(f"/api/plans/{plan_id}")["label"] == "renamed on compare"
+    page.reload()
+    page.wait_for_selector("#metrics-table", timeout=120_000)
+    assert "“renamed on compare”" in page.inner_text(chosen)

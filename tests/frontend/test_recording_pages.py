@@ -39,6 +39,7 @@ def test_upload_resets_keeps_new_files_and_fixes_the_rate(live_server: Server, p
 
     page.fill("#emg-rate", "")
     page.fill("#subject", "S-rate")
+    page.fill("#rec-label", "rate check set")
     page.click("#upload-button")
     page.wait_for_selector("#upload-stored", timeout=120_000)
     page.set_input_files("#file-input", str(csv))  # added right after the success
@@ -46,9 +47,13 @@ def test_upload_resets_keeps_new_files_and_fixes_the_rate(live_server: Server, p
     names = page.eval_on_selector_all("#upload-files li", "ls => ls.map(l => l.dataset.name)")
     assert names == [csv.name]  # the stored file left, the new one stayed
     assert page.input_value("#subject") == ""  # nothing carries over to the next upload
+    assert page.input_value("#rec-label") == ""
     rid = int(page.get_attribute("#upload-stored a", "href").rsplit("/", 1)[-1])
     stored = live_server.get(f"/api/recordings/{rid}")
     assert stored["subject"] == "S-rate" and stored["rate_check"] is not None
+    assert stored["label"] == "rate check set"  # issue 15 item 6: named in the list
+    row = f'#recordings-body tr[data-id="{rid}"]'
+    wait_for(lambda: "rate check set" in page.inner_text(row), 30, "the label in the list")
 
     # The rate warning with its fix: one click reads the file again at the suggested rate.
     warning = page.inner_text("#upload-rate-warning")

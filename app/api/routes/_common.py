@@ -13,6 +13,7 @@ from sqlalchemy.orm import Session, undefer
 
 from app.api.errors import ApiError
 from app.api.schemas import Problem
+from app.db import crud
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
 from app.errors import BioPlanError
@@ -62,12 +63,21 @@ def job_of(session: Session, result_id: int) -> dict[str, Any]:
 
 def result_out(session: Session, kind: str, result_id: int) -> dict[str, Any]:
     row = get_result_row(session, kind, result_id)
+    job = job_of(session, row.id)
     return {
         "id": row.id,
         "robot": getattr(row, "robot", ""),
-        "job": job_of(session, row.id),
+        "label": job["label"],
+        "job": job,
         "result": row.result,
     }
+
+
+def relabel(session: Session, kind: str, result_id: int, label: str | None) -> dict[str, Any]:
+    """Give a plan or simulation the user's short name (None: none); returns it as shown."""
+    get_result_row(session, kind, result_id)  # 404 when there is none
+    crud.update_job(session=session, job_id=result_id, only_if_active=False, label=label)
+    return result_out(session, kind, result_id)
 
 
 def list_results(
@@ -99,6 +109,7 @@ def list_results(
                 "robot": getattr(row, "robot", ""),
                 "recording_id": getattr(row, "recording_id", None),
                 "template": getattr(row, "template", None),
+                "label": job.label,
                 "job": job_to_dict(job),
                 "result": row.result,
             }

@@ -21,6 +21,7 @@ from app.api.routes._common import (
     get_result_row,
     job_of,
     list_results,
+    relabel,
     result_out,
     trajectory_out,
 )
@@ -28,6 +29,7 @@ from app.api.schemas import (
     ArraysOut,
     Job,
     JobState,
+    LabelPatch,
     Page,
     PlanComparison,
     PlanRequest,
@@ -138,7 +140,10 @@ def submit_plan(
     """Queue a plan (``bioplan plan``); the result is the CLI's ``--json`` output."""
     check_task(body, session, services)
     job = services.jobs.submit(
-        kind="plan", params=body.model_dump(mode="json"), resource={"robot": body.robot}
+        kind="plan",
+        params=body.model_dump(mode="json", exclude={"label"}),
+        resource={"robot": body.robot},
+        label=body.label,
     )
     response.headers["Location"] = job["result_url"]
     return job
@@ -215,6 +220,12 @@ def compare_plans(
 @router.get("/{plan_id}", response_model=ResultOut)
 def get_plan(session: SessionDep, plan_id: IdPath) -> dict[str, Any]:
     return result_out(session, "plan", plan_id)
+
+
+@router.patch("/{plan_id}", response_model=ResultOut, dependencies=[WriteAccess])
+def relabel_plan(session: SessionDep, plan_id: IdPath, body: LabelPatch) -> dict[str, Any]:
+    """Give the plan a short name (shown in every list), or remove it with ``null``."""
+    return relabel(session, "plan", plan_id, body.label)
 
 
 @router.get("/{plan_id}/arrays", response_model=ArraysOut)

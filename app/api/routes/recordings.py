@@ -30,6 +30,7 @@ from app.api.schemas import (
     Signals,
     Site,
     SkeletonFrames,
+    blank_label_is_none,
 )
 from app.db import crud
 from app.db.arrays import decode_array
@@ -114,6 +115,9 @@ def upload_recording(
     task: Annotated[str | None, Form(max_length=200)] = None,
     load_kg: Annotated[float | None, Form(ge=0, le=100, description="load lifted [kg]")] = None,
     notes: Annotated[str | None, Form(max_length=10000)] = None,
+    label: Annotated[
+        str | None, Form(max_length=200, description="a short name for the session")
+    ] = None,
     session_mode: Annotated[
         SessionMode,
         Form(
@@ -166,7 +170,13 @@ def upload_recording(
             session=session,
             blobs=services.blobs,
             files=uploads,
-            meta={"subject": subject, "task": task, "load_kg": load_kg, "notes": notes},
+            meta={
+                "subject": subject,
+                "task": task,
+                "load_kg": load_kg,
+                "notes": notes,
+                "label": blank_label_is_none(label),
+            },
             options={k: v for k, v in options.items() if v is not None},
             session_mode=session_mode,
             max_video_seconds=services.settings.max_video_seconds,

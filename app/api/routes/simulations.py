@@ -16,11 +16,20 @@ from app.api.routes._common import (
     RateQuery,
     arrays_out,
     list_results,
+    relabel,
     result_out,
     trajectory_out,
 )
 from app.api.routes.plans import check_task
-from app.api.schemas import ArraysOut, Job, JobState, Page, ResultOut, SimulationRequest
+from app.api.schemas import (
+    ArraysOut,
+    Job,
+    JobState,
+    LabelPatch,
+    Page,
+    ResultOut,
+    SimulationRequest,
+)
 
 router = APIRouter(prefix="/api/simulations", tags=["simulations"], responses=PROBLEM_RESPONSES)
 
@@ -32,7 +41,10 @@ def submit_simulation(
     """Queue a simulation (``bioplan simulate``); the result is the CLI's ``--json`` output."""
     check_task(body, session, services)
     job = services.jobs.submit(
-        kind="simulation", params=body.model_dump(mode="json"), resource={"robot": body.robot}
+        kind="simulation",
+        params=body.model_dump(mode="json", exclude={"label"}),
+        resource={"robot": body.robot},
+        label=body.label,
     )
     response.headers["Location"] = job["result_url"]
     return job
@@ -55,6 +67,14 @@ def list_simulations(
 @router.get("/{simulation_id}", response_model=ResultOut)
 def get_simulation(session: SessionDep, simulation_id: IdPath) -> dict[str, Any]:
     return result_out(session, "simulation", simulation_id)
+
+
+@router.patch("/{simulation_id}", response_model=ResultOut, dependencies=[WriteAccess])
+def relabel_simulation(
+    session: SessionDep, simulation_id: IdPath, body: LabelPatch
+) -> dict[str, Any]:
+    """Give the simulation a short name (shown in every list), or remove it with ``null``."""
+    return relabel(session, "simulation", simulation_id, body.label)
 
 
 @router.get("/{simulation_id}/arrays", response_model=ArraysOut)

@@ -49,6 +49,26 @@ export function title(item, kind) {
   return `${what} #${item.id}${label}: ${item.robot}, ${c.payload ?? p.payload ?? "default"} kg, ${c.duration ?? p.duration} s, ${c.objective ?? p.objective}, ${planned.length || 2} methods${template} · ${when(item.job.finished_at)}`;
 }
 
+/** Rename the shown comparison (PATCH its label); the picker shows the new name at once. */
+function renameForm(selected, kind, picker) {
+  const input = h("input", { id: "label-input", maxlength: "200", placeholder: "label (optional)", value: selected.item.label || "", "aria-label": "Label" });
+  const status = h("span", { class: "small muted", id: "label-status" });
+  const save = async (e) => {
+    e.preventDefault();
+    try {
+      const out = await api(`/api/${kind}s/${selected.item.id}`, { method: "PATCH", body: { label: input.value } });
+      selected.item.label = out.label;
+      input.value = out.label || "";
+      picker.selectedOptions[0].textContent = title(selected.item, kind);
+      status.textContent = out.label ? "renamed" : "label removed";
+    } catch (err) {
+      status.textContent = messageOf(err);
+    }
+  };
+  return h("form", { class: "row", id: "label-form", style: "margin-top:6px", onsubmit: save },
+    input, h("button", { type: "submit", class: "small", id: "label-save" }, "Rename"), status);
+}
+
 /** Per-joint power |τ_j ω_j| [W] and its running integral [J] (trapezoid). */
 function jointPower(t, tau, qd, j) {
   const p = t.map((_, i) => Math.abs(tau[i][j] * qd[i][j]));
@@ -100,7 +120,7 @@ export async function render(main, [kindArg, idArg, methodsArg]) {
   const picker = h("select", { id: "comparison-select", "aria-label": "Comparison" },
     options.map((o) => h("option", { value: `${o.kind}/${o.item.id}`, selected: o.kind === kind && o.item.id === id }, title(o.item, o.kind))));
   picker.addEventListener("change", () => (location.hash = `#/compare/${picker.value}`));
-  head.append(h("div", { class: "actions", style: "min-width:min(100%,520px)" }, picker));
+  head.append(h("div", { class: "actions", style: "min-width:min(100%,520px)" }, picker, renameForm(selected, kind, picker)));
 
   const base = `/api/viewer/comparisons/${kind}/${id}`;
   let data;

@@ -62,6 +62,7 @@ export async function render(main, [query]) {
   const particles = h("input", { id: "particles", type: "number", min: "2", max: "1000", step: "1", value: String(pso.particles) });
   const iterations = h("input", { id: "iterations", type: "number", min: "1", max: "10000", step: "1", value: String(pso.iterations) });
   const seed = h("input", { id: "seed", type: "number", min: "0", step: "1", value: String(pso.seed) });
+  const label = h("input", { id: "plan-label", maxlength: "200", placeholder: "e.g. slow, heavy payload" });
   const jointsBody = h("tbody", {});
   const robotInfo = h("div", { class: "small muted", id: "robot-info" });
 
@@ -95,6 +96,7 @@ export async function render(main, [query]) {
   function body() {
     const num = (el) => (el.value.trim() === "" ? null : Number(el.value));
     const b = {
+      label: label.value.trim() || null,
       robot: robot.value,
       duration: num(duration),
       payload: num(payload),
@@ -140,6 +142,7 @@ export async function render(main, [query]) {
       h("div", { class: "wide", style: "margin-top:8px" }, h("label", { for: "human-constraint" }, "Human-like optimum's constraint"), humanConstraint),
       h("p", { class: "small muted" }, "The standard quintic always runs: every saving is measured against it. The physical bound and the human-like optimum are solved by optimal control (CasADi + IPOPT)."),
     ),
+    h("div", { class: "wide", style: "margin-top:12px" }, h("label", { for: "plan-label" }, "Label ", h("span", { class: "hint" }, "(optional: names it in every list)")), label),
     h("fieldset", {},
       h("legend", {}, "Particle swarm"),
       h("div", { class: "fields" },
