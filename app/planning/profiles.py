@@ -25,6 +25,11 @@ FloatArray = NDArray[np.float64]
 
 #: Default tolerance of :func:`is_monotonic` [rad].
 MONOTONIC_TOL = 1e-9
+#: Excess over a joint limit that is not a violation (in the limit's unit, times
+#: max(1, |limit|)): below any encoder's resolution (a 20-bit encoder: 6e-6 rad). Motions
+#: starting on a stop touch it: the physical bound dipped to -1.6e-10 rad (IPOPT's round-off)
+#: and a PSO plan's first segment to -3.3e-8 rad from the human arm's 0 rad elbow stop.
+LIMIT_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -622,7 +627,8 @@ def check_limits(
     Each limit is a number (all joints) or an (n,) array; velocity and acceleration limits bound
     the magnitude. For every joint and limit the worst violation is reported, e.g.
     ``"joint 2 velocity 3.4 rad/s exceeds 3.0 rad/s at t=0.41 s"``. Joints are numbered from 1
-    (J1, J2, ... as on the robot) unless ``joint_names`` are given. Only samples are checked.
+    (J1, J2, ... as on the robot) unless ``joint_names`` are given. Only samples are checked;
+    an excess within ``LIMIT_TOL * max(1, |limit|)`` is round-off and not reported.
 
     Args:
         traj: the trajectory.
@@ -651,7 +657,7 @@ def check_limits(
         worst = np.argmax(excess, axis=0)
         for j in range(n):
             k = int(worst[j])
-            if excess[k, j] > 0.0:
+            if excess[k, j] > LIMIT_TOL * max(1.0, abs(float(lim[j]))):
                 verb = "is below" if kind == "min" else "exceeds"
                 out.append(
                     f"{names[j]} {label} {values[k, j]:.4g} {unit} {verb} {lim[j]:.4g} {unit} "

@@ -6,6 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from tests.frontend.test_browser import wait_for
 from tests.utils.browser import screenshot
 from tests.utils.example_robots import UR5, robot_file
@@ -55,13 +57,18 @@ def test_add_a_ur5_from_the_plan_page(live_server: Server, page: Any) -> None:
     screenshot(page, "plan-robot-added")
 
 
-def test_methods_and_constraint_reach_the_job(live_server: Server, page: Any) -> None:
-    page.goto(f"{live_server.url}/#/plan")
+def _human_arm_without_slow_methods(page: Any, server: Server) -> None:
+    """The Plan page on the human arm, with the two slowest methods unchecked."""
+    page.goto(f"{server.url}/#/plan")
     page.wait_for_selector("#methods-fieldset")
     page.select_option("#robot", "human_arm_2dof")
-    page.select_option("#kind", "plan")
     for method in ("human_optimal", "jerk_limited"):
         page.uncheck(f'#methods-fieldset input[data-method="{method}"]')
+
+
+def test_methods_and_constraint_reach_the_job(live_server: Server, page: Any) -> None:
+    _human_arm_without_slow_methods(page, live_server)
+    page.select_option("#kind", "plan")
     assert page.is_disabled('#methods-fieldset input[data-method="quintic"]')
     page.select_option("#human-constraint", "phases")
     page.fill("#particles", "6")
@@ -92,3 +99,55 @@ def test_the_best_so_far_never_rises(live_server: Server, page: Any) -> None:
         }"""
     )
     assert ys == [5, 3, 3, 2.5, 2]
+
+
+def test_a_sweep_from_the_page_with_heat_maps_per_method(live_server: Server, page: Any) -> None:
+    """Issue 15 item 5: sweeps could not be started from the page. The grid, methods and
+    objective reach the job, progress is given per cell, and Compare draws a heat map per
+    method beside a comparison of the same robot."""
+    tiny = {
+        "robot": "human_arm_2dof",
+        "particles": 8,
+        "iterations": 5,
+        "methods": ["quintic", "paper"],
+    }
+    plan = live_server.post("/api/plans", json=tiny).json()  # a comparison of the same robot
+    _human_arm_without_slow_methods(page, live_server)
+    page.select_option("#objective", "tau_sq")
+    page.fill("#particles", "8")
+    page.fill("#iterations", "5")
+    page.fill("#sweep-durations", "1 x")
+    page.click("#submit-sweep")
+    assert '"x" is not a number' in page.inner_text("#sweep-status")  # said before any request
+    page.fill("#sweep-durations", "1, 1.5")
+    page.fill("#sweep-payloads", "0")
+    page.click("#submit-sweep")
+    wait_for(lambda: "cell " in page.inner_text("#sweep-cells"), 120, "progress per cell")
+    page.wait_for_selector("#open-sweep, #sweep-status .banner", timeout=300_000)
+    assert page.locator("#open-sweep").count(), page.inner_text("#sweep-status")
+    sweep = live_server.get("/api/sweeps?limit=1")["items"][0]
+    params = sweep["job"]["params"]
+    assert params["durations"] == [1.0, 1.5] and params["payloads"] == [0.0]
+    assert params["objectives"] == ["tau_sq"] and params["methods"] == ["quintic", "paper", "bound"]
+    assert "cell 2 of 2" in page.inner_text("#sweep-cells")
+    assert live_server.get(f"/api/jobs/{plan['id']}")["state"] == "succeeded"
+
+    page.click("#open-sweep")
+    page.wait_for_selector("#sweep-card", timeout=120_000)
+    assert f"Sweep #{sweep['id']}" in page.inner_text("#sweep-card")
+    methods = page.eval_on_selector_all("#sweep-method option", "os => os.map(o => o.value)")
+    assert methods == ["paper", "bound"]
+    z = "document.getElementById('sweep-plot').data[0].z"
+    wait_for(lambda: page.evaluate(z), 60, "the heat map")
+    cells = sweep["result"]["cells"]
+    by_duration = sorted(cells, key=lambda c: c["duration"])  # rows: durations; one payload
+    expected = {m: [c["methods_change_pct"][m]["tau_sq"] for c in by_duration] for m in methods}
+
+    def drawn() -> list[float]:
+        return [row[0] for row in page.evaluate(z)]
+
+    assert drawn() == pytest.approx(expected["paper"])
+    page.select_option("#sweep-method", "bound")
+    wait_for(lambda: page.get_attribute("#sweep-plot", "data-method") == "bound", 30, "bound")
+    assert drawn() == pytest.approx(expected["bound"])
+    assert expected["bound"] != pytest.approx(expected["paper"])

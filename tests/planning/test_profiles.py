@@ -274,6 +274,21 @@ def test_check_limits_finds_planted_violations() -> None:
     assert len(check_limits(traj, qdd_max=0.5 * a_peak)) == 3
 
 
+def test_check_limits_ignores_round_off_at_an_active_limit() -> None:
+    """Found by a sweep from the page: on the human arm, whose elbow starts on its 0 rad stop,
+    the physical bound dipped to -1.6e-10 rad (IPOPT's round-off) and a PSO plan to -3.3e-8
+    rad, which made the cells "unstable". An excess below an encoder's resolution is not a
+    violation; a real one still is."""
+    traj = quintic(Q0, Q1, DURATION, n_samples=101)
+    low = traj.q.min(axis=0)
+    for dip in (1.6e-10, 3.3e-8, 9e-7):
+        assert check_limits(traj, q_min=low + dip) == []
+    assert len(check_limits(traj, q_min=low + 1e-5)) == 3
+    high = traj.q.max(axis=0)
+    assert check_limits(traj, q_max=high - 9e-7 * np.maximum(1.0, np.abs(high))) == []
+    assert len(check_limits(traj, q_max=high - 1e-4)) == 3
+
+
 def test_is_monotonic() -> None:
     traj = quintic(Q0, Q1, DURATION)
     assert is_monotonic(traj).tolist() == [True, True, True]

@@ -426,20 +426,45 @@ function exportCard(kind, id, data, pair) {
   );
 }
 
+/** The methods a sweep's cells compared with the quintic (the paper's first). */
+function sweepMethods(r) {
+  const found = new Set();
+  for (const c of r.cells) Object.keys(c.methods_change_pct || {}).forEach((m) => found.add(m));
+  found.delete("quintic");
+  return ["paper", ...[...found].filter((m) => m !== "paper")];
+}
+
+/** (durations x payloads) change [%] of `method` in `metric` (null where a cell is not ok). */
+function sweepGrid(r, objective, metric, method) {
+  return r.durations.map((d) => r.payloads.map((p) => {
+    const c = r.cells.find((x) => x.duration === d && x.payload === p && x.objective === objective);
+    const v = c && c.status === "ok" ? (c.methods_change_pct || {})[method]?.[metric] : null;
+    return v === undefined ? null : v;
+  }));
+}
+
 function sweepCard(sweep) {
   const r = sweep.result;
   const objectives = r.objectives;
   const metrics = r.metrics;
+  const methods = sweepMethods(r);
   let objective = objectives[0];
-  let metric = metrics.includes("abs_work") ? "abs_work" : metrics[0];
+  // The metric the sweep optimised first: what its heat map is about.
+  let metric = metrics.includes(objective) ? objective : metrics.includes("abs_work") ? "abs_work" : metrics[0];
+  let method = "paper";
   const div = h("div", { class: "plot", id: "sweep-plot", style: "min-height:360px" });
   const selObj = h("select", { "aria-label": "Sweep objective" }, objectives.map((o) => h("option", { value: o }, `objective ${o}`)));
   const selMet = h("select", { "aria-label": "Sweep metric" }, metrics.map((m) => h("option", { value: m, selected: m === metric }, `metric ${m}`)));
+  const selMethod = h("select", { "aria-label": "Sweep method", id: "sweep-method" }, methods.map((m) => h("option", { value: m }, methodInfo(m).label)));
   const redraw = () => {
     const table = r.tables[objective][metric];
-    const z = table.change_pct;
-    const text = z.map((row, i) => row.map((v, k) => `${v === null ? "–" : `${v > 0 ? "+" : ""}${v.toFixed(1)} %`}<br>${table.classification[i][k]}`));
+    // The paper's method: the stored table with each cell's checked verdict; the others: their
+    // change per cell.
+    const z = method === "paper" ? table.change_pct : sweepGrid(r, objective, metric, method);
+    const verdict = (i, k) => (method === "paper" ? `<br>${table.classification[i][k]}` : "");
+    const text = z.map((row, i) => row.map((v, k) => `${v === null ? "–" : `${v > 0 ? "+" : ""}${v.toFixed(1)} %`}${verdict(i, k)}`));
     const lim = Math.max(5, ...z.flat().filter((v) => v !== null).map((v) => Math.abs(v)));
+    div.dataset.method = method;
     draw(div, [{
       type: "heatmap", z, x: r.payloads.map((p) => `${p} kg`), y: r.durations.map((d) => `${d} s`), text, texttemplate: "%{text}",
       hovertemplate: "T %{y}, m %{x}: %{z:.1f} %<extra></extra>", zmin: -lim, zmax: lim, zmid: 0,
@@ -448,10 +473,11 @@ function sweepCard(sweep) {
   };
   selObj.addEventListener("change", () => { objective = selObj.value; redraw(); });
   selMet.addEventListener("change", () => { metric = selMet.value; redraw(); });
+  selMethod.addEventListener("change", () => { method = selMethod.value; redraw(); });
   const card = h("section", { class: "card", id: "sweep-card" },
     h("div", { class: "row" }, h("h2", { style: "margin:0" }, `Sweep #${sweep.id}: ${r.robot}`), h("span", { class: "small muted" }, when(sweep.job.finished_at)),
-      h("span", { class: "row", style: "margin-left:auto" }, selObj, selMet)),
-    h("p", { class: "small muted" }, "Where the paper's method wins (green) and where it does not (red): change in % of the standard, per duration and payload."),
+      h("span", { class: "row", style: "margin-left:auto" }, selMethod, selObj, selMet)),
+    h("p", { class: "small muted" }, "Where a method saves (green) and where it costs more (red) than the standard quintic: change in % of the quintic, 100 (quintic − method) / quintic, per duration and payload (simulated in MuJoCo). The paper's method's cells also give the verdict checked by a second PSO run."),
     div,
   );
   plotly().then(redraw);

@@ -5,6 +5,7 @@ import { api, followJob, qs } from "./api.js";
 import { names } from "./names.js";
 import { colours, draw, layout } from "./plots.js";
 import { robotUploadCard } from "./robot_upload.js";
+import { sweepFormCard } from "./sweep_form.js";
 import { DEG, banner, clear, fmt, h, messageOf, pct, tag } from "./ui.js";
 
 /**
@@ -256,6 +257,10 @@ export async function render(main, [query]) {
     robot.value = r.name;
     showRobot();
   });
-  main.append(h("div", { class: "grid-2" }, h("div", {}, form, addRobot), h("div", {}, monitor)));
+  const sweep = sweepFormCard(() => {
+    const b = body();
+    return { robot: b.robot, objectives: [b.objective], methods: b.methods, particles: b.particles, iterations: b.iterations, seed: b.seed };
+  }, stops);
+  main.append(h("div", { class: "grid-2" }, h("div", {}, form, addRobot), h("div", {}, monitor, sweep)));
   return () => stops.forEach((f) => f());
 }

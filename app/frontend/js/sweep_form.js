@@ -1,0 +1,95 @@
+// "Sweep a grid" on the Plan page: every method planned and simulated in each cell of a
+// duration x payload grid (POST /api/sweeps, `bioplan sweep`), with progress per cell. The
+// robot, objective, methods and swarm come from the plan form above; the heat maps per method
+// are shown on the Compare page beside a comparison of the same robot.
+
+import { api, followJob, qs } from "./api.js";
+import { banner, clear, h, messageOf, tag } from "./ui.js";
+
+/** Numbers from "0.5, 1, 1.5" (commas or blanks); throws naming the field when one is not. */
+export function numberList(text, what) {
+  const parts = text.split(/[\s,;]+/).filter(Boolean);
+  const values = parts.map(Number);
+  const bad = parts.find((p, i) => !Number.isFinite(values[i]));
+  if (bad !== undefined) throw new Error(`${what}: "${bad}" is not a number (give numbers separated by commas)`);
+  if (!values.length) throw new Error(`${what}: give at least one value`);
+  return values;
+}
+
+/** The newest finished comparison of `robot` (where its heat maps are shown), or null. */
+async function comparisonOf(robot) {
+  for (const kind of ["simulations", "plans"]) {
+    const page = await api(`/api/${kind}${qs({ robot, state: "succeeded", limit: 1 })}`);
+    if (page.items.length) return `#/compare/${kind.slice(0, -1)}/${page.items[0].id}`;
+  }
+  return null;
+}
+
+/**
+ * The card. `form` reads the plan form's shared choices: () => ({robot, objective, methods,
+ * particles, iterations, seed}). `stops` collects the page's cleanup functions.
+ */
+export function sweepFormCard(form, stops) {
+  const durations = h("input", { id: "sweep-durations", value: "0.5, 1, 1.5", "aria-describedby": "sweep-hint" });
+  const payloads = h("input", { id: "sweep-payloads", value: "0, 4, 8" });
+  const status = h("div", { id: "sweep-status" });
+  const submit = h("button", { type: "submit", class: "primary", id: "submit-sweep" }, "Run the sweep");
+
+  function follow(job) {
+    const bar = h("div", {});
+    const prog = h("div", { class: "progress", id: "sweep-progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": "0" }, bar);
+    const state = h("span", { id: "sweep-state" }, tag(job.state));
+    const cells = h("div", { class: "small muted", id: "sweep-cells" }, job.message);
+    clear(status).append(h("div", { class: "row" }, h("strong", {}, `Sweep #${job.id}`), state), prog, cells);
+    const watch = followJob(job, (j) => {
+      const p = Math.round(100 * j.progress);
+      bar.style.width = `${p}%`;
+      prog.setAttribute("aria-valuenow", String(p));
+      clear(state).append(tag(j.state));
+      cells.textContent = j.stage === "sweep" ? `cell ${j.done} of ${j.of} done · ${j.message}` : j.error || j.message;
+    });
+    stops.push(watch.stop);
+    watch.done.then(async (final) => {
+      if (final.state !== "succeeded") {
+        prog.classList.add("failed");
+        status.append(banner(final.state === "cancelled" ? "warn" : "error", final.state === "cancelled" ? "Cancelled." : `Failed: ${final.error}`));
+        return;
+      }
+      prog.classList.add("done");
+      const where = await comparisonOf(final.params.robot).catch(() => null);
+      status.append(where
+        ? h("a", { class: "button", id: "open-sweep", href: where }, "Heat maps per method on Compare →")
+        : h("p", { class: "small muted" }, "Done. Its heat maps appear on the Compare page beside a plan or simulation of this robot."));
+    });
+  }
+
+  async function onSubmit(e) {
+    e.preventDefault();
+    clear(status);
+    let body;
+    try {
+      body = { ...form(), durations: numberList(durations.value, "Durations"), payloads: numberList(payloads.value, "Payloads") };
+    } catch (err) {
+      status.append(banner("error", err.message));
+      return;
+    }
+    submit.disabled = true;
+    try {
+      follow(await api("/api/sweeps", { method: "POST", body }));
+    } catch (err) {
+      const field = err.problem && err.problem.field ? ` (${err.problem.field})` : "";
+      status.append(banner("error", `${messageOf(err)}${field}`));
+    } finally {
+      submit.disabled = false;
+    }
+  }
+
+  return h("form", { class: "card", id: "sweep-form", novalidate: true, onsubmit: onSubmit },
+    h("h2", {}, "Sweep a grid"),
+    h("p", { class: "small muted", id: "sweep-hint" }, "Every checked method is planned and simulated in each cell of durations × payloads, with the robot, objective, methods and swarm chosen above; each cell's verdict is checked by a second PSO run. Heat maps per method appear on Compare beside a comparison of the same robot."),
+    h("div", { class: "fields" },
+      h("div", {}, h("label", { for: "sweep-durations" }, "Durations ", h("span", { class: "hint" }, "[s]")), durations),
+      h("div", {}, h("label", { for: "sweep-payloads" }, "Payloads ", h("span", { class: "hint" }, "[kg]")), payloads)),
+    h("div", { class: "row", style: "margin-top:12px" }, submit),
+    status);
+}
