@@ -141,12 +141,13 @@ HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "none")
 #: (``app.planning.optimal.DEFAULT_INTERVALS``).
 OPTIMAL_INTERVALS = 40
 
-#: Muscle sites of the paper's EMG set-up, with their plot colours.
+#: Muscle sites of the paper's EMG set-up, with their plot colours: hues at least 30 degrees
+#: from every phase colour (or nearly grey), so an onset bar never reads as a phase.
 MUSCLE_COLOURS: dict[str, str] = {
     "deltoid": "#8250df",
-    "triceps": "#0a7ea4",
-    "biceps": "#cf222e",
-    "forearm": "#1a7f37",
+    "triceps": "#bf3989",
+    "biceps": "#24292f",
+    "forearm": "#9a8700",
 }
 
 

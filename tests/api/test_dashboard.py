@@ -3,6 +3,7 @@ the demo seed."""
 
 from __future__ import annotations
 
+import colorsys
 import json
 import socket
 from collections.abc import Iterator
@@ -68,6 +69,24 @@ def test_shared_names_are_served_as_defined(dashboard: tuple[TestClient, Any]) -
         p.name: p.colour for p in names.PHASES
     }
     assert meta["pso_defaults"]["particles"] == names.PSO_DEFAULTS.particles
+
+
+def _hue_saturation(colour: str) -> tuple[float, float]:
+    r, g, b = (int(colour[i : i + 2], 16) / 255 for i in (1, 3, 5))
+    hue, saturation, _ = colorsys.rgb_to_hsv(r, g, b)
+    return 360.0 * hue, saturation
+
+
+def test_muscle_colours_never_read_as_phases() -> None:
+    """Issue 15: onset bars reused the phase colours (forearm green as phase A, triceps blue as
+    phase C). Every muscle's colour is nearly grey or 30 degrees of hue from every phase's."""
+    for muscle, colour in names.MUSCLE_COLOURS.items():
+        hue, saturation = _hue_saturation(colour)
+        for phase in names.PHASES:
+            phase_hue, _ = _hue_saturation(phase.colour)
+            apart = min(abs(hue - phase_hue), 360.0 - abs(hue - phase_hue))
+            assert saturation < 0.25 or apart >= 30.0, (muscle, phase.name, apart)
+    assert len(set(names.MUSCLE_COLOURS.values())) == len(names.MUSCLE_COLOURS)
 
 
 def test_viewer_address_is_the_real_one(dashboard: tuple[TestClient, Any]) -> None:

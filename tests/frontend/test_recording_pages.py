@@ -175,3 +175,19 @@ def test_the_first_visit_guide_leads_to_the_demo(live_server: Server, page: Any)
     page.reload()
     page.wait_for_selector("#upload-form")
     assert page.locator("#home-guide").count() == 0
+
+
+def test_onsets_have_a_legend_and_orders_name_muscles(live_server: Server, page: Any) -> None:
+    """Issue 15: the "rising" shading and the onset bars had no legend entry, and the onset
+    order listed 13 raw channel labels. Orders name the muscle sites and count the rest."""
+    rid = live_server.get("/api/recordings?limit=500")["items"][-1]["id"]  # the demo's
+    page.goto(f"{live_server.url}/#/recordings/{rid}")
+    page.wait_for_selector("#emg-legend")
+    legend = page.inner_text("#emg-legend")
+    assert "onsets" in legend and "rising" in legend
+    order = "order => import('/js/recording.js').then(m => m.orderText(order))"
+    text = page.evaluate(order, ["biceps", "EMG7", "deltoid", "X"])
+    assert text == "biceps → deltoid (+2 channels without a muscle site)"
+    assert page.evaluate(order, ["EMG7"]) == (
+        "no muscle site mapped (+1 channel without a muscle site)"
+    )

@@ -10,7 +10,19 @@ import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js
 
 const POINTS = 1600;
 // Channels mapped to a site take the site's colour (app/names.py); the others these.
-const EXTRA_COLORS = ["#6e7781", "#bc4c00", "#116329", "#953800", "#0550ae"];
+/** The shading of a lift's rising part where it has no phases (no elbow angle). */
+const RISING_FILL = "rgba(110,119,129,0.10)";
+
+// Channels without a site: hues away from the phases' green, orange and blue (as the sites').
+const EXTRA_COLORS = ["#6e7781", "#4d2d8c", "#e85aad", "#3d444d", "#7a6a00"];
+
+/** An onset order in muscle names: channels without a site are counted, not listed. */
+export function orderText(order) {
+  const sites = (order || []).filter((name) => name in names.muscle_colours);
+  const others = (order || []).length - sites.length;
+  const more = others ? ` (+${others} channel${others > 1 ? "s" : ""} without a muscle site)` : "";
+  return sites.length ? `${sites.join(" → ")}${more}` : others ? `no muscle site mapped${more}` : "–";
+}
 
 /** Whether a template is the paper's default rather than this person's lifts. */
 function isPaperDefault(template) {
@@ -52,7 +64,7 @@ function liftTraces(lifts, [y0, y1], axes) {
     tops.x.push(lift.top_s, lift.top_s, null);
     tops.y.push(y0, y1, null);
   }
-  const traces = [...spans].map(([name, list]) => rectTrace(list, y0, y1, { ...axes, name: `phase ${name}`, fillcolor: names.phases.some((p) => p.name === name) ? phaseFill(name) : name === "rising" ? "rgba(37,99,235,0.06)" : "rgba(0,0,0,0.04)" }));
+  const traces = [...spans].map(([name, list]) => rectTrace(list, y0, y1, { ...axes, name: `phase ${name}`, fillcolor: names.phases.some((p) => p.name === name) ? phaseFill(name) : name === "rising" ? RISING_FILL : "rgba(0,0,0,0.04)" }));
   if (lifts.length) traces.push({ ...tops, ...axes, type: "scatter", mode: "lines", name: "lift tops", line: { color: "#9ca3af", width: 1, dash: "dot" }, hoverinfo: "skip", showlegend: false });
   return traces;
 }
@@ -131,8 +143,10 @@ export async function render(main, [idText]) {
   const analysisNote = h("div", { id: "analysis-note" }, h("p", { class: "muted small" }, "Analysing the recording (envelopes, onsets, angles, lifts)…"));
   const liftsBox = h("div", { id: "lifts" });
   const templateFacts = h("div", { class: "facts", id: "template-facts" });
-  const legend = h("div", { class: "legend-inline" },
+  const legend = h("div", { class: "legend-inline", id: "emg-legend" },
     phaseLegend(),
+    h("span", {}, h("span", { class: "swatch", style: `background:${RISING_FILL}` }), "rising (a lift without phases: no elbow angle)"),
+    h("span", {}, h("span", { class: "swatch onset-swatch" }), "onsets: a bar along the top, in the muscle's colour"),
     h("span", {}, "· drag to zoom, double-click to reset; zooming loads the window at full detail"),
   );
   const picker = h("details", { class: "small", id: "channel-picker" },
@@ -261,7 +275,7 @@ export async function render(main, [idText]) {
       fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}°${paperDefault ? " (paper)" : ` ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`}`),
       fact("lifts", `${lifts.length} found, ${paperDefault ? 0 : T.n_lifts} with kinematics`),
       fact("peak at", T.peak_velocity_time_fraction === null ? "–" : `${Math.round(100 * T.peak_velocity_time_fraction)} % of the lift`),
-      fact("activation order", (T.activation_order || []).join(" → ") || "–"),
+      fact("activation order", orderText(T.activation_order)),
     );
     if (!T.normalized_time || !T.normalized_time.length) {
       clear(templateDiv).append(h("p", { class: "muted small" }, `${T.source}: no kinematic profile; the planner uses the paper's defaults (velocity peak at 62°).`));
@@ -326,7 +340,7 @@ export async function render(main, [idText]) {
               h("td", { class: "num" }, dur(l, "B")),
               h("td", { class: "num" }, dur(l, "C")),
               h("td", { class: "num" }, fmt(l.peak_velocity_angle_deg, 3)),
-              h("td", { class: "small" }, l.activation_order.join(" → ")),
+              h("td", { class: "small" }, orderText(l.activation_order)),
             ))),
         ),
       ),
