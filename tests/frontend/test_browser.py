@@ -347,6 +347,34 @@ def test_scene_export_opens_offline(live_server: Server, browser: Any, tmp_path:
         context.close()
 
 
+def _in_view(page: Any, selector: str) -> bool:
+    """The element is shown and wholly inside the 400 px wide window."""
+    box = page.locator(selector).first.bounding_box()
+    return box is not None and box["x"] >= 0 and box["x"] + box["width"] <= 400
+
+
+def _check_narrow(page: Any, route: str) -> None:
+    """Issue 15: at 400 px the Open and Delete buttons and the metrics' change and floor
+    columns were off-screen (inside a table scrolled sideways)."""
+    if route == "recordings":
+        page.wait_for_selector("#recordings-body tr[data-id]")
+        row = "#recordings-body tr[data-id]"
+        assert _in_view(page, f"{row} a.button") and _in_view(page, f"{row} button.danger")
+    if route == "compare":
+        page.wait_for_selector("#metrics-table")
+        for metric in ("abs_work", "pos_work", "peak_power"):  # the metrics with a floor
+            row = f'#metrics-table tr[data-metric="{metric}"]'
+            assert _in_view(page, f"{row} .floor-inline"), f"{metric}: floor off-screen"
+            assert "floor" in page.inner_text(f"{row} .floor-inline")
+            assert _in_view(page, f'{row} td[data-method="paper"] .small')  # its change
+        # Scrolled to the last method, the metric names stay in view.
+        page.eval_on_selector("#metrics-table", "t => t.parentElement.scrollLeft = 10000")
+        assert _in_view(page, '#metrics-table tr[data-metric="tau_sq"] td:first-child')
+        assert _in_view(
+            page, '#metrics-table tr[data-metric="tau_sq"] td[data-method="jerk_limited"]'
+        )
+
+
 @pytest.mark.parametrize("route", ["recordings", "plan", "compare"])
 def test_usable_on_a_narrow_window(live_server: Server, browser: Any, route: str) -> None:
     context = new_context(browser, viewport={"width": 400, "height": 860})
@@ -357,6 +385,7 @@ def test_usable_on_a_narrow_window(live_server: Server, browser: Any, route: str
         page.wait_for_timeout(1500)
         width = page.evaluate("document.documentElement.scrollWidth")
         assert width <= 400, f"{route} is {width} px wide on a 400 px window"
+        _check_narrow(page, route)
         screenshot(page, f"{route}-narrow")
     finally:
         context.close()

@@ -207,30 +207,32 @@ function metricsCard(kind, result, planned, jointNames) {
     });
     const floorText = floorKey === "electrical_energy" && floors.friction_energy ? `ΔPE + friction ${fmt(floors.friction_energy)} J` : FLOOR_TEXT[floorKey] ?? floorKey;
     return h("tr", { dataset: { metric: m.name }, class: m.name === objective ? "objective-row" : "" },
-      h("td", {}, h("strong", {}, m.name), m.name === objective ? h("span", { class: "small muted" }, " (objective)") : null, h("div", { class: "small muted" }, m.formula)),
-      h("td", {}, m.unit),
+      h("td", {}, h("strong", {}, m.name), h("span", { class: "narrow-only" }, ` [${m.unit}]`), m.name === objective ? h("span", { class: "small muted" }, " (objective)") : null, h("div", { class: "small muted" }, m.formula),
+        // On a narrow window the unit and floor columns give way to these lines.
+        floor === null ? null : h("div", { class: "small narrow-only floor-inline" }, `floor ${fmt(floor)} ${m.unit}: ${floorText}`)),
+      h("td", { class: "wide-only" }, m.unit),
       cells,
-      h("td", { class: "num", dataset: { floor: floor ?? "" } }, floor === null ? h("span", { class: "muted" }, "–") : [fmt(floor), h("div", { class: "small muted" }, floorText)]),
+      h("td", { class: "num wide-only", dataset: { floor: floor ?? "" } }, floor === null ? h("span", { class: "muted" }, "–") : [fmt(floor), h("div", { class: "small muted" }, floorText)]),
     );
   });
   const shares = result.share_of_achievable_pct || {};
   const shareRow = h("tr", { dataset: { metric: "share" } },
     h("td", {}, h("strong", {}, "share of the achievable saving"), h("div", { class: "small muted" }, `(quintic − method) / (quintic − bound) on ${objective || "the objective"}`)),
-    h("td", {}, "%"),
+    h("td", { class: "wide-only" }, "%"),
     planned.map((name) => h("td", { class: "num", dataset: { method: name, value: shares[name] ?? "" } }, shares[name] === null || shares[name] === undefined ? "–" : `${shares[name].toFixed(1)} %`)),
-    h("td", {}, ""));
+    h("td", { class: "wide-only" }, ""));
   const angleRow = h("tr", { dataset: { metric: "peak_velocity_angle_deg" } },
     h("td", {}, h("strong", {}, "elbow peak-velocity angle"), h("div", { class: "small muted" }, `template: ${fmt(result.target_peak_velocity_angle_deg ?? (result.conditions || {}).target_peak_velocity_angle_deg, 3)}°`)),
-    h("td", {}, "°"),
+    h("td", { class: "wide-only" }, "°"),
     planned.map((name) => h("td", { class: "num", dataset: { method: name } }, fmt((side(name) || {}).peak_velocity_angle_deg, 3))),
-    h("td", {}, ""));
+    h("td", { class: "wide-only" }, ""));
   const anyBelow = rows.some((r) => r.querySelector(".below-floor"));
   return h("section", { class: "card", id: "metrics-card" },
     h("h2", {}, kind === "simulation" ? "Metrics measured in the MuJoCo simulation" : "Metrics of the planned trajectories"),
     anyBelow ? banner("error", "A value is below its physical floor: no rest-to-rest motion can do that, so that number is wrong (a model or integration error); it is flagged in red.") : null,
     h("div", { class: "table-wrap" },
       h("table", { id: "metrics-table" },
-        h("thead", {}, h("tr", {}, h("th", {}, "metric"), h("th", {}, "unit"), planned.map(methodHead), h("th", { class: "num" }, "physical floor"))),
+        h("thead", {}, h("tr", {}, h("th", {}, "metric"), h("th", { class: "wide-only" }, "unit"), planned.map(methodHead), h("th", { class: "num wide-only" }, "physical floor"))),
         h("tbody", {}, rows, shareRow, angleRow),
       ),
     ),
