@@ -51,6 +51,9 @@ class Settings(BaseSettings):
         max_upload_mb: largest request body accepted [MB], enforced while it streams in.
         max_json_kb: largest body of a request that is not an upload (JSON) [KiB].
         max_parallel_parses: uploads (recordings, robots) parsed at once; more wait their turn.
+        parse_memory_mb, parse_seconds: memory [MB] and time [s] one uploaded file (recording
+            or robot model) may take to read, in a child process; past either it is refused
+            with 413 and the server is unaffected.
         head_timeout_s: seconds a client has to send a complete request head (request line and
             headers) after connecting or after the previous response; then it is disconnected.
         cors_origins: origins allowed by CORS (none by default: CORS closed); they may also
@@ -92,6 +95,8 @@ class Settings(BaseSettings):
     max_upload_mb: float = Field(default=200.0, gt=0)
     max_json_kb: float = Field(default=256.0, gt=0)
     max_parallel_parses: int = Field(default=2, ge=1, le=64)
+    parse_memory_mb: float = Field(default=2048.0, ge=16)
+    parse_seconds: float = Field(default=120.0, gt=0)
     head_timeout_s: float = Field(default=10.0, gt=0, le=3600)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     allowed_hosts: Annotated[list[str], NoDecode] = Field(default_factory=list)

@@ -23,6 +23,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.errors import BioPlanError, storage_problem
 from app.services.errors import ConflictError, NotFoundError
+from app.services.sandbox import ParseLimitError
 
 logger = logging.getLogger(__name__)
 
@@ -138,6 +139,8 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
 
 
 def _status_of(exc: BioPlanError) -> int:
+    if isinstance(exc, ParseLimitError):
+        return 413
     if isinstance(exc, NotFoundError):
         return 404
     if isinstance(exc, ConflictError):

@@ -35,6 +35,20 @@ def _entry(module: str, name: str) -> Any:
     return getattr(importlib.import_module(module), name)
 
 
+#: What the readers import when they first meet a format (CSV tables, MAT 7.3, EDF, robot
+#: sidecars): imported before a sandboxed read limits its memory, so that a limit refuses a
+#: file's data, never a library's code (``app.services.sandbox``).
+READER_MODULES = (
+    "pyarrow",
+    "pyarrow.csv",
+    "pyarrow.compute",
+    "h5py",
+    "pyedflib",
+    "yaml",
+    "xml.etree.ElementTree",
+)
+
+
 def preload() -> None:
     """Import the science packages (used by the local runner's fork server and Dask workers).
 
@@ -54,6 +68,7 @@ def preload() -> None:
         "pinocchio",
         "mujoco",
         "scipy.signal",
+        *READER_MODULES,
     )
     for name in modules:
         importlib.import_module(name)

@@ -206,8 +206,8 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
         raise src.error("file is empty", expected="a recording")
     try:
         rec = READERS[fmt](src, opts)
-    except RecordingError:
-        raise
+    except (RecordingError, MemoryError):
+        raise  # out of memory is not a corrupt file (a sandboxed read turns it into a 413)
     except Exception as exc:
         # Third-party parsers raise any exception type on corrupt input; callers are promised
         # RecordingError only, with the file named.

@@ -22,6 +22,7 @@ from app.db.blobs import BlobStore
 from app.db.lock import DataDirLock, lock_data_dir
 from app.db.session import make_engine, make_sessionmaker, upgrade
 from app.jobs.runner import JobRunner, make_runner
+from app.services import sandbox
 from app.services.broker import JobBroker
 from app.services.cache import ResponseCache
 from app.services.comparisons import ComparisonLoader
@@ -30,6 +31,7 @@ from app.services.jobs import JobService
 from app.services.limits import JobLimits
 from app.services.overlays import RecordingOverlays
 from app.services.robots import RobotCatalog
+from app.services.sandbox import ParseSandbox
 from app.viewer.access import ViewerAccess
 from app.viewer.scene import PreparedCache
 from app.viewer.server import ViewerServer
@@ -156,6 +158,9 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
         scratch_dir=settings.data_dir / "scratch" if settings.executor == "local" else None,
     )
     jobs.start()
+    # Uploads are read in a child process with limits from now on (after the runner set the
+    # fork server's preload, so the child starts with the readers imported).
+    sandbox.use(ParseSandbox(memory_mb=settings.parse_memory_mb, seconds=settings.parse_seconds))
     return Services(
         settings=settings,
         engine=engine,
@@ -175,6 +180,7 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
 
 def stop_services(services: Services) -> None:
     """Stop the viewer and the jobs (running ones go back to the queue), close the database."""
+    sandbox.use(None)
     if services.viewer is not None:
         services.viewer.stop()
         services.viewer = None

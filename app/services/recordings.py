@@ -35,6 +35,7 @@ from app.errors import BioPlanError
 from app.jobs.tasks import parse_recording
 from app.names import MAX_VIDEO_SECONDS, SKELETON_FRAMES
 from app.services.errors import ConflictError, NotFoundError, ServiceError
+from app.services.sandbox import ParseLimitError, read_untrusted
 
 #: Options the readers take (stored with the session; a change reads the files again).
 READER_OPTIONS = ("rate", "emg_rate", "muscle_map", "image_size", "frame_rate", "format")
@@ -95,7 +96,9 @@ def parse_upload(
                 metadata={"video": probe.to_dict(), "warnings": []},
                 role="video",
             )
-        out = parse_recording(data, name, options, sidecars)
+        out = read_untrusted(parse_recording, data, name, options, sidecars, what=name)
+    except ParseLimitError:
+        raise  # a 413 naming the limit
     except BioPlanError as exc:  # RecordingError: bad input, named
         text = str(exc)
         raise ServiceError(text if name in text else f"{name}: {text}", file=name) from None

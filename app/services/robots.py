@@ -20,6 +20,7 @@ from app.db.models import RobotRecord
 from app.errors import BioPlanError
 from app.jobs import tasks
 from app.services.errors import ConflictError, NotFoundError, ServiceError, UnknownRobotError
+from app.services.sandbox import ParseLimitError, read_untrusted
 
 #: The uploaded robot's options kept with it (``app.jobs.tasks.robot_from_spec``).
 _OPTION_KEYS = (
@@ -254,7 +255,10 @@ class RobotCatalog:
         }
         main = next(f for f in (urdf, mjcf, package) if f is not None)[0]
         try:
-            description = tasks.describe_robot(spec, folder=self.folder(spec))
+            describe = functools.partial(tasks.describe_robot, folder=self.folder(spec))
+            description = read_untrusted(describe, spec, what=main)
+        except ParseLimitError:
+            raise  # a 413 naming the limit, not a model the planner cannot load
         except BioPlanError as exc:
             raise ServiceError(
                 f"{main}: cannot load the robot model: {exc}", file=main, field=_field_of(str(exc))

@@ -324,6 +324,7 @@ def test_decompression_bombs_are_refused_before_they_grow(
     import h5py
 
     from app.recordings import _mat5
+    from app.services import sandbox
 
     bomb = tmp_path / "bomb.mat"
     with h5py.File(bomb, "w") as f:
@@ -335,6 +336,9 @@ def test_decompression_bombs_are_refused_before_they_grow(
     v5 = _mat5_bomb(variables=3, inflated_mb=5)  # each under 8 MB, 15 MB in all
     assert len(v5) < 100_000
     with make_client(tmp_path / "server") as c:
+        # The readers' own caps, in this process (where the smaller cap above applies): the
+        # sandbox around them is tested in test_parse_sandbox.py.
+        monkeypatch.setattr(sandbox, "_active", None)
         r = c.post("/api/recordings", files={"files": ("bomb.mat", bomb.read_bytes())})
         problem = assert_problem(r, 422, file="bomb.mat")
         assert "512 MB in all" in problem["detail"] and "emg" in problem["detail"]
