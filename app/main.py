@@ -16,6 +16,7 @@ import logging
 import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from typing import Any
 
 from fastapi import FastAPI
 from starlette.concurrency import run_in_threadpool
@@ -59,6 +60,26 @@ def _pages(settings: Settings) -> StaticFiles:
     return StaticFiles(directory=folder, html=True)
 
 
+def _document_token(app: FastAPI, settings: Settings) -> None:
+    """The OpenAPI document says what this server does: without ``BIOPLAN_API_TOKEN`` a write
+    needs no token (each bearer requirement gets an empty alternative); with one, it does."""
+    if settings.token is not None:
+        return
+    build = app.openapi
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema is None:
+            schema = build()
+            for path in schema.get("paths", {}).values():
+                for operation in path.values():
+                    if isinstance(operation, dict) and operation.get("security"):
+                        operation["security"] = [*operation["security"], {}]
+            app.openapi_schema = schema
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+
+
 def create_app(settings: Settings | None = None, *, runner: JobRunner | None = None) -> FastAPI:
     """The BioPlan server: API, dashboard pages, and (in its lifespan) jobs and viewer.
 
@@ -97,6 +118,7 @@ def create_app(settings: Settings | None = None, *, runner: JobRunner | None = N
     install_error_handlers(app)
     install_middleware(app, settings)
     app.include_router(api_router)
+    _document_token(app, settings)
     # After every API route, so /api/... never falls through to a page.
     app.mount("/", _pages(settings), name="dashboard")
     return app

@@ -103,6 +103,8 @@ async def _api_error(request: Request, exc: Exception) -> JSONResponse:
 async def _http_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, StarletteHTTPException)
     detail = exc.detail if isinstance(exc.detail, str) else str(exc.detail)
+    if exc.status_code == 400 and detail == "There was an error parsing the body":
+        detail = "the request body cannot be parsed: expected UTF-8 JSON, as its Content-Type says"
     return problem(
         exc.status_code, _phrase(exc.status_code), detail, headers=dict(exc.headers or {})
     )

@@ -71,3 +71,17 @@ def test_bad_input_is_a_4xx_by_type(client: TestClient) -> None:
 def test_validation_is_422_naming_the_field(client: TestClient) -> None:
     r = client.post("/api/plans", json={"robot": "curtain_wall_6dof", "duration": -1})
     assert_problem(r, 422, field="duration")
+
+
+def test_a_body_that_cannot_be_parsed_is_a_documented_400(client: TestClient) -> None:
+    """Found by the schema fuzz with every check: bytes that are not UTF-8 under a JSON
+    Content-Type got an undocumented 400 saying "There was an error parsing the body"."""
+    r = client.post(
+        "/api/plans", content=b"\x80\x81 not json", headers={"Content-Type": "application/json"}
+    )
+    problem = assert_problem(r, 400)
+    assert "expected UTF-8 JSON" in problem["detail"]
+    documented = client.get("/openapi.json").json()["paths"]["/api/plans"]["post"]["responses"]
+    assert "400" in documented
+    # Without a token, the document says writes need none (an empty security alternative).
+    assert {} in client.get("/openapi.json").json()["paths"]["/api/plans"]["post"]["security"]

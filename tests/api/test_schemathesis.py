@@ -1,4 +1,5 @@
-"""Property test against the OpenAPI schema: no generated request gets a 5xx.
+"""Property test against the OpenAPI schema with every check: no generated request gets a 5xx,
+and every answer is one the schema documents (status, content type, body, headers).
 
 schemathesis generates valid and invalid requests for every operation and sends them to the app
 in-process (ASGI). Jobs go to a runner that only records them, so the test measures the API, not
@@ -16,7 +17,7 @@ import schemathesis
 from hypothesis import HealthCheck, given, settings
 from hypothesis.errors import Unsatisfiable
 from schemathesis import GenerationMode
-from schemathesis.checks import not_a_server_error
+from schemathesis.checks import load_all_checks
 from schemathesis.python.asgi import shutdown_lifespans
 
 from app.config import Settings
@@ -26,13 +27,32 @@ from tests.utils.jobs import RecordingRunner
 #: Generated requests per operation and generation mode (about 30 operations).
 EXAMPLES = 12
 
+load_all_checks()
+#: Every response check schemathesis has (status codes, content types, response schemas and
+#: headers, refused invalid data, authentication), but two whose rule differs from this API's
+#: documented one: ``positive_data_acceptance`` wants 404 for a well-formed body that names a
+#: missing recording or robot, where the API answers 422 naming the field (the resource in
+#: the path exists; the body is what is wrong); ``max_response_time`` measures the machine.
+SKIPPED_CHECKS = {"positive_data_acceptance", "max_response_time"}
+CHECKS = [
+    check for check in schemathesis.checks.CHECKS.get_all() if check.__name__ not in SKIPPED_CHECKS
+]
 
-@pytest.fixture(scope="module")
-def schema(tmp_path_factory: pytest.TempPathFactory) -> Any:
+
+#: The API token of the second server: its writes must refuse a missing or generated token.
+TOKEN = "fuzz-token-0123456789"
+
+
+@pytest.fixture(scope="module", params=[None, TOKEN], ids=["open", "token"])
+def schema(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Any:
     tmp: Path = tmp_path_factory.mktemp("schemathesis")
     # The ASGI client sends ``Host: testserver``; the perimeter answers only names it serves.
     settings = Settings(
-        data_dir=tmp / "data", max_upload_mb=1, viewer=False, allowed_hosts=["testserver"]
+        data_dir=tmp / "data",
+        max_upload_mb=1,
+        viewer=False,
+        allowed_hosts=["testserver"],
+        api_token=request.param,
     )
     app = create_app(settings, runner=RecordingRunner())
     loaded = schemathesis.openapi.from_asgi("/openapi.json", app)  # starts the lifespan
@@ -41,6 +61,7 @@ def schema(tmp_path_factory: pytest.TempPathFactory) -> Any:
         from schemathesis.python.asgi import get_client
 
         client = get_client(app)
+        client.headers["Authorization"] = f"Bearer {TOKEN}"
         csv = b"time,emg\n" + b"".join(f"{i / 1000},{(i % 7) / 1e4}\n".encode() for i in range(500))
         client.post("/api/recordings", files=[("files", ("a.csv", csv))])
         client.post("/api/analyses", json={"recording_id": 1})
@@ -75,7 +96,7 @@ def test_no_server_errors(schema: Any, mode: GenerationMode) -> None:
         @given(case=operation.as_strategy(generation_mode=mode))
         def run(case: Any) -> None:
             response = case.call()
-            case.validate_response(response, checks=[not_a_server_error])
+            case.validate_response(response, checks=CHECKS)
 
         try:
             run()
@@ -96,6 +117,6 @@ def test_unknown_routes_and_methods_are_problems(schema: Any) -> None:
         ("PUT", "/api/recordings", 405),
         ("GET", "/api/recordings/abc", 422),
     ):
-        r = client.request(method, url)
+        r = client.request(method, url, headers={"Authorization": f"Bearer {TOKEN}"})
         assert r.status_code == status
         assert r.headers["content-type"].startswith("application/problem+json")

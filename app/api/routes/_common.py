@@ -34,6 +34,7 @@ PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
         "content": {"application/problem+json": {"schema": Problem.model_json_schema()}},
     }
     for code, desc in (
+        (400, "the body cannot be parsed as its Content-Type says"),
         (401, "API token missing or wrong"),
         (404, "not found"),
         (409, "conflict"),
