@@ -13,7 +13,22 @@ convention ("bad value -> ValueError") keeps working.
 
 from __future__ import annotations
 
-__all__ = ["BioPlanError"]
+__all__ = ["BioPlanError", "one_line"]
+
+#: Longest message shown for one error [characters].
+MAX_MESSAGE = 1000
+
+
+def one_line(text: str, limit: int = MAX_MESSAGE) -> str:
+    """A message as one printable line: control characters escaped (a corrupt file's bytes
+    quoted in a message must not break a terminal or a log line), whitespace runs as one
+    space, at most ``limit`` characters."""
+    shown = "".join(
+        c if c.isprintable() or c == " " else (" " if c in "\n\r\t" else repr(c)[1:-1])
+        for c in text
+    )
+    shown = " ".join(shown.split())
+    return shown if len(shown) <= limit else shown[: limit - 1] + "…"
 
 
 class BioPlanError(ValueError):

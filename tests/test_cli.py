@@ -367,3 +367,16 @@ def test_demo_json_is_one_object_with_the_claims(
     assert Path(data["report"]).is_file() and data["report"].endswith("index.html")
     assert {c["robot"] for c in data["claims"]} == {"human_arm_2dof"}
     assert all("conditions" in c and "methods_pct" in c for c in data["claims"])
+
+
+def test_an_error_message_is_shown_as_one_printable_line() -> None:
+    """What the CLI prints and the API answers for bad input: one line, control bytes escaped,
+    whitespace runs as one space, at most 1000 characters."""
+    from app.errors import one_line
+
+    assert one_line("x.c3d: parameter A\x07B\n  has  data type 90") == (
+        "x.c3d: parameter A\\x07B has data type 90"
+    )
+    long = one_line("y" * 5000)
+    assert len(long) == 1000 and long.endswith("…")
+    assert one_line("fine: ä ok") == "fine: ä ok"

@@ -21,7 +21,7 @@ from fastapi.responses import JSONResponse
 from sqlalchemy.exc import OperationalError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from app.errors import BioPlanError, storage_problem
+from app.errors import BioPlanError, one_line, storage_problem
 from app.services.errors import ConflictError, NotFoundError
 from app.services.sandbox import ParseLimitError
 
@@ -169,7 +169,7 @@ async def _bad_input(request: Request, exc: Exception) -> JSONResponse:
     return problem(
         status,
         title,
-        str(exc),
+        one_line(str(exc)),
         file=file if isinstance(file, str) else None,
         field=field if isinstance(field, str) else None,
         members={"job": job} if named else None,

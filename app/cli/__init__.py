@@ -15,7 +15,7 @@ from collections.abc import Callable
 from app import __version__
 from app.cli import analyze, demo, export, plan, serve, simulate, submit
 from app.cli._common import EXIT_BAD_INPUT, Parser
-from app.errors import BioPlanError
+from app.errors import BioPlanError, one_line
 
 __all__ = ["build_parser", "main"]
 
@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return handler(args)
     except BioPlanError as exc:
-        print(f"bioplan {args.command}: error: {exc}", file=sys.stderr)
+        print(f"bioplan {args.command}: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

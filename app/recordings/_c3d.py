@@ -124,7 +124,9 @@ def _parse_parameters(r: _Reader, start: int, n_blocks: int) -> _Params:
         if nchars == 0:
             break
         nlen = abs(nchars)
-        name = r.need(pos + 2, nlen, "parameter name").decode("latin-1").strip().upper()
+        raw_name = r.need(pos + 2, nlen, "parameter name").decode("latin-1").strip().upper()
+        # A corrupt length makes the "name" the bytes of the next parameters: shown in short.
+        name = raw_name if raw_name.isprintable() else repr(raw_name[:24])
         p = pos + 2 + nlen
         offset = r.i16(p, "parameter section")
         nxt = p + offset

@@ -196,3 +196,44 @@ def test_dec_float_conversion() -> None:
     ieee = struct.pack("<f", 8.0)
     swapped = ieee[2:] + ieee[:2]
     assert dec_to_ieee(swapped, 1)[0] == 2.0
+
+
+def _fuzzed(data: bytes, rng: np.random.Generator) -> bytes:
+    """Up to 30 random bytes changed in the header and parameter section."""
+    out = bytearray(data)
+    for _ in range(int(rng.integers(1, 30))):
+        out[int(rng.integers(0, min(len(out), 8192)))] = int(rng.integers(0, 256))
+    return bytes(out)
+
+
+def test_fuzzed_c3d_errors_are_one_printable_line(shared_data: Path, tmp_path: Path) -> None:
+    """Issue 14: fuzzed C3D files gave multi-line errors, the bytes of the next parameters
+    quoted as a "name". Every refusal of 200 fuzzed files is one short printable line, in the
+    library and on the CLI's stderr."""
+    import subprocess
+    import sys
+
+    data = shared_file(PYOMECA).read_bytes()
+    rng = np.random.default_rng(1)
+    worst = ""
+    for _ in range(200):
+        fuzzed = _fuzzed(data, rng)
+        try:
+            read_bytes(fuzzed, "x.c3d")
+        except RecordingError as exc:
+            text = str(exc)
+            assert text.isprintable() and len(text) < 1000, repr(text)
+            if len(text) > len(worst):
+                worst, worst_bytes = text, fuzzed
+    assert worst, "no fuzzed file was refused"
+    (tmp_path / "fuzzed.c3d").write_bytes(worst_bytes)
+    proc = subprocess.run(
+        [sys.executable, "-m", "app.cli", "analyze", str(tmp_path / "fuzzed.c3d")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 2
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("bioplan analyze: error: "), proc.stderr
+    assert lines[0].isprintable()
