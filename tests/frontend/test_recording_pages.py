@@ -191,3 +191,26 @@ def test_onsets_have_a_legend_and_orders_name_muscles(live_server: Server, page:
     assert page.evaluate(order, ["EMG7"]) == (
         "no muscle site mapped (+1 channel without a muscle site)"
     )
+
+
+def test_separate_trials_keep_their_own_time_axes(live_server: Server, page: Any) -> None:
+    """Issue 11: files uploaded together were overlaid on one time axis as if recorded at the
+    same time. Separate trials: each file's panels share a time axis among themselves only,
+    labelled with whose clock it is; recorded together, every panel shares one."""
+    from app.services.demo import synthetic_curls_csv
+
+    csv = synthetic_curls_csv()
+    status, rec = post_files(live_server, [("first.csv", csv), ("second.csv", csv)])
+    assert status == 201 and rec["session"] == "separate", rec
+    page.goto(f"{live_server.url}/#/recordings/{rec['id']}")
+    page.wait_for_function("document.getElementById('emg-plot')?.layout?.xaxis", timeout=120_000)
+    axes = page.evaluate(
+        """() => { const l = document.getElementById('emg-plot').layout;
+        return Object.keys(l).filter(k => k.startsWith('xaxis')).sort()
+          .map(k => [k, l[k].matches || null, (l[k].title && l[k].title.text) || null]); }"""
+    )
+    anchors = [name for name, matches, _ in axes if matches is None]
+    assert len(anchors) == 2, axes  # one time axis per file, not one for all
+    titles = [title for _, _, title in axes if title]
+    assert any("first.csv" in t for t in titles) and any("second.csv" in t for t in titles)
+    screenshot(page, "separate-trials")

@@ -203,6 +203,22 @@ export async function render(main, [idText]) {
     const traces = [];
     const lay = layout({ height: Math.max(260, 150 * n + 60), showlegend: true, uirevision: "emg", hovermode: "x", margin: { l: 78, r: 12, t: 30, b: 40 } });
     const gap = 0.04;
+    // Separate trials keep their own clocks: a file's panels share a time axis with each other
+    // only, and the last of them says whose clock it is.
+    const fileOf = (ch) => (state.emgChannels.find((c) => c.id === ch.channel_id) || {}).file;
+    const files = raw.channels.map(fileOf);
+    const ownClocks = rec.session === "separate" && new Set(files).size > 1;
+    const firstOf = (i) => (ownClocks ? files.indexOf(files[i]) : 0);
+    const lastOf = (i) => (ownClocks ? files.lastIndexOf(files[i]) : n - 1);
+    // Vertical room: a small gap between panels, more where one file's clock ends (its ticks).
+    const sepAfter = (i) => (i === n - 1 ? 0 : ownClocks && i === lastOf(i) ? 0.45 : gap);
+    const total = raw.channels.reduce((sum, _, i) => sum + 1 + sepAfter(i), 0);
+    const domains = [];
+    raw.channels.reduce((top, _, i) => {
+      domains.push([Math.max(0, top - 1 / total), top]);
+      return top - (1 + sepAfter(i)) / total;
+    }, 1);
+    lay.height += 60 * (new Set(files).size - 1) * (ownClocks ? 1 : 0);
     const envByChannel = new Map((analysis ? analysis.emg : []).map((e) => [e.channel, e]));
     raw.channels.forEach((ch, i) => {
       const axis = i === 0 ? "" : String(i + 1);
@@ -227,10 +243,11 @@ export async function render(main, [idText]) {
           under.push(rectTrace(env.onsets, top, span[1], { ...axes, name: `${label} onsets`, fillcolor: color, opacity: 0.45 }));
         }
       }
-      const top = 1 - i / n;
-      const bottom = 1 - (i + 1) / n;
-      lay[`yaxis${axis}`] = { domain: [bottom + gap / 2, top - gap / 2], title: { text: `${ch.name.length > 14 ? `${ch.name.slice(0, 13)}…` : ch.name}<br>${label !== ch.name ? `${label} ` : ""}[${scale.unit}]`, font: { size: 10.5 } }, gridcolor: "#eceff3", zeroline: false };
-      lay[`xaxis${axis}`] = { anchor: `y${axis}`, matches: i === 0 ? undefined : "x", showticklabels: i === n - 1, gridcolor: "#eceff3", range: range(), title: i === n - 1 ? { text: "t [s]" } : undefined };
+      const [bottom, top] = domains[i];
+      lay[`yaxis${axis}`] = { domain: [bottom, top], title: { text: `${ch.name.length > 14 ? `${ch.name.slice(0, 13)}…` : ch.name}<br>${label !== ch.name ? `${label} ` : ""}[${scale.unit}]`, font: { size: 10.5 } }, gridcolor: "#eceff3", zeroline: false };
+      const first = firstOf(i);
+      const xTitle = ownClocks ? `t [s] in ${files[i]} (its own clock)` : "t [s]";
+      lay[`xaxis${axis}`] = { anchor: `y${axis}`, matches: i === first ? undefined : `x${first === 0 ? "" : first + 1}`, showticklabels: i === lastOf(i), gridcolor: "#eceff3", range: range(), title: i === lastOf(i) ? { text: xTitle, font: { size: 11 } } : undefined };
     });
     await draw(emgDiv, [...under, ...traces], lay);
     emgDiv.style.minHeight = "0";
