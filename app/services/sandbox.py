@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import importlib
 import multiprocessing as mp
+import os
 import resource
 from collections.abc import Callable
 from multiprocessing.connection import Connection
@@ -26,6 +27,8 @@ from app.services.errors import ServiceError
 
 T = TypeVar("T")
 
+#: How much lower the child's CPU priority is than the API process's (``nice``).
+NICENESS = 10
 #: Seconds a killed child is given to be reaped.
 REAP_SECONDS = 5.0
 
@@ -57,6 +60,8 @@ def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extr
     pyarrow.set_cpu_count(1)
     pyarrow.set_io_thread_count(1)
     pyarrow.set_memory_pool(pyarrow.system_memory_pool())
+    # Below the API process in the scheduler's eyes, so reads stay quick while a file is read.
+    os.nice(NICENESS)
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
     limit = _address_space() + extra
     if hard != resource.RLIM_INFINITY:
