@@ -8,8 +8,9 @@ script can move between ``bioplan plan --json`` and ``POST /api/plans``. SI unit
 
 from __future__ import annotations
 
+import json
 from datetime import datetime
-from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar, get_args
 
 from pydantic import (
     BaseModel,
@@ -60,6 +61,36 @@ _strict = ConfigDict(extra="forbid")
 def blank_label_is_none(value: Any) -> Any:
     """A label without its surrounding blanks; an empty one is no label."""
     return (value.strip() or None) if isinstance(value, str) else value
+
+
+def _numeric(annotation: Any) -> bool:
+    """Whether a field's type takes numbers and not booleans (``float``, ``list[float]``...)."""
+    found: set[Any] = set()
+
+    def walk(t: Any) -> None:
+        found.add(t)
+        for arg in get_args(t):
+            walk(arg)
+
+    walk(annotation)
+    return bool(found & {float, int}) and bool not in found
+
+
+class _Request(BaseModel):
+    """A request body: unknown fields are refused, and ``true``/``false`` are never read as
+    numbers (pydantic would take ``true`` for a duration of 1 s)."""
+
+    model_config = _strict
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_booleans_as_numbers(cls, value: Any, info: ValidationInfo) -> Any:
+        field = cls.model_fields.get(info.field_name or "")
+        if field is not None and _numeric(field.annotation):
+            values = value if isinstance(value, list) else [value]
+            if any(isinstance(v, bool) for v in values):
+                raise ValueError(f"{json.dumps(value)} holds a boolean: expected a number")
+        return value
 
 
 #: The user's short name for a recording, plan or simulation (at most 200 characters).
@@ -292,7 +323,7 @@ class RecordingDetail(RecordingSummary):
     )
 
 
-class RecordingPatch(BaseModel):
+class RecordingPatch(_Request):
     """Change a stored recording; the files are read again with the new options (no upload).
 
     A field left out keeps its value; ``null`` clears an option.
@@ -373,7 +404,7 @@ class SkeletonFrames(BaseModel):
 # -------------------------------------------------------------------------------- analyses
 
 
-class AnalysisRequest(BaseModel):
+class AnalysisRequest(_Request):
     """Analyse the files of one recording (``bioplan analyze``). Options left out take the
     recording's (emg_rate, muscle_map, exclude_channels, session, load)."""
 
@@ -465,7 +496,7 @@ class PoseOut(BaseModel):
 # ----------------------------------------------------------------------------------- plans
 
 
-class _RobotTask(BaseModel):
+class _RobotTask(_Request):
     model_config = _strict
 
     label: Label = Field(default=None, description="a short name for the result (not planned)")
@@ -538,7 +569,7 @@ class SimulationRequest(_RobotTask):
     """Plan, then simulate both trajectories in MuJoCo (``bioplan simulate``)."""
 
 
-class SweepRequest(BaseModel):
+class SweepRequest(_Request):
     """Savings over a grid (``bioplan sweep``)."""
 
     model_config = _strict
@@ -600,7 +631,7 @@ class SweepRequest(BaseModel):
         return v
 
 
-class ProfilesRequest(BaseModel):
+class ProfilesRequest(_Request):
     """Classical profiles, minimum torque change and the planning methods on one task
     (``bioplan profiles``)."""
 
@@ -646,7 +677,7 @@ class ResultOut(BaseModel):
     result: dict[str, Any] | None
 
 
-class LabelPatch(BaseModel):
+class LabelPatch(_Request):
     """Rename a plan or simulation."""
 
     model_config = _strict

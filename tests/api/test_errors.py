@@ -85,3 +85,17 @@ def test_a_body_that_cannot_be_parsed_is_a_documented_400(client: TestClient) ->
     assert "400" in documented
     # Without a token, the document says writes need none (an empty security alternative).
     assert {} in client.get("/openapi.json").json()["paths"]["/api/plans"]["post"]["security"]
+
+
+def test_booleans_and_bare_numbers_are_not_read_as_numbers_or_dates(client: TestClient) -> None:
+    """Found by schemathesis with every check: ``true`` was accepted as a duration of 1 s and
+    ``created_before=0.5`` as a Unix time."""
+    bad = client.post("/api/plans", json={"robot": "human_arm_2dof", "duration": True})
+    assert "boolean" in assert_problem(bad, 422, field="duration")["detail"]
+    bad = client.post("/api/sweeps", json={"durations": [1.0, True]})
+    assert_problem(bad, 422, field="durations")
+    bad = client.post("/api/analyses", json={"recording_id": 1, "body_mass": False})
+    assert_problem(bad, 422, field="body_mass")
+    date = client.get("/api/recordings", params={"created_before": "0.5"})
+    assert "ISO 8601" in assert_problem(date, 422, field="created_before")["detail"]
+    assert client.get("/api/recordings", params={"created_before": "2026-11-26"}).status_code == 200

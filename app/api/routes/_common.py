@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from fastapi import Path, Query, Response
+from pydantic import BeforeValidator
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, undefer
 
@@ -222,6 +223,25 @@ def trajectory_out(
         media_type=EXPORT_MEDIA_TYPES[fmt],
         headers={"Content-Disposition": f'attachment; filename="{filename}"'},
     )
+
+
+def _iso_only(value: Any) -> Any:
+    """Refuse a bare number as a date (pydantic would read ``0.5`` as a Unix time)."""
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return value
+        raise ValueError(f"{value!r} is a number: expected an ISO 8601 date, e.g. 2026-11-26")
+    return value
+
+
+#: A date and time in a query, ISO 8601 only ("2026-11-26" or "2026-11-26T08:00:00Z").
+IsoDateTimeQuery = Annotated[
+    datetime | None,
+    BeforeValidator(_iso_only),
+    Query(description="ISO 8601 date or date and time (UTC when no zone is given)"),
+]
 
 
 def utc(value: datetime | None, field: str) -> datetime | None:

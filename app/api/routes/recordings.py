@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-from datetime import datetime
 from typing import Annotated, Any, get_args
 
 import numpy as np
@@ -18,7 +17,14 @@ from starlette.concurrency import run_in_threadpool
 from app.analysis.downsample import minmax_downsample
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
-from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath, upload_name, utc
+from app.api.routes._common import (
+    MAX_POINTS,
+    PROBLEM_RESPONSES,
+    IdPath,
+    IsoDateTimeQuery,
+    upload_name,
+    utc,
+)
 from app.api.schemas import (
     EMG_RATE_MIN_HZ,
     RATE_MAX_HZ,
@@ -230,8 +236,8 @@ async def list_recordings(
     task: Annotated[str | None, Query(max_length=200)] = None,
     format: Annotated[str | None, Query(max_length=64)] = None,
     q: Annotated[str | None, Query(max_length=200, description="text in names/notes")] = None,
-    created_after: datetime | None = None,
-    created_before: datetime | None = None,
+    created_after: IsoDateTimeQuery = None,
+    created_before: IsoDateTimeQuery = None,
 ) -> Response:
     """Recording sessions, newest first. Pages are cached until the next upload or delete."""
     after, before = utc(created_after, "created_after"), utc(created_before, "created_before")
