@@ -575,10 +575,11 @@ class SweepRequest(_Request):
     model_config = _strict
 
     robot: str = Field(default="curtain_wall_6dof", pattern=ROBOT_NAME)
-    durations: list[float] = Field(
+    # The ranges are in the schema, so a client (or a fuzzer) knows 0 s is no duration.
+    durations: list[Annotated[float, Field(gt=0, le=600)]] = Field(
         default=[0.5, 0.75, 1.0, 1.5, 2.0], min_length=1, max_length=50, description="[s]"
     )
-    payloads: list[float] = Field(
+    payloads: list[Annotated[float, Field(ge=0, le=10000)]] = Field(
         default=[0.0, 4.0, 8.0, 12.0, 20.0], min_length=1, max_length=50, description="[kg]"
     )
     objectives: list[Objective] = Field(default=["abs_work"], min_length=1, max_length=6)
@@ -614,20 +615,6 @@ class SweepRequest(_Request):
         repeated = sorted({x for x in v if v.count(x) > 1}, key=str)
         if repeated:
             raise ValueError(f"{info.field_name} must not repeat (repeated: {repeated})")
-        return v
-
-    @field_validator("durations")
-    @classmethod
-    def _positive(cls, v: list[float]) -> list[float]:
-        if any(not 0 < d <= 600 for d in v):
-            raise ValueError("durations must lie in (0, 600] s")
-        return v
-
-    @field_validator("payloads")
-    @classmethod
-    def _non_negative(cls, v: list[float]) -> list[float]:
-        if any(not 0 <= p <= 10000 for p in v):
-            raise ValueError("payloads must lie in [0, 10000] kg")
         return v
 
 

@@ -99,3 +99,7 @@ def test_booleans_and_bare_numbers_are_not_read_as_numbers_or_dates(client: Test
     date = client.get("/api/recordings", params={"created_before": "0.5"})
     assert "ISO 8601" in assert_problem(date, 422, field="created_before")["detail"]
     assert client.get("/api/recordings", params={"created_before": "2026-11-26"}).status_code == 200
+    # A 0 s duration was allowed by the schema and refused by the route: the schema says so now.
+    assert_problem(client.post("/api/sweeps", json={"durations": [0.0]}), 422, field="durations.0")
+    grid = client.get("/openapi.json").json()["components"]["schemas"]["SweepRequest"]
+    assert grid["properties"]["durations"]["items"]["exclusiveMinimum"] == 0
