@@ -76,6 +76,7 @@ MethodsQuery = Annotated[
     str | None,
     Query(
         max_length=100,
+        pattern=r"^[a-z_]+,[a-z_]+$",
         description="two planned methods shown as standard,optimized (default: quintic,paper)",
         examples=["quintic,bound"],
     ),
