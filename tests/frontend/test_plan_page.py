@@ -151,3 +151,16 @@ def test_a_sweep_from_the_page_with_heat_maps_per_method(live_server: Server, pa
     wait_for(lambda: page.get_attribute("#sweep-plot", "data-method") == "bound", 30, "bound")
     assert drawn() == pytest.approx(expected["bound"])
     assert expected["bound"] != pytest.approx(expected["paper"])
+
+
+def test_a_refusal_is_shown_at_the_top_in_the_forms_words(live_server: Server, page: Any) -> None:
+    """Issue 15: errors used the API's field names and sat at the bottom of the form."""
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#plan-form")
+    page.fill("#particles", "1")
+    page.click("#submit-plan")
+    banner = "#plan-form .banner.error"
+    page.wait_for_selector(banner, timeout=60_000)
+    text = page.inner_text(banner)
+    assert text.startswith("Particles:") and "particles" not in text, text
+    assert page.locator(banner).bounding_box()["y"] < page.locator("#robot").bounding_box()["y"]

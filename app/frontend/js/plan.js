@@ -6,7 +6,16 @@ import { names } from "./names.js";
 import { colours, draw, layout } from "./plots.js";
 import { robotUploadCard } from "./robot_upload.js";
 import { sweepFormCard } from "./sweep_form.js";
-import { DEG, banner, clear, fmt, h, messageOf, pct, tag } from "./ui.js";
+import { DEG, banner, clear, fmt, h, inFormWords, messageOf, pct, tag } from "./ui.js";
+
+/** The plan form's labels of the request's fields, for the server's messages. */
+const PLAN_WORDS = {
+  label: "Label", robot: "Robot", duration: "Duration", payload: "Payload", objective: "Objective",
+  seed: "Seed", particles: "Particles", iterations: "Iterations", peak_angle_deg: "Elbow peak angle",
+  template: "Template", template_analysis_id: "Template", methods: "Methods",
+  human_constraint: "Human-like optimum's constraint", start_deg: "Start angles", goal_deg: "Goal angles",
+  n_samples: "Samples", n_intervals: "Intervals", no_reversal: "No joint reversal",
+};
 
 /**
  * The optimisers' convergence from a job's structured progress: one curve per stage that
@@ -123,6 +132,7 @@ export async function render(main, [query]) {
   const formError = h("div", {});
   const form = h("form", { class: "card", id: "plan-form", novalidate: true, onsubmit: onSubmit },
     h("h2", {}, "New plan"),
+    formError, // at the top, where it is seen, in the form's words
     h("div", { class: "fields" },
       h("div", {}, h("label", { for: "robot" }, "Robot"), robot, robotInfo),
       h("div", {}, h("label", { for: "kind" }, "Run"), kind),
@@ -152,7 +162,6 @@ export async function render(main, [query]) {
         h("div", {}, h("label", { for: "seed" }, "Seed"), seed),
       ),
     ),
-    formError,
     h("div", { class: "row", style: "margin-top:14px" }, submit),
   );
 
@@ -236,6 +245,7 @@ export async function render(main, [query]) {
       b = body();
     } catch (err) {
       formError.append(banner("error", err.message));
+      formError.scrollIntoView({ block: "nearest" });
       return;
     }
     submit.disabled = true;
@@ -244,8 +254,8 @@ export async function render(main, [query]) {
       const job = await api(route, { method: "POST", body: b });
       startMonitor(job);
     } catch (err) {
-      const field = err.problem && err.problem.field ? ` (${err.problem.field})` : "";
-      formError.append(banner("error", `${messageOf(err)}${field}`));
+      formError.append(banner("error", inFormWords(err, PLAN_WORDS)));
+      formError.scrollIntoView({ block: "nearest" });
     } finally {
       submit.disabled = false;
     }

@@ -1,7 +1,7 @@
 // Recordings: drag-and-drop upload of a session (one or more files) and the list.
 
 import { api, followJob, qs, upload } from "./api.js";
-import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
+import { banner, bytes, clear, debounce, fmt, h, inFormWords, messageOf, when } from "./ui.js";
 
 const SITES = ["deltoid", "triceps", "biceps", "forearm"];
 /** The API's form fields in the words of this form. */
@@ -36,10 +36,7 @@ function homeGuide() {
 
 /** A problem's message with its field in the form's words ("EMG rate: ..."). */
 export function inWords(err) {
-  const field = err && err.problem && err.problem.field;
-  const words = field && FIELD_WORDS[field.split(".")[0]];
-  const text = messageOf(err);
-  return words && !text.startsWith(words) ? `${words}: ${text.replace(new RegExp(`^${field}:\\s*`), "")}` : text;
+  return inFormWords(err, FIELD_WORDS);
 }
 
 export function render(main) {

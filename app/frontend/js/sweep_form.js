@@ -4,7 +4,13 @@
 // are shown on the Compare page beside a comparison of the same robot.
 
 import { api, followJob, qs } from "./api.js";
-import { banner, clear, h, messageOf, tag } from "./ui.js";
+import { banner, clear, h, inFormWords, tag } from "./ui.js";
+
+/** The sweep request's fields in the words of the forms they come from. */
+const SWEEP_WORDS = {
+  durations: "Durations", payloads: "Payloads", objectives: "Objective", methods: "Methods",
+  robot: "Robot", particles: "Particles", iterations: "Iterations", seed: "Seed",
+};
 
 /** Numbers from "0.5, 1, 1.5" (commas or blanks); throws naming the field when one is not. */
 export function numberList(text, what) {
@@ -77,8 +83,7 @@ export function sweepFormCard(form, stops) {
     try {
       follow(await api("/api/sweeps", { method: "POST", body }));
     } catch (err) {
-      const field = err.problem && err.problem.field ? ` (${err.problem.field})` : "";
-      status.append(banner("error", `${messageOf(err)}${field}`));
+      status.append(banner("error", inFormWords(err, SWEEP_WORDS)));
     } finally {
       submit.disabled = false;
     }

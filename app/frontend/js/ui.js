@@ -69,6 +69,15 @@ export function messageOf(err) {
   return err && err.message ? err.message : String(err);
 }
 
+/** An API error in a form's words: "Duration: must be > 0" rather than "duration: ...".
+ * `words` maps request field names (the part before any ".index") to the form's labels. */
+export function inFormWords(err, words) {
+  const field = err && err.problem && err.problem.field;
+  const label = field && words[field.split(".")[0]];
+  const text = messageOf(err);
+  return label && !text.startsWith(label) ? `${label}: ${text.replace(new RegExp(`^${field}:\\s*`), "")}` : text;
+}
+
 export function debounce(fn, ms) {
   let t = null;
   return (...args) => {
