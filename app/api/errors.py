@@ -166,13 +166,17 @@ async def _bad_input(request: Request, exc: Exception) -> JSONResponse:
     elif title is None:
         title = "Unreadable file" if file is not None else "Invalid input"
     named = job is not None or getattr(exc, "names_job", False)
+    files = getattr(exc, "files", None)  # every unreadable file of an upload, each with its own
+    extra = {"job": job} if named else {}
+    if isinstance(files, list):
+        extra["files"] = files
     return problem(
         status,
         title,
         one_line(str(exc)),
         file=file if isinstance(file, str) else None,
         field=field if isinstance(field, str) else None,
-        members={"job": job} if named else None,
+        members=extra or None,
     )
 
 

@@ -108,6 +108,9 @@ class Problem(BaseModel):
     detail: str | None = None
     field: str | None = Field(default=None, description="the request field at fault")
     file: str | None = Field(default=None, description="the uploaded file at fault")
+    files: list[dict[str, Any]] | None = Field(
+        default=None, description="every unreadable file of an upload: [{file, detail}]"
+    )
     errors: list[dict[str, Any]] | None = Field(default=None, description="every invalid field")
     job: dict[str, Any] | None = Field(default=None, description="a job to follow or inspect")
 

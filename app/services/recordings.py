@@ -230,19 +230,50 @@ def parse_session(
     """
     recordings = [u for u in uploads if u.role == "recording"]
     parsed: list[crud.ParsedFile] = []
+    refused: list[ServiceError] = []
     for u in uploads:
-        if u.role == "sidecar":
-            p = crud.ParsedFile(name=u.name, data=u.data, format="bids_sidecar", role="sidecar")
-        elif u.role == "video":
-            p = parse_upload(u.name, u.data, {})
-            _check_duration(p, max_video_seconds)
-        else:
-            p = _parse_recording_file(u, options, len(recordings) > 1)
+        try:
+            p = _parse_one(u, options, len(recordings) > 1, max_video_seconds)
+        except ParseLimitError:
+            raise  # the server's limit: the other files are not worth reading now
+        except ServiceError as exc:
+            if exc.file is None:  # not about this file (a muscle map entry): as it is
+                raise
+            refused.append(exc)  # every unreadable file is named, not only the first
+            continue
         p.parent = u.parent
         parsed.append(p)
+    if refused:
+        raise UnreadableFiles(refused)
     if len(recordings) > 1:
         _check_map_used(options.get("muscle_map"), (c["name"] for p in parsed for c in p.channels))
     return parsed
+
+
+def _parse_one(
+    u: Upload, options: dict[str, Any], shared: bool, max_video_seconds: float
+) -> crud.ParsedFile:
+    if u.role == "sidecar":
+        return crud.ParsedFile(name=u.name, data=u.data, format="bids_sidecar", role="sidecar")
+    if u.role == "video":
+        p = parse_upload(u.name, u.data, {})
+        _check_duration(p, max_video_seconds)
+        return p
+    return _parse_recording_file(u, options, shared)
+
+
+class UnreadableFiles(ServiceError):
+    """Files of one upload that cannot be read: every one named, with its own message.
+
+    Attributes:
+        files: ``[{"file": name, "detail": message}]`` in upload order.
+    """
+
+    def __init__(self, refused: Sequence[ServiceError]) -> None:
+        first = refused[0]
+        text = str(first) if len(refused) == 1 else "; ".join(str(e) for e in refused)
+        super().__init__(text, file=first.file, field=first.field)
+        self.files = [{"file": e.file, "detail": str(e)} for e in refused]
 
 
 def _check_duration(p: crud.ParsedFile, limit: float) -> None:

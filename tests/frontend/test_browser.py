@@ -164,25 +164,31 @@ def test_zoom_loads_the_window(live_server: Server, page: Any) -> None:
     assert full <= 1600
 
 
-def test_a_bad_file_shows_the_servers_message(
+def test_bad_files_show_the_servers_messages(
     live_server: Server, page: Any, tmp_path: Path
 ) -> None:
+    """Issue 15: several bad files in one upload named only the first. Every unreadable file
+    gets its own message next to it; the readable one is not stored either."""
     good = shared_file(NORAXON_CSV)
     bad = tmp_path / "truncated.c3d"
     bad.write_bytes(shared_file(C3D).read_bytes()[:3000])
-    status, problem = post_files(
-        live_server, [(good.name, good.read_bytes()), (bad.name, bad.read_bytes())]
-    )
+    worse = tmp_path / "noise.csv"
+    worse.write_bytes(b"\x00\x01\x02 not a table\n" * 20)
+    upload = [(p.name, p.read_bytes()) for p in (good, bad, worse)]
+    status, problem = post_files(live_server, upload)
     assert status == 422 and problem["file"] == bad.name
+    details = {f["file"]: f["detail"] for f in problem["files"]}
+    assert set(details) == {bad.name, worse.name}
     before = live_server.get("/api/recordings")["total"]
 
     page.goto(f"{live_server.url}/#/recordings")
-    page.set_input_files("#file-input", [str(good), str(bad)])
+    page.set_input_files("#file-input", [str(good), str(bad), str(worse)])
     page.click("#upload-button")
-    error = page.wait_for_selector(f'li[data-name="{bad.name}"] .file-error')
-    # The server's own words, next to the file at fault; the other file was not stored.
-    assert error.inner_text() == problem["detail"]
+    for name in (bad.name, worse.name):
+        error = page.wait_for_selector(f'li[data-name="{name}"] .file-error')
+        assert error.inner_text() == details[name]  # the server's own words, next to the file
     assert "not stored" in page.inner_text(f'li[data-name="{good.name}"]')
+    assert "2 files could not be read" in page.inner_text("#upload-error")
     assert live_server.get("/api/recordings")["total"] == before
     screenshot(page, "recordings-bad-file")
 

@@ -240,12 +240,16 @@ export function render(main) {
       progress.classList.add("failed");
       bar.style.width = "100%";
       const problem = err.problem || {};
-      const culprit = problem.file ? files.find((f) => f.file.name === problem.file) : null;
-      if (culprit) {
-        // The server names the file: show its message next to it, the others were not stored.
-        culprit.status.append(h("div", { class: "file-error", role: "alert" }, messageOf(err)));
-        sent.filter((f) => f !== culprit).forEach((f) => f.status.append(h("div", { class: "meta" }, "not stored: a session is stored whole or not at all")));
-        topError.append(banner("error", `Nothing was stored: ${problem.file} could not be read (its message is next to it).`));
+      // The server names every file it could not read (or the one, for other refusals).
+      const named = problem.files || (problem.file ? [{ file: problem.file, detail: messageOf(err) }] : []);
+      const culprits = named.map((n) => [files.find((f) => f.file.name === n.file), n.detail]).filter(([f]) => f);
+      if (culprits.length) {
+        // Each message next to its file; the others were not stored either.
+        culprits.forEach(([f, detail]) => f.status.append(h("div", { class: "file-error", role: "alert" }, detail)));
+        const bad = new Set(culprits.map(([f]) => f));
+        sent.filter((f) => !bad.has(f)).forEach((f) => f.status.append(h("div", { class: "meta" }, "not stored: a session is stored whole or not at all")));
+        const which = culprits.map(([f]) => f.file.name).join(", ");
+        topError.append(banner("error", `Nothing was stored: ${culprits.length > 1 ? `${culprits.length} files` : which} could not be read (${culprits.length > 1 ? `${which}; each message is next to its file` : "its message is next to it"}).`));
       } else {
         topError.append(banner("error", inWords(err)));
       }
