@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import httpx
 import pytest
 
 from tests.frontend.test_browser import wait_for
@@ -164,3 +165,26 @@ def test_a_refusal_is_shown_at_the_top_in_the_forms_words(live_server: Server, p
     text = page.inner_text(banner)
     assert text.startswith("Particles:") and "particles" not in text, text
     assert page.locator(banner).bounding_box()["y"] < page.locator("#robot").bounding_box()["y"]
+
+
+def test_templates_are_named_by_their_recording(live_server: Server, page: Any) -> None:
+    """Issue 15: templates were named only by ids, and a deleted recording's analysis showed
+    "recording #null". A template names its recording's label, subject and task; a deleted
+    one says so."""
+    from app.services.demo import DEMO_SUBJECT, synthetic_curls_csv
+    from tests.frontend.test_browser import post_files
+
+    status, rec = post_files(live_server, [("gone.csv", synthetic_curls_csv())])
+    assert status == 201
+    job = live_server.post("/api/analyses", json={"recording_id": rec["id"]}).json()
+    wait_for(
+        lambda: live_server.get(f"/api/jobs/{job['id']}")["state"] == "succeeded", 180, "analysis"
+    )
+    assert httpx.delete(f"{live_server.url}/api/recordings/{rec['id']}").status_code == 204
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#template")
+    options = page.eval_on_selector_all("#template option", "os => os.map(o => o.textContent)")
+    assert any(DEMO_SUBJECT in o for o in options), options
+    gone = [o for o in options if o.startswith(f"analysis #{job['id']} ")]
+    assert gone and "a deleted recording" in gone[0], options
+    assert not any("#null" in o for o in options)

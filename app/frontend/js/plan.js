@@ -34,10 +34,16 @@ export function addProgressPoint(curves, job) {
 export async function render(main, [query]) {
   const params = new URLSearchParams(query || "");
   const stops = [];
-  const [robots, analyses] = await Promise.all([
+  const [robots, analyses, recordings] = await Promise.all([
     api("/api/robots"),
     api(`/api/analyses${qs({ state: "succeeded", limit: 100 })}`).catch(() => ({ items: [] })),
+    api(`/api/recordings${qs({ limit: 500 })}`).catch(() => ({ items: [] })),
   ]);
+  // Templates are named by their recording's label, subject and task, not only by ids.
+  const recordingNames = new Map(recordings.items.map((r) => {
+    const who = [r.subject, r.task].filter(Boolean).join(", ");
+    return [r.id, r.label ? `“${r.label}”${who ? ` (${who})` : ""}` : who || `recording #${r.id}`];
+  }));
 
   // ---- form --------------------------------------------------------------------------
   const robotOption = (r) => h("option", { value: r.name, selected: params.get("robot") === r.name }, `${r.name}${r.builtin ? "" : " (uploaded)"}`);
@@ -55,7 +61,7 @@ export async function render(main, [query]) {
       const t = a.template || {};
       const peak = t.peak_velocity_angle_deg ? `${fmt(t.peak_velocity_angle_deg, 3)}°` : "?";
       const summary = a.summary || {};
-      const of = a.recording_id === null ? "a deleted recording" : `recording #${a.recording_id}`;
+      const of = a.recording_id === null ? "a deleted recording" : recordingNames.get(a.recording_id) || `recording #${a.recording_id}`;
       const source = summary.is_paper_default ? "the paper's default (no lifts with kinematics)" : summary.template_source || `${t.n_lifts ?? 0} lifts`;
       return h("option", { value: String(a.id), selected: params.get("analysis") === String(a.id) }, `analysis #${a.id} of ${of}: peak ${peak}, ${source}`);
     }),
