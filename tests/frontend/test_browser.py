@@ -373,6 +373,11 @@ def _check_narrow(page: Any, route: str) -> None:
             assert _in_view(page, f"{row} .floor-inline"), f"{metric}: floor off-screen"
             assert "floor" in page.inner_text(f"{row} .floor-inline")
             assert _in_view(page, f'{row} td[data-method="paper"] .small')  # its change
+        # A legend of many entries goes under the plot, not over its curves.
+        page.wait_for_selector("#plot-human .legend")
+        legend = page.locator("#plot-human .legend").bounding_box()
+        plot = page.locator("#plot-human .nsewdrag").first.bounding_box()
+        assert legend["y"] >= plot["y"] + plot["height"], (legend, plot)
         # Scrolled to the last method, the metric names stay in view.
         page.eval_on_selector("#metrics-table", "t => t.parentElement.scrollLeft = 10000")
         assert _in_view(page, '#metrics-table tr[data-metric="tau_sq"] td:first-child')

@@ -101,9 +101,31 @@ export function phaseLabels(times, xref = "x", t0 = 0) {
   ];
 }
 
+/** Below this plot width [px] a legend goes under the plot: over it, it hides the curves. */
+const NARROW_PLOT = 560;
+
+/** The layout for a narrow plot: a legend of several entries under the plot, not over it. */
+function fitNarrow(div, traces, lay) {
+  const entries = traces.filter((t) => t.name && t.showlegend !== false).length;
+  const width = div.clientWidth; // 0 while not laid out: then nothing is known, nothing changes
+  if (!width || width >= NARROW_PLOT || lay.showlegend === false || entries < 2) return lay;
+  const room = 22 * Math.ceil(entries / 2) + 34;
+  const margin = { l: 56, r: 12, t: 30, b: 40, ...lay.margin };
+  const height = (lay.height || 300) + room;
+  const top = Math.min(margin.t, 24);
+  // Under the tick labels and the axis title (about 60 px below the plot area).
+  const plotHeight = height - top - (margin.b + room);
+  return {
+    ...lay,
+    height,
+    margin: { ...margin, t: top, b: margin.b + room },
+    legend: { ...lay.legend, orientation: "h", x: 0, y: -62 / plotHeight, yanchor: "top" },
+  };
+}
+
 /** Plotly.react into a div, loading Plotly first. */
 export async function draw(div, traces, lay, config = {}) {
   const P = await plotly();
-  await P.react(div, traces, lay, { ...CONFIG, ...config });
+  await P.react(div, traces, fitNarrow(div, traces, lay), { ...CONFIG, ...config });
   return P;
 }
