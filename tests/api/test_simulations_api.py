@@ -77,6 +77,7 @@ def test_sweep_equals_the_library_and_reports_cells(shared_client: TestClient) -
     assert isinstance(expected, dict)
     for key in ("durations", "payloads", "objectives", "metrics", "tables"):
         assert out["result"][key] == expected[key], key
+    # The range is in the schema: the item at fault is named.
     assert_problem(shared_client.post("/api/sweeps", json={**body, "durations": [0]}), 422,
-                   field="durations")  # fmt: skip
+                   field="durations.0")  # fmt: skip
     assert_problem(shared_client.get(f"/api/sweeps/{r.json()['id']}/arrays"), 404)
