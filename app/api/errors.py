@@ -22,8 +22,7 @@ from sqlalchemy.exc import OperationalError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.errors import BioPlanError, one_line, storage_problem
-from app.services.errors import ConflictError, NotFoundError
-from app.services.sandbox import ParseLimitError
+from app.services.errors import ConflictError, NotFoundError, ParseLimitError
 
 logger = logging.getLogger(__name__)
 

@@ -332,8 +332,6 @@ class RecordingPatch(_Request):
     A field left out keeps its value; ``null`` clears an option.
     """
 
-    model_config = _strict
-
     subject: str | None = Field(default=None, max_length=200)
     task: str | None = Field(default=None, max_length=200)
     notes: str | None = Field(default=None, max_length=10000)
@@ -410,8 +408,6 @@ class SkeletonFrames(BaseModel):
 class AnalysisRequest(_Request):
     """Analyse the files of one recording (``bioplan analyze``). Options left out take the
     recording's (emg_rate, muscle_map, exclude_channels, session, load)."""
-
-    model_config = _strict
 
     recording_id: int = Field(ge=1, le=2**31 - 1)
     emg_rate: float | None = Field(
@@ -500,8 +496,6 @@ class PoseOut(BaseModel):
 
 
 class _RobotTask(_Request):
-    model_config = _strict
-
     label: Label = Field(default=None, description="a short name for the result (not planned)")
     robot: str = Field(
         default="curtain_wall_6dof",
@@ -575,8 +569,6 @@ class SimulationRequest(_RobotTask):
 class SweepRequest(_Request):
     """Savings over a grid (``bioplan sweep``)."""
 
-    model_config = _strict
-
     robot: str = Field(default="curtain_wall_6dof", pattern=ROBOT_NAME)
     # The ranges are in the schema, so a client (or a fuzzer) knows 0 s is no duration.
     durations: list[Annotated[float, Field(gt=0, le=600)]] = Field(
@@ -625,8 +617,6 @@ class ProfilesRequest(_Request):
     """Classical profiles, minimum torque change and the planning methods on one task
     (``bioplan profiles``)."""
 
-    model_config = _strict
-
     robot: str = Field(
         default="curtain_wall_6dof", pattern=ROBOT_NAME, description="built-in or uploaded robot"
     )
@@ -669,8 +659,6 @@ class ResultOut(BaseModel):
 
 class LabelPatch(_Request):
     """Rename a plan or simulation."""
-
-    model_config = _strict
 
     label: Label = Field(description="the new short name; null or blank: none")
 

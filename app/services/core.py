@@ -62,6 +62,7 @@ class Services:
         parse_slots: uploads parsed at once (``BIOPLAN_MAX_PARALLEL_PARSES``); the others wait
             their turn, so a burst of large uploads cannot take every worker thread from reads.
         started: ``time.monotonic()`` at start.
+        parse_sandbox: where uploads are read (a child process with limits), None until started.
     """
 
     settings: Settings
@@ -80,6 +81,7 @@ class Services:
         default_factory=lambda: threading.BoundedSemaphore(2)
     )
     started: float = field(default_factory=time.monotonic)
+    parse_sandbox: ParseSandbox | None = None
 
     def start_viewer(self) -> ViewerServer:
         """Start the viser viewer on ``settings.viewer_host``/``viewer_port``.
@@ -160,7 +162,8 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
     jobs.start()
     # Uploads are read in a child process with limits from now on (after the runner set the
     # fork server's preload, so the child starts with the readers imported).
-    sandbox.use(ParseSandbox(memory_mb=settings.parse_memory_mb, seconds=settings.parse_seconds))
+    parse_sandbox = ParseSandbox(memory_mb=settings.parse_memory_mb, seconds=settings.parse_seconds)
+    sandbox.use(parse_sandbox)
     return Services(
         settings=settings,
         engine=engine,
@@ -175,12 +178,14 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
         ),
         data_lock=data_lock,
         parse_slots=threading.BoundedSemaphore(settings.max_parallel_parses),
+        parse_sandbox=parse_sandbox,
     )
 
 
 def stop_services(services: Services) -> None:
     """Stop the viewer and the jobs (running ones go back to the queue), close the database."""
-    sandbox.use(None)
+    if services.parse_sandbox is not None:
+        sandbox.release(services.parse_sandbox)
     if services.viewer is not None:
         services.viewer.stop()
         services.viewer = None

@@ -15,6 +15,7 @@ __all__ = [
     "AnalysisPending",
     "ConflictError",
     "NotFoundError",
+    "ParseLimitError",
     "ServiceError",
     "UnknownRobotError",
 ]
@@ -57,6 +58,12 @@ class NotFoundError(ServiceError):
 
 class ConflictError(ServiceError):
     """The resource exists but is not in a state that allows the request (not finished...)."""
+
+
+class ParseLimitError(ServiceError):
+    """An upload needed more memory or time to read than the server allows (413)."""
+
+    title = "Payload Too Large"
 
 
 class UnknownRobotError(ServiceError):

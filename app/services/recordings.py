@@ -34,8 +34,8 @@ from app.db.models import Analysis, JobRecord, RecordingFile, RecordingSession
 from app.errors import BioPlanError
 from app.jobs.tasks import parse_recording
 from app.names import MAX_VIDEO_SECONDS, SKELETON_FRAMES
-from app.services.errors import ConflictError, NotFoundError, ServiceError
-from app.services.sandbox import ParseLimitError, read_untrusted
+from app.services.errors import ConflictError, NotFoundError, ParseLimitError, ServiceError
+from app.services.sandbox import read_untrusted
 
 #: Options the readers take (stored with the session; a change reads the files again).
 READER_OPTIONS = ("rate", "emg_rate", "muscle_map", "image_size", "frame_rate", "format")
@@ -271,7 +271,7 @@ class UnreadableFiles(ServiceError):
 
     def __init__(self, refused: Sequence[ServiceError]) -> None:
         first = refused[0]
-        text = str(first) if len(refused) == 1 else "; ".join(str(e) for e in refused)
+        text = "; ".join(str(e) for e in refused)
         super().__init__(text, file=first.file, field=first.field)
         self.files = [{"file": e.file, "detail": str(e)} for e in refused]
 

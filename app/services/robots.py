@@ -19,8 +19,14 @@ from app.db.blobs import BlobStore
 from app.db.models import RobotRecord
 from app.errors import BioPlanError
 from app.jobs import tasks
-from app.services.errors import ConflictError, NotFoundError, ServiceError, UnknownRobotError
-from app.services.sandbox import ParseLimitError, read_untrusted
+from app.services.errors import (
+    ConflictError,
+    NotFoundError,
+    ParseLimitError,
+    ServiceError,
+    UnknownRobotError,
+)
+from app.services.sandbox import read_untrusted
 
 #: The uploaded robot's options kept with it (``app.jobs.tasks.robot_from_spec``).
 _OPTION_KEYS = (

@@ -23,7 +23,7 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any, TypeVar
 
-from app.services.errors import ServiceError
+from app.services.errors import ParseLimitError
 
 T = TypeVar("T")
 
@@ -31,12 +31,6 @@ T = TypeVar("T")
 NICENESS = 10
 #: Seconds a killed child is given to be reaped.
 REAP_SECONDS = 5.0
-
-
-class ParseLimitError(ServiceError):
-    """An upload needed more memory or time to read than the server allows (413)."""
-
-    title = "Payload Too Large"
 
 
 def _address_space() -> int:
@@ -137,10 +131,18 @@ class ParseSandbox:
 _active: ParseSandbox | None = None
 
 
-def use(sandbox: ParseSandbox | None) -> None:
-    """Read every upload through ``sandbox`` from now on (None: in this process)."""
+def use(sandbox: ParseSandbox) -> None:
+    """Read every upload through ``sandbox`` from now on."""
     global _active
     _active = sandbox
+
+
+def release(sandbox: ParseSandbox) -> None:
+    """Stop using ``sandbox``, if it is still the one in use (services of one process may
+    start and stop in any order: tests do)."""
+    global _active
+    if _active is sandbox:
+        _active = None
 
 
 def read_untrusted(fn: Callable[..., T], *args: Any, what: str) -> T:

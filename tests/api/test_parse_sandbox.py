@@ -14,7 +14,8 @@ import pytest
 from app.errors import BioPlanError
 from app.jobs.tasks import parse_recording
 from app.services.demo import synthetic_curls_csv
-from app.services.sandbox import ParseLimitError, ParseSandbox
+from app.services.errors import ParseLimitError
+from app.services.sandbox import ParseSandbox
 from tests.utils.api import assert_problem, make_client
 
 
@@ -81,3 +82,20 @@ def test_a_robot_model_past_the_time_limit_is_413(tmp_path: Path) -> None:
         assert_problem(r, 413)
         assert "BIOPLAN_PARSE_SECONDS" in r.json()["detail"]
         assert all(x["name"] != "ur5_slow" for x in client.get("/api/robots").json())
+
+
+def test_stopping_one_server_leaves_anothers_sandbox_in_use() -> None:
+    """Services of one process start and stop in any order (tests do): a stop releases only
+    the sandbox it set, so a server still running keeps reading uploads in a child."""
+    from app.services import sandbox
+
+    mine, theirs = ParseSandbox(memory_mb=64, seconds=1), ParseSandbox(memory_mb=64, seconds=1)
+    before = sandbox._active
+    try:
+        sandbox.use(theirs)
+        sandbox.release(mine)
+        assert sandbox._active is theirs
+        sandbox.release(theirs)
+        assert sandbox._active is None
+    finally:
+        sandbox._active = before
