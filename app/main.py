@@ -29,6 +29,7 @@ from app.api.middleware import install_middleware
 from app.config import Settings
 from app.jobs.runner import JobRunner
 from app.services import Services, start_services, stop_services
+from app.services.limits import REQUEST_FIELDS, JobLimits
 
 logger = logging.getLogger(__name__)
 
@@ -60,24 +61,62 @@ def _pages(settings: Settings) -> StaticFiles:
     return StaticFiles(directory=folder, html=True)
 
 
-def _document_token(app: FastAPI, settings: Settings) -> None:
+def _document_server(app: FastAPI, settings: Settings) -> None:
     """The OpenAPI document says what this server does: without ``BIOPLAN_API_TOKEN`` a write
-    needs no token (each bearer requirement gets an empty alternative); with one, it does."""
-    if settings.token is not None:
-        return
+    needs no token (each bearer requirement gets an empty alternative), and a job's
+    ``particles``, ``iterations``, ``n_samples`` and ``workers`` go no higher than this
+    server's caps (``BIOPLAN_MAX_*``), so a client learns them before it is refused."""
     build = app.openapi
+    limits = JobLimits.from_settings(settings)
 
     def openapi() -> dict[str, Any]:
         if app.openapi_schema is None:
             schema = build()
-            for path in schema.get("paths", {}).values():
-                for operation in path.values():
-                    if isinstance(operation, dict) and operation.get("security"):
-                        operation["security"] = [*operation["security"], {}]
+            if settings.token is None:
+                _writes_need_no_token(schema)
+            _state_job_limits(schema, limits)
+            _forms_have_no_null(schema)
             app.openapi_schema = schema
         return app.openapi_schema
 
     app.openapi = openapi  # type: ignore[method-assign]
+
+
+def _writes_need_no_token(schema: dict[str, Any]) -> None:
+    for path in schema.get("paths", {}).values():
+        for operation in path.values():
+            if isinstance(operation, dict) and operation.get("security"):
+                operation["security"] = [*operation["security"], {}]
+
+
+def _forms_have_no_null(schema: dict[str, Any]) -> None:
+    """A form field is sent or left out; it cannot be ``null`` (the text "null" is no file and
+    no number), so an optional form field's schema is its one non-null type."""
+    components = schema.get("components", {}).get("schemas", {})
+    for path in schema.get("paths", {}).values():
+        for operation in path.values():
+            content = (operation.get("requestBody") or {}).get("content", {})
+            ref = content.get("multipart/form-data", {}).get("schema", {}).get("$ref", "")
+            body = components.get(ref.rpartition("/")[2], {})
+            for name, prop in body.get("properties", {}).items():
+                kept = [b for b in prop.get("anyOf", []) if b.get("type") != "null"]
+                if len(kept) == 1:
+                    del prop["anyOf"]
+                    body["properties"][name] = {**kept[0], **prop}
+
+
+def _state_job_limits(schema: dict[str, Any], limits: JobLimits) -> None:
+    """Lower each request field's ``maximum`` to the configured cap of the same name."""
+    for name, body in schema.get("components", {}).get("schemas", {}).items():
+        if not name.endswith("Request"):
+            continue
+        for field, prop in body.get("properties", {}).items():
+            cap = getattr(limits, field) if field in REQUEST_FIELDS else None
+            if cap is None:
+                continue
+            for branch in prop.get("anyOf", [prop]):
+                if branch.get("type") == "integer":
+                    branch["maximum"] = min(branch.get("maximum", cap), cap)
 
 
 def create_app(settings: Settings | None = None, *, runner: JobRunner | None = None) -> FastAPI:
@@ -118,7 +157,7 @@ def create_app(settings: Settings | None = None, *, runner: JobRunner | None = N
     install_error_handlers(app)
     install_middleware(app, settings)
     app.include_router(api_router)
-    _document_token(app, settings)
+    _document_server(app, settings)
     # After every API route, so /api/... never falls through to a page.
     app.mount("/", _pages(settings), name="dashboard")
     return app

@@ -215,6 +215,7 @@ class AnalysisOverlays:
         Args:
             points: largest number of samples per series (min/max downsampling).
             t0, t1: window [s] on the recording's common (EMG) clock; None = from start / to end.
+                ``t0 == t1`` is one instant: the samples stored at exactly that time.
 
         Returns:
             ``meta`` plus ``"window": [t0, t1]``, ``"points"``, each ``emg`` entry with
@@ -223,12 +224,12 @@ class AnalysisOverlays:
             marks a gap).
 
         Raises:
-            OverlaysError: points < 2 or t1 <= t0.
+            OverlaysError: points < 2 or t1 < t0.
         """
         if points < 2:
             raise OverlaysError(f"points must be >= 2, got {points}")
-        if t0 is not None and t1 is not None and t1 <= t0:
-            raise OverlaysError(f"the window end t1={t1} must be after its start t0={t0}")
+        if t0 is not None and t1 is not None and t1 < t0:
+            raise OverlaysError(f"the window end t1={t1} must not be before its start t0={t0}")
 
         def cut(name: str) -> dict[str, list[Any]]:
             if name not in self.series:

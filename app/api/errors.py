@@ -109,11 +109,22 @@ async def _http_error(request: Request, exc: Exception) -> JSONResponse:
     )
 
 
+#: Names pydantic gives the members of a union in an error's location (``offset.float``).
+_UNION_MEMBERS = {"float", "int", "str", "bool", "none", "list", "dict", "tuple"}
+
+
 def _field_of(loc: tuple[Any, ...]) -> str:
+    """The request field of a validation error: ``durations.0``, ``offset`` (not
+    ``offset.constrained-float``: a union member's tag is no field)."""
     parts = [str(p) for p in loc]
     if parts and parts[0] in ("body", "query", "path", "header", "cookie", "form"):
         parts = parts[1:]
-    return ".".join(parts) or "body"
+    named = [
+        p
+        for k, p in enumerate(parts)
+        if k == 0 or p.isdigit() or (p.isidentifier() and p not in _UNION_MEMBERS)
+    ]
+    return ".".join(named) or "body"
 
 
 async def _validation_error(request: Request, exc: Exception) -> JSONResponse:

@@ -13,6 +13,7 @@ from datetime import datetime
 from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar, get_args
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -36,6 +37,7 @@ from app.names import (
     PhaseInfo,
     PsoDefaults,
 )
+from app.recordings import FORMATS
 
 if TYPE_CHECKING:
     Objective = str
@@ -43,6 +45,7 @@ if TYPE_CHECKING:
     JobState = str
     MethodName = str
     HumanConstraint = str
+    ReaderFormat = str
 else:
     # The allowed values come from ``app.names`` (one home); OpenAPI lists them as enums.
     Objective = Literal[OBJECTIVES]
@@ -50,12 +53,31 @@ else:
     JobState = Literal[JOB_STATES]
     MethodName = Literal[tuple(METHODS)]
     HumanConstraint = Literal[HUMAN_CONSTRAINTS]
+    ReaderFormat = Literal[FORMATS]
 JobKind = Literal["analysis", "pose", "plan", "simulation", "sweep", "profiles"]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
+#: ``WIDTHxHEIGHT`` in pixels (1 to 99999 each), or blank for none.
+IMAGE_SIZE = r"^\s*([1-9][0-9]{0,4}\s*[xX]\s*[1-9][0-9]{0,4})?\s*$"
 T = TypeVar("T")
 
 _strict = ConfigDict(extra="forbid")
+
+
+def _no_repeats(values: list[Any]) -> list[Any]:
+    """A list whose values are all different, else the error names the repeated ones."""
+    repeated = sorted({x for x in values if values.count(x) > 1}, key=str)
+    if repeated:
+        raise ValueError(f"must not repeat (repeated: {repeated})")
+    return values
+
+
+#: A list without repeats, stated in the schema (``uniqueItems``) so that a client or a fuzzer
+#: knows ``["paper", "paper"]`` is no request: no method is planned twice, no grid value swept
+#: twice.
+Distinct = Annotated[
+    list[T], AfterValidator(_no_repeats), Field(json_schema_extra={"uniqueItems": True})
+]
 
 
 def blank_label_is_none(value: Any) -> Any:
@@ -63,33 +85,35 @@ def blank_label_is_none(value: Any) -> Any:
     return (value.strip() or None) if isinstance(value, str) else value
 
 
-def _numeric(annotation: Any) -> bool:
-    """Whether a field's type takes numbers and not booleans (``float``, ``list[float]``...)."""
-    found: set[Any] = set()
-
-    def walk(t: Any) -> None:
-        found.add(t)
-        for arg in get_args(t):
-            walk(arg)
-
-    walk(annotation)
-    return bool(found & {float, int}) and bool not in found
+def _types_in(annotation: Any) -> set[Any]:
+    """Every type an annotation names, nested ones included (``list[float] | None``...)."""
+    found: set[Any] = {annotation}
+    for arg in get_args(annotation):
+        found |= _types_in(arg)
+    return found
 
 
 class _Request(BaseModel):
     """A request body: unknown fields are refused, and ``true``/``false`` are never read as
-    numbers (pydantic would take ``true`` for a duration of 1 s)."""
+    numbers nor numbers as booleans (pydantic would take ``true`` for a duration of 1 s and
+    ``1`` for ``true``)."""
 
     model_config = _strict
 
     @field_validator("*", mode="before")
     @classmethod
-    def _no_booleans_as_numbers(cls, value: Any, info: ValidationInfo) -> Any:
+    def _booleans_are_booleans(cls, value: Any, info: ValidationInfo) -> Any:
         field = cls.model_fields.get(info.field_name or "")
-        if field is not None and _numeric(field.annotation):
-            values = value if isinstance(value, list) else [value]
-            if any(isinstance(v, bool) for v in values):
-                raise ValueError(f"{json.dumps(value)} holds a boolean: expected a number")
+        if field is None:
+            return value
+        types = _types_in(field.annotation)
+        values = value if isinstance(value, list) else [value]
+        numbers = bool(types & {float, int}) and bool not in types
+        if numbers and any(isinstance(v, bool) for v in values):
+            raise ValueError(f"{json.dumps(value)} holds a boolean: expected a number")
+        flags = bool in types and not types & {float, int, str}
+        if flags and any(v is not None and not isinstance(v, bool) for v in values):
+            raise ValueError(f"{json.dumps(value)} is no boolean: expected true or false")
         return value
 
 
@@ -356,8 +380,8 @@ class RecordingPatch(_Request):
     image_size: (
         tuple[Annotated[int, Field(ge=1, le=100000)], Annotated[int, Field(ge=1, le=100000)]] | None
     ) = Field(default=None, description="[width, height] of the video MediaPipe ran on [px]")
-    format: str | None = Field(
-        default=None, max_length=32, description="reader to use instead of detecting it"
+    format: ReaderFormat | None = Field(
+        default=None, description="reader to use instead of detecting it"
     )
     analyse: bool = Field(
         default=True,
@@ -405,6 +429,10 @@ class SkeletonFrames(BaseModel):
 # -------------------------------------------------------------------------------- analyses
 
 
+#: An elbow angle strictly between straight and folded [deg].
+_OpenAngle = Annotated[float, Field(gt=0, lt=180)]
+
+
 class AnalysisRequest(_Request):
     """Analyse the files of one recording (``bioplan analyze``). Options left out take the
     recording's (emg_rate, muscle_map, exclude_channels, session, load)."""
@@ -421,8 +449,8 @@ class AnalysisRequest(_Request):
     exclude_channels: list[ChannelName] | None = Field(
         default=None, max_length=500, description="channels left out; default: the recording's"
     )
-    phase_bounds_deg: tuple[float, float] = Field(
-        default=PHASE_BOUNDS_DEG, description="A/B and B/C elbow-flexion bounds [deg]"
+    phase_bounds_deg: tuple[_OpenAngle, _OpenAngle] = Field(
+        default=PHASE_BOUNDS_DEG, description="A/B and B/C elbow-flexion bounds [deg], in order"
     )
     body_mass: float = Field(default=75.0, ge=20, le=250, description="[kg]")
     body_height: float = Field(default=1.75, ge=1.0, le=2.5, description="[m]")
@@ -434,20 +462,13 @@ class AnalysisRequest(_Request):
         description="the files were recorded at the same time (one clock); default: the"
         " recording's session mode",
     )
-    offset: float | Literal["auto"] | None = Field(
+    offset: Annotated[float, Field(ge=-3600, le=3600)] | Literal["auto"] | None = Field(
         default=None,
         description='t_emg = t_pose + offset [s]; "auto" estimates it by cross-correlation',
     )
     side: Literal["auto", "left", "right"] = Field(
         default="auto", description="which arm of pose data (auto: the better visible one)"
     )
-
-    @field_validator("offset")
-    @classmethod
-    def _finite_offset(cls, v: float | str | None) -> float | str | None:
-        if isinstance(v, float) and not -3600 <= v <= 3600:
-            raise ValueError("offset must lie in [-3600, 3600] s")
-        return v
 
     @field_validator("phase_bounds_deg")
     @classmethod
@@ -526,7 +547,7 @@ class _RobotTask(_Request):
         default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
     )
     # ---- planning methods (issue 10) --------------------------------------------------------
-    methods: list[MethodName] = Field(
+    methods: Distinct[MethodName] = Field(
         default=list(METHODS),
         min_length=1,
         max_length=len(METHODS),
@@ -546,13 +567,6 @@ class _RobotTask(_Request):
         description="constant-jerk intervals of the optimal-control transcription",
     )
 
-    @field_validator("methods")
-    @classmethod
-    def _distinct_methods(cls, v: list[str]) -> list[str]:
-        if len(set(v)) != len(v):
-            raise ValueError("methods must not repeat")
-        return v
-
 
 class PlanRequest(_RobotTask):
     """Plan the standard and the bio-inspired trajectory (``bioplan plan``)."""
@@ -571,13 +585,13 @@ class SweepRequest(_Request):
 
     robot: str = Field(default="curtain_wall_6dof", pattern=ROBOT_NAME)
     # The ranges are in the schema, so a client (or a fuzzer) knows 0 s is no duration.
-    durations: list[Annotated[float, Field(gt=0, le=600)]] = Field(
+    durations: Distinct[Annotated[float, Field(gt=0, le=600)]] = Field(
         default=[0.5, 0.75, 1.0, 1.5, 2.0], min_length=1, max_length=50, description="[s]"
     )
-    payloads: list[Annotated[float, Field(ge=0, le=10000)]] = Field(
+    payloads: Distinct[Annotated[float, Field(ge=0, le=10000)]] = Field(
         default=[0.0, 4.0, 8.0, 12.0, 20.0], min_length=1, max_length=50, description="[kg]"
     )
-    objectives: list[Objective] = Field(default=["abs_work"], min_length=1, max_length=6)
+    objectives: Distinct[Objective] = Field(default=["abs_work"], min_length=1, max_length=6)
     seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     particles: int | None = Field(default=None, ge=2, le=1000, description="default: sweep's")
     iterations: int | None = Field(default=None, ge=1, le=10000, description="default: sweep's")
@@ -589,7 +603,7 @@ class SweepRequest(_Request):
         "workers); on Dask every cell is a task on the cluster",
     )
     # ---- methods and convergence check (issue 10) -------------------------------------------
-    methods: list[MethodName] = Field(
+    methods: Distinct[MethodName] = Field(
         default=list(METHODS),
         min_length=1,
         max_length=len(METHODS),
@@ -602,15 +616,6 @@ class SweepRequest(_Request):
         description="seed of the second PSO run that checks each cell's verdict (-1: seed + 1)",
     )
     no_check: bool = Field(default=False, description="skip the convergence check")
-
-    @field_validator("methods", "objectives", "durations", "payloads")
-    @classmethod
-    def _distinct(cls, v: list[Any], info: ValidationInfo) -> list[Any]:
-        # A repeated grid value is accepted by no sweep: refuse it here, not in the job.
-        repeated = sorted({x for x in v if v.count(x) > 1}, key=str)
-        if repeated:
-            raise ValueError(f"{info.field_name} must not repeat (repeated: {repeated})")
-        return v
 
 
 class ProfilesRequest(_Request):
@@ -636,7 +641,7 @@ class ProfilesRequest(_Request):
     mtc_intervals: int = Field(
         default=100, ge=8, le=400, description="intervals of the minimum-torque-change solve"
     )
-    methods: list[MethodName] = Field(
+    methods: Distinct[MethodName] = Field(
         default=list(METHODS),
         max_length=len(METHODS),
         description="planning methods listed beside the profiles ([] = none; default: all)",

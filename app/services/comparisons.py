@@ -11,7 +11,7 @@ from sqlalchemy.orm import Session, sessionmaker, undefer
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
 from app.jobs.tasks import robot_from_spec
-from app.services.errors import ConflictError, NotFoundError, ServiceError
+from app.services.errors import ConflictError, NotFoundError
 from app.services.robots import RobotCatalog
 from app.viewer.comparison import KINDS, Comparison, comparison_from_arrays
 
@@ -62,7 +62,7 @@ class ComparisonLoader:
         Raises:
             NotFoundError: unknown kind or id.
             ConflictError: the job has not succeeded (no result or arrays yet).
-            ServiceError: a method that this result did not plan (``field`` = methods).
+            NotFoundError: a method that this result did not plan (``field`` = methods).
         """
         if kind not in KINDS:
             raise NotFoundError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
@@ -83,7 +83,7 @@ class ComparisonLoader:
         planned = list(result.get("methods") or ("quintic", "paper"))
         for method in methods or ():
             if method not in planned:
-                raise ServiceError(
+                raise NotFoundError(
                     f"method '{method}' was not planned in {kind} {result_id}: expected two of "
                     f"{', '.join(planned)}",
                     field="methods",

@@ -53,7 +53,8 @@ class ServiceError(BioPlanError):
 
 
 class NotFoundError(ServiceError):
-    """The resource a request names does not exist."""
+    """The resource a request names does not exist: in its path, or in its body (``field``
+    then says which member names it, e.g. ``recording_id`` or ``robot``)."""
 
 
 class ConflictError(ServiceError):
@@ -66,8 +67,9 @@ class ParseLimitError(ServiceError):
     title = "Payload Too Large"
 
 
-class UnknownRobotError(ServiceError):
-    """A request names a robot that is neither built in nor uploaded."""
+class UnknownRobotError(NotFoundError):
+    """A request names a robot that is neither built in nor uploaded (404 naming ``robot``:
+    the set of robots changes with every upload, so no schema can list it)."""
 
 
 class AnalysisPending(ConflictError):

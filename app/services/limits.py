@@ -56,6 +56,9 @@ class JobLimits:
                 raise ServiceError(f"{name} {value} exceeds the limit {limit} ({env})", field=name)
 
 
+#: The caps that are one request field each (``cells`` is a product of three lists' lengths).
+REQUEST_FIELDS = ("particles", "iterations", "n_samples", "workers")
+
 _ENV = {
     "particles": "BIOPLAN_MAX_PARTICLES",
     "iterations": "BIOPLAN_MAX_ITERATIONS",

@@ -467,7 +467,8 @@ def analysis_params(session: Session, request: dict[str, Any]) -> dict[str, Any]
     leaves them out (``emg_rate, muscle_map, exclude_channels, together, load_mass``).
 
     Raises:
-        ServiceError: no such recording (``recording_id``), or an excluded channel it lacks.
+        NotFoundError: no such recording (``recording_id``).
+        ServiceError: an excluded channel it lacks.
         ConflictError: its video is still being turned into pose (``job``: that pose job), or
             it has nothing to analyse (its only video's pose extraction failed).
     """
@@ -476,7 +477,7 @@ def analysis_params(session: Session, request: dict[str, Any]) -> dict[str, Any]
     rid = request["recording_id"]
     rec = crud.get_recording(session=session, recording_id=rid)
     if rec is None:
-        raise ServiceError(f"recording {rid} does not exist", field="recording_id")
+        raise NotFoundError(f"recording {rid} does not exist", field="recording_id")
     pending = _active_pose_job(session, rec)
     if pending is not None:
         raise ConflictError(

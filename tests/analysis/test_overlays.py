@@ -103,8 +103,15 @@ def test_windows_cut_the_series(overlays: AnalysisOverlays) -> None:
         t = np.asarray(e["envelope"]["t"])
         assert t.min() >= 5.0 and t.max() <= 8.0 and len(t) <= 300
     assert out["span"][0] == 0.0 and out["span"][1] == pytest.approx(16.3, abs=0.01)
-    with pytest.raises(OverlaysError, match="must be after its start"):
+    with pytest.raises(OverlaysError, match="must not be before its start"):
         overlays.window(t0=3.0, t1=2.0)
+    # An empty window is a window (issue 14: t0 = t1 was refused): the samples at that instant.
+    t_stored = np.asarray(overlays.window(points=10**6)["emg"][0]["envelope"]["t"])
+    instant = float(t_stored[len(t_stored) // 2])
+    for at, expected in ((instant, [instant]), (instant + 1e-7, [])):
+        point = overlays.window(points=300, t0=at, t1=at)
+        assert point["window"] == [at, at]
+        assert point["emg"][0]["envelope"]["t"] == expected
     with pytest.raises(OverlaysError, match="points must be >= 2"):
         overlays.window(points=1)
 

@@ -169,6 +169,8 @@ def test_recording_analysis_series(dashboard: tuple[TestClient, Any]) -> None:
     assert r.status_code == 404
     r = client.get(f"/api/viewer/recordings/{rec}/analysis", params={"t0": 5, "t1": 2})
     assert r.status_code == 422 and r.json()["field"] == "t1"
+    r = client.get(f"/api/viewer/recordings/{rec}/analysis", params={"t0": 5, "t1": 5})
+    assert r.status_code == 200 and r.json()["window"] == [5, 5]  # one instant: no 422
 
 
 def test_seed_is_idempotent(dashboard: tuple[TestClient, Any]) -> None:

@@ -96,6 +96,12 @@ def test_booleans_and_bare_numbers_are_not_read_as_numbers_or_dates(client: Test
     assert_problem(bad, 422, field="durations")
     bad = client.post("/api/analyses", json={"recording_id": 1, "body_mass": False})
     assert_problem(bad, 422, field="body_mass")
+    # ... nor a number as a boolean (schemathesis: ``no_check: 1`` was read as true).
+    for number in (1, 0, 1.0):
+        bad = client.post("/api/sweeps", json={"no_check": number})
+        assert "expected true or false" in assert_problem(bad, 422, field="no_check")["detail"]
+    bad = client.post("/api/analyses", json={"recording_id": 1, "together": 1})
+    assert_problem(bad, 422, field="together")
     date = client.get("/api/recordings", params={"created_before": "0.5"})
     assert "ISO 8601" in assert_problem(date, 422, field="created_before")["detail"]
     assert client.get("/api/recordings", params={"created_before": "2026-11-26"}).status_code == 200

@@ -64,7 +64,7 @@ def test_analysis_result_and_template_equal_the_library(client: TestClient) -> N
 
 def test_job_errors_are_problems(client: TestClient, tmp_path: Path) -> None:
     assert_problem(
-        client.post("/api/analyses", json={"recording_id": 42}), 422, field="recording_id"
+        client.post("/api/analyses", json={"recording_id": 42}), 404, field="recording_id"
     )
     assert_problem(client.post("/api/analyses", json={"recording_id": 1, "x": 1}), 422, field="x")
     assert_problem(client.get("/api/jobs/999"), 404)

@@ -128,9 +128,11 @@ def test_cancel_a_running_plan(shared_client: TestClient) -> None:
     assert shared_client.get("/api/health").json()["running"] == 0  # its process is gone
 
 
-def test_bad_plan_requests_are_422(shared_client: TestClient) -> None:
+def test_bad_plan_requests_name_the_field(shared_client: TestClient) -> None:
+    """A value the planner refuses is a 422; a name in the body that names nothing is a 404
+    (the same answer as for the missing resource itself); both say which field."""
     post = shared_client.post
-    assert_problem(post("/api/plans", json={**TINY, "robot": "r2d2"}), 422, field="robot")
+    assert_problem(post("/api/plans", json={**TINY, "robot": "r2d2"}), 404, field="robot")
     assert_problem(post("/api/plans", json={**TINY, "objective": "speed"}), 422, field="objective")
     assert_problem(post("/api/plans", json={**TINY, "duration": 0}), 422, field="duration")
     r = post("/api/plans", json={**TINY, "start_deg": [0, 0, 0]})
@@ -138,7 +140,10 @@ def test_bad_plan_requests_are_422(shared_client: TestClient) -> None:
     r = post("/api/plans", json={**TINY, "template": {"peak_velocity_angle_deg": 500}})
     assert_problem(r, 422, field="template")
     r = post("/api/plans", json={**TINY, "template_analysis_id": 777})
-    assert_problem(r, 422, field="template_analysis_id")
+    assert (
+        "analysis 777 does not exist"
+        in assert_problem(r, 404, field="template_analysis_id")["detail"]
+    )
 
 
 def test_template_and_angles_reach_the_planner(shared_client: TestClient) -> None:
@@ -265,7 +270,12 @@ def test_the_comparison_shows_any_two_planned_methods(shared_client: TestClient)
     for bad in ("bound", "bound,bound", "quintic,warp"):
         assert_problem(shared_client.get(url, params={"methods": bad}), 422, field="methods")
     r = shared_client.get(url, params={"methods": "quintic,human_optimal"})
-    assert "not planned" in assert_problem(r, 422, field="methods")["detail"]
+    assert "not planned" in assert_problem(r, 404, field="methods")["detail"]  # not in this plan
+    pairs = shared_client.get("/openapi.json").json()["paths"][
+        "/api/viewer/comparisons/{kind}/{result_id}"
+    ]["get"]["parameters"]
+    listed = next(p for p in pairs if p["name"] == "methods")["schema"]["anyOf"][0]["enum"]
+    assert len(listed) == 20 and "paper,bound" in listed and "bound,bound" not in listed
 
 
 def test_profiles_by_rest_are_the_library_comparison(shared_client: TestClient) -> None:
@@ -300,4 +310,6 @@ def test_profiles_by_rest_are_the_library_comparison(shared_client: TestClient) 
     assert "min_torque_change" not in other["profiles"] and "methods" not in other
     r = shared_client.post("/api/profiles", json={**body, "start_deg": [1.0]})
     assert_problem(r, 422, field="start_deg")
-    assert_problem(shared_client.post("/api/profiles", json={**body, "robot": "x"}), 422)
+    assert_problem(
+        shared_client.post("/api/profiles", json={**body, "robot": "x"}), 404, field="robot"
+    )

@@ -68,7 +68,7 @@ def test_writes_need_the_token(tmp_path: Path) -> None:
         assert_problem(c.delete("/api/recordings/1"), 401)
         assert_problem(c.post("/api/jobs/1/cancel"), 401)
         ok = c.post("/api/analyses", json=body, headers={"Authorization": "Bearer s3cret"})
-        assert ok.status_code == 422  # past the token check: recording 1 does not exist
+        assert ok.status_code == 404  # past the token check: recording 1 does not exist
         assert c.get("/api/recordings").status_code == 200  # reads stay open
         assert c.get("/api/health").json()["status"] == "ok"
 

@@ -72,7 +72,7 @@ def test_bad_sweeps_are_422(shared_client: TestClient) -> None:
     r = post("/api/sweeps", json={**GRID, "methods": ["paper", "paper"]})
     assert_problem(r, 422, field="methods")
     assert_problem(post("/api/sweeps", json={**GRID, "check_seed": -2}), 422, field="check_seed")
-    assert_problem(post("/api/sweeps", json={**GRID, "robot": "r2d2"}), 422, field="robot")
+    assert_problem(post("/api/sweeps", json={**GRID, "robot": "r2d2"}), 404, field="robot")
 
 
 def test_a_repeated_grid_value_is_refused_before_a_job(shared_client: TestClient) -> None:

@@ -104,7 +104,8 @@ def check_feasible(body: PlanRequest | SimulationRequest, robot: dict[str, Any])
 
 
 def check_task(body: PlanRequest | SimulationRequest, session: Session, services: Services) -> None:
-    """422 for a request the planner would refuse: robot, angles, limits, template."""
+    """Refuse what the planner would: an unknown robot or analysis (404), an analysis without
+    a template yet (409), angles, limits or a template the robot cannot take (422)."""
     from app.planning.human_template import HumanTemplate
 
     joints = services.robots.joints(session, body.robot)
@@ -129,8 +130,10 @@ def check_task(body: PlanRequest | SimulationRequest, session: Session, services
         try:
             services.jobs.analysis_template(session, body.template_analysis_id)
         except ServiceError as exc:
-            # The analysis named in the body: a field of this request, not the resource.
-            raise ApiError(422, str(exc), field="template_analysis_id") from None
+            # Missing (404) or without a template yet (409), as for the analysis itself; the
+            # answer names the body's field that points at it.
+            exc.field = "template_analysis_id"
+            raise
 
 
 @router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])

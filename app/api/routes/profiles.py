@@ -20,7 +20,7 @@ def submit_profiles(
     body: ProfilesRequest, session: SessionDep, services: ServicesDep, response: Response
 ) -> dict[str, Any]:
     """Queue a profiles comparison; the result is ``bioplan profiles --json``."""
-    joints = services.robots.joints(session, body.robot)  # UnknownRobotError: 422 naming it
+    joints = services.robots.joints(session, body.robot)  # UnknownRobotError: 404 naming the field
     for name in ("start_deg", "goal_deg"):
         angles = getattr(body, name)
         if angles is not None and len(angles) != len(joints):

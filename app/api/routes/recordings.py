@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import re
 from typing import Annotated, Any, get_args
 
 import numpy as np
@@ -27,8 +28,10 @@ from app.api.routes._common import (
 )
 from app.api.schemas import (
     EMG_RATE_MIN_HZ,
+    IMAGE_SIZE,
     RATE_MAX_HZ,
     Page,
+    ReaderFormat,
     RecordingDetail,
     RecordingPatch,
     RecordingSummary,
@@ -86,18 +89,17 @@ def _muscle_map(text: str | None) -> dict[str, str] | None:
 
 
 def _image_size(text: str | None) -> tuple[int, int] | None:
+    """``WIDTHxHEIGHT`` as two ints; the schema states the same ``IMAGE_SIZE`` pattern."""
     if text is None or not text.strip():
         return None
-    w, _, h = text.lower().partition("x")
-    try:
-        size = (int(w), int(h))
-    except ValueError:
+    if re.fullmatch(IMAGE_SIZE, text) is None:
         raise ApiError(
-            422, f"image_size must be WIDTHxHEIGHT in pixels, got {text!r}", field="image_size"
-        ) from None
-    if min(size) < 1 or max(size) > 100000:
-        raise ApiError(422, f"image_size out of range: {text!r}", field="image_size")
-    return size
+            422,
+            f"image_size must be WIDTHxHEIGHT in pixels (1 to 99999 each), got {text!r}",
+            field="image_size",
+        )
+    w, h = text.lower().split("x")
+    return int(w), int(h)
 
 
 @router.post(
@@ -113,8 +115,9 @@ def upload_recording(
     files: Annotated[
         list[UploadFile],
         File(
+            min_length=1,
             description="recording files (format detected from content), BIDS sidecars of an"
-            " EDF (<stem>_channels.tsv, <stem>_emg.json), videos (mp4, mov, avi)"
+            " EDF (<stem>_channels.tsv, <stem>_emg.json), videos (mp4, mov, avi)",
         ),
     ],
     subject: Annotated[str | None, Form(max_length=200)] = None,
@@ -143,12 +146,15 @@ def upload_recording(
         float | None, Form(ge=EMG_RATE_MIN_HZ, le=RATE_MAX_HZ, description="true EMG rate [Hz]")
     ] = None,
     image_size: Annotated[
-        str | None, Form(description="WIDTHxHEIGHT [px] for normalised landmarks")
+        str | None,
+        Form(
+            json_schema_extra={"pattern": IMAGE_SIZE},  # checked by _image_size, in words
+            description="WIDTHxHEIGHT [px] for normalised landmarks",
+        ),
     ] = None,
     frame_rate: Annotated[float | None, Form(gt=0, le=1e4, description="video [fps]")] = None,
     format: Annotated[
-        str | None,
-        Form(max_length=32, description="reader to use instead of detecting it (e.g. c3d)"),
+        ReaderFormat | None, Form(description="reader to use instead of detecting it")
     ] = None,
 ) -> dict[str, Any]:
     """Parse and store every file in one transaction: all of them, or none when one fails.

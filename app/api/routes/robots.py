@@ -54,7 +54,25 @@ Member = Annotated[
 ]
 
 
-@router.post("", status_code=201, response_model=RobotInfo, dependencies=[WriteAccess])
+#: The schema says what the service checks: a robot needs a model, as a file or in a package.
+_A_MODEL = {
+    "requestBody": {
+        "content": {
+            "multipart/form-data": {
+                "schema": {"anyOf": [{"required": [f]} for f in ("urdf", "mjcf", "package")]}
+            }
+        }
+    }
+}
+
+
+@router.post(
+    "",
+    status_code=201,
+    response_model=RobotInfo,
+    dependencies=[WriteAccess],
+    openapi_extra=_A_MODEL,
+)
 def upload_robot(
     services: ServicesDep,
     session: SessionDep,

@@ -18,7 +18,7 @@ def submit_sweep(
     body: SweepRequest, session: SessionDep, services: ServicesDep, response: Response
 ) -> dict[str, Any]:
     """Queue a sweep (``bioplan sweep``); progress is reported per grid cell."""
-    services.robots.joints(session, body.robot)  # UnknownRobotError: 422 naming the field
+    services.robots.joints(session, body.robot)  # UnknownRobotError: 404 naming the field
     job = services.jobs.submit(
         kind="sweep", params=body.model_dump(mode="json"), resource={"robot": body.robot}
     )
