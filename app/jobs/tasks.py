@@ -334,9 +334,14 @@ def _member(root: Path, relative: str | None, what: str) -> Path | None:
 
     if relative is None:
         return None
-    path = (root / relative).resolve()
-    if not path.is_relative_to(root.resolve()) or not path.is_file():
-        raise RobotError(f"{what} '{relative}' is not a file of the robot package")
+    try:
+        path = (root / relative).resolve()
+        inside = path.is_relative_to(root.resolve()) and path.is_file()
+    except (OSError, ValueError):  # a name too long for the file system, a NUL byte
+        inside = False
+    if not inside:
+        shown = relative if len(relative) <= 80 else f"{relative[:80]}..."
+        raise RobotError(f"{what} {shown!r} is not a file of the robot package")
     return path
 
 

@@ -208,6 +208,13 @@ def test_bad_onboarding_is_refused_naming_the_field(
     assert "outside the archive" in assert_problem(r, 422, field="package")["detail"]
     r = client.post("/api/robots", data={"name": "a"})
     assert_problem(r, 422, field="urdf")
+    # A member name the file system cannot hold (longer than NAME_MAX, a NUL byte) is no member
+    # of the package, not a 500 (found by a 200-example fuzz: ENAMETOOLONG escaped).
+    for member in ("x" * 300, "a\x00b"):
+        r = client.post("/api/robots", data={"name": "a", "sidecar_member": member},
+                        files={"urdf": urdf})  # fmt: skip
+        detail = assert_problem(r, 422, field="sidecar")["detail"]
+        assert "is not a file of the robot package" in detail and len(detail) < 300
     # A URDF paired with an MJCF whose upper arm is heavier: refused naming the joint.
     builtin = load_robot("curtain_wall_6dof")
     mjcf = builtin.mjcf_path.read_text()

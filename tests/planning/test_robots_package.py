@@ -85,6 +85,26 @@ def test_links_and_non_zips_are_refused(tmp_path: Path) -> None:
         open_robot_package(archive)
 
 
+def test_members_that_cannot_be_written_are_bad_input(tmp_path: Path) -> None:
+    """A name longer than the file system allows, a file where a folder must go, a corrupt
+    stream: each a RobotError naming the member (were OSError and zlib.error: a 500)."""
+    damaged = tmp_path / "d.zip"
+    with zipfile.ZipFile(damaged, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("robot.urdf", b"<robot name='r'/>" * 400)
+    data = bytearray(damaged.read_bytes())
+    start = data.index(b"robot.urdf") + len("robot.urdf") + 8  # inside the deflate stream
+    data[start : start + 24] = bytes(b ^ 0xFF for b in data[start : start + 24])
+    damaged.write_bytes(bytes(data))
+    for archive, member, reason in (
+        (_zip(tmp_path / "l.zip", {"x" * 300 + ".urdf": b"<robot/>"}), "x" * 80, "too long"),
+        (_zip(tmp_path / "c.zip", {"a": b"1", "a/robot.urdf": b"2"}), "a/robot.urdf", "exists"),
+        (damaged, "robot.urdf", "decompressing"),
+    ):
+        with pytest.raises(RobotError, match=reason) as caught:
+            open_robot_package(archive, tmp_path / archive.stem)
+        assert f"member '{member}" in str(caught.value) and len(str(caught.value)) < 300
+
+
 def test_a_folder_is_opened_in_place(tmp_path: Path) -> None:
     folder = tmp_path / "arm"
     shutil.copytree(robot_file(UR5).parent, folder / "urdf")

@@ -12,11 +12,13 @@ from __future__ import annotations
 import shutil
 import stat
 import zipfile
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any, NoReturn
 
+from app.errors import storage_problem
 from app.planning.robots._types import RobotError
 
 __all__ = [
@@ -107,9 +109,30 @@ def _extract_zip(source: Path, dest: Path) -> None:
             if info.is_dir():
                 target.mkdir(parents=True, exist_ok=True)
                 continue
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with archive.open(info) as src, open(target, "wb") as out:
-                shutil.copyfileobj(src, out)
+            _extract_member(archive, info, target, source.name)
+
+
+#: What a hostile or damaged member raises while it is written out: a name the file system
+#: cannot hold, a file where a folder must go, a corrupt or unsupported compressed stream.
+_EXTRACT_ERRORS = (OSError, zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError)
+
+
+def _extract_member(
+    archive: zipfile.ZipFile, info: zipfile.ZipInfo, target: Path, name: str
+) -> None:
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        with archive.open(info) as src, open(target, "wb") as out:
+            shutil.copyfileobj(src, out)
+    except _EXTRACT_ERRORS as exc:
+        if storage_problem(exc) is not None:
+            raise  # a full or read-only disk is the server's problem, not the upload's
+        member = info.filename if len(info.filename) <= 80 else f"{info.filename[:80]}..."
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise RobotError(
+            f"{name}: member '{member}' cannot be extracted ({reason}): expected a zip of a"
+            " robot's folder"
+        ) from None
 
 
 def _package_dirs(root: Path) -> tuple[Path, ...]:
