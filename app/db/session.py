@@ -3,16 +3,23 @@
 SQLite (the default, in the data directory) runs in WAL mode with foreign keys on, so readers
 never wait for the job-progress writer and ``ON DELETE CASCADE`` works. PostgreSQL uses the same
 code with a ``postgresql+psycopg://`` URL.
+
+SQLite opens a database it cannot write (a disk remounted read-only) read-only, silently, and
+such a connection never writes again. One opened so is marked, and replaced at its next checkout
+once the file is writable again: reads go on while the disk is read-only, and writes work as
+soon as it is back, without a restart.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
 from sqlalchemy import Engine, create_engine, event
+from sqlalchemy.exc import DisconnectionError
 from sqlalchemy.orm import Session, sessionmaker
 
 #: The Alembic environment and versions, shipped inside the package (``app/db/migrations``), so
@@ -21,10 +28,10 @@ MIGRATIONS_DIR = Path(str(files("app.db.migrations")))
 
 
 def _sqlite_pragmas(*, foreign_keys: bool) -> Callable[[Any, Any], None]:
-    """A connect hook: WAL, foreign keys on or off, NORMAL sync, a busy timeout."""
+    """A connect hook: WAL, foreign keys on or off, NORMAL sync, a busy timeout; a connection
+    whose file is not writable is marked (``read_only_file``)."""
 
     def on_connect(dbapi_connection: Any, connection_record: Any) -> None:
-        del connection_record
         cursor = dbapi_connection.cursor()
         try:
             cursor.execute("PRAGMA journal_mode=WAL")
@@ -33,10 +40,21 @@ def _sqlite_pragmas(*, foreign_keys: bool) -> Callable[[Any, Any], None]:
             # the last commits), and much faster than FULL for the job-progress writes.
             cursor.execute("PRAGMA synchronous=NORMAL")
             cursor.execute("PRAGMA busy_timeout=30000")
+            main = next((row[2] for row in cursor.execute("PRAGMA database_list")), "")
         finally:
             cursor.close()
+        if main and not os.access(main, os.W_OK):
+            connection_record.info["read_only_file"] = main
 
     return on_connect
+
+
+def _reopen_when_writable(dbapi_connection: Any, connection_record: Any, proxy: Any) -> None:
+    """A checkout hook: a connection opened read-only is replaced once its file is writable."""
+    del dbapi_connection, proxy
+    path = connection_record.info.get("read_only_file")
+    if path is not None and os.access(path, os.W_OK):
+        raise DisconnectionError(f"{path} was opened read-only and is writable again")
 
 
 def make_engine(url: str, *, for_migrations: bool = False, **kwargs: Any) -> Engine:
@@ -56,6 +74,7 @@ def make_engine(url: str, *, for_migrations: bool = False, **kwargs: Any) -> Eng
         # SQLite's batch migrations copy a table, drop the old one and rename the copy: with
         # foreign keys enforced, dropping ``jobs`` would cascade into every result row.
         event.listen(engine, "connect", _sqlite_pragmas(foreign_keys=not for_migrations))
+        event.listen(engine, "checkout", _reopen_when_writable)
         return engine
     return create_engine(url, pool_pre_ping=True, **kwargs)
 

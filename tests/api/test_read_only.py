@@ -65,7 +65,7 @@ def test_serve_on_a_read_only_data_directory_is_one_line(tmp_path: Path) -> None
 # request answered as one JSON object.
 _DRIVER = textwrap.dedent(
     """
-    import json, subprocess, sys, time
+    import concurrent.futures, json, subprocess, sys, time
     import httpx
 
     bioplan, data, port = sys.argv[1], sys.argv[2], sys.argv[3]
@@ -101,7 +101,20 @@ _DRIVER = textwrap.dedent(
             out["upload"] = [upload.status_code, upload.json()]
             out["get"] = c.get(f"/api/recordings/{rid}").status_code
             out["raw"] = c.get(f"/api/recordings/{rid}/files/{fid}").content == csv
-            subprocess.run(["umount", data], check=True)
+            # Reads at once: the pool opens connections while the disk is read-only, and
+            # SQLite opens those read-only.
+            with concurrent.futures.ThreadPoolExecutor(6) as pool:
+                url = f"http://127.0.0.1:{port}/api/recordings"
+                reads = pool.map(lambda _: httpx.get(url, timeout=60).status_code,
+                                 range(24))
+                out["reads"] = sorted(set(reads))
+            # Lazily: connections opened through the read-only view keep it alive until
+            # they close; the server must replace them now that the disk is writable.
+            subprocess.run(["umount", "-l", data], check=True)
+            out["writes_after"] = sorted({
+                c.patch(f"/api/recordings/{rid}", json={"label": f"n{i}", "analyse": False})
+                .status_code for i in range(12)
+            })
             out["total"] = c.get("/api/recordings").json()["total"]
             out["delete_again"] = c.delete(f"/api/recordings/{rid}").status_code
             out["get_again"] = c.get(f"/api/recordings/{rid}").status_code
@@ -130,4 +143,55 @@ def test_a_data_directory_turned_read_only_is_507_and_nothing_changes(tmp_path: 
     assert out["upload"][0] == 507 and "read-only" in out["upload"][1]["detail"]
     assert out["get"] == 200 and out["raw"] is True  # the recording and its bytes are intact
     assert out["total"] == 1  # the refused upload left nothing
+    assert out["reads"] == [200]  # reads go on while the disk is read-only
+    # Once it is writable again every write succeeds, on whichever pooled connection: one that
+    # SQLite opened read-only meanwhile is replaced, not kept failing until a restart.
+    assert out["writes_after"] == [200]
     assert out["delete_again"] == 204 and out["get_again"] == 404
+
+
+# Runs inside the namespace: two pooled connections, the second opened while the file is on a
+# read-only mount; once the mount is gone, a write on each.
+_POOL_DRIVER = textwrap.dedent(
+    """
+    import json, subprocess, sys
+    from sqlalchemy import text
+    from app.db.session import make_engine
+
+    data = sys.argv[1]
+    engine = make_engine(f"sqlite:///{data}/pool.db")
+    with engine.begin() as conn:
+        conn.execute(text("CREATE TABLE t (x INTEGER)"))
+    first = engine.connect()
+    subprocess.run(["mount", "--bind", data, data], check=True)
+    subprocess.run(["mount", "-o", "remount,bind,ro", data], check=True)
+    second = engine.connect()  # the pool opens it now: SQLite opens it read-only
+    first.close(), second.close()
+    subprocess.run(["umount", "-l", data], check=True)
+    out = []
+    held = [engine.connect(), engine.connect()]  # both pooled connections at once
+    for conn in held:
+        try:
+            conn.execute(text("INSERT INTO t VALUES (1)"))
+            conn.commit()
+            out.append("written")
+        except Exception as exc:
+            out.append(str(exc.__cause__ or exc).splitlines()[0])
+    print(json.dumps(out))
+    """
+)
+
+
+@pytest.mark.usefixtures("read_only_mounts")
+def test_a_connection_opened_read_only_is_replaced_once_writable(tmp_path: Path) -> None:
+    """SQLite opens a file it cannot write read-only and keeps it so: such a pooled
+    connection answered every later write with "readonly database" (a 507) until a restart,
+    though the disk was writable again (found when CI's busy machine opened one)."""
+    data = tmp_path / "data"
+    data.mkdir()
+    done = subprocess.run(
+        [UNSHARE, "-rm", sys.executable, "-c", _POOL_DRIVER, str(data)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert json.loads(done.stdout) == ["written", "written"]
