@@ -106,7 +106,8 @@ def _forms_have_no_null(schema: dict[str, Any]) -> None:
 
 
 def _state_job_limits(schema: dict[str, Any], limits: JobLimits) -> None:
-    """Lower each request field's ``maximum`` to the configured cap of the same name."""
+    """Lower each request field's ``maximum`` (and a higher default) to the configured cap
+    of the same name (``JobLimits.fit`` lowers a left-out field the same way)."""
     for name, body in schema.get("components", {}).get("schemas", {}).items():
         if not name.endswith("Request"):
             continue
@@ -117,6 +118,8 @@ def _state_job_limits(schema: dict[str, Any], limits: JobLimits) -> None:
             for branch in prop.get("anyOf", [prop]):
                 if branch.get("type") == "integer":
                     branch["maximum"] = min(branch.get("maximum", cap), cap)
+            if isinstance(prop.get("default"), int) and prop["default"] > cap:
+                prop["default"] = cap  # what a request that leaves it out gets here
 
 
 def create_app(settings: Settings | None = None, *, runner: JobRunner | None = None) -> FastAPI:

@@ -11,6 +11,7 @@ traceback and answers a plain 500 problem that never contains the traceback.
 from __future__ import annotations
 
 import logging
+import re
 from http import HTTPStatus
 from typing import Any
 
@@ -104,9 +105,49 @@ async def _http_error(request: Request, exc: Exception) -> JSONResponse:
     detail = exc.detail if isinstance(exc.detail, str) else str(exc.detail)
     if exc.status_code == 400 and detail == "There was an error parsing the body":
         detail = "the request body cannot be parsed: expected UTF-8 JSON, as its Content-Type says"
-    return problem(
-        exc.status_code, _phrase(exc.status_code), detail, headers=dict(exc.headers or {})
-    )
+    headers = dict(exc.headers or {})
+    status = exc.status_code
+    if status == 405 and request.url.path.startswith("/api/"):
+        allowed = _allowed_methods(request)
+        if allowed:
+            headers["Allow"] = ", ".join(allowed)
+        else:  # no API route here (the pages' static files refused the method): no such URL
+            status, detail = 404, "Not Found"
+            headers.pop("Allow", None)
+    return problem(status, _phrase(status), detail, headers=headers)
+
+
+def _allowed_methods(request: Request) -> list[str]:
+    """Every method the API documents at this path (GET brings HEAD): Starlette's 405 names
+    only the first route's (``Allow: GET, HEAD`` for ``/api/plans``, which also takes POST).
+    An integer path parameter matches digits only, as its route's ``:int`` convertor does."""
+    path = request.url.path
+    methods: set[str] = set()
+    for template, operations in request.app.openapi().get("paths", {}).items():
+        if re.fullmatch(_path_pattern(template, operations), path):
+            methods |= {m.upper() for m in operations if m in _HTTP_METHODS}
+    if "GET" in methods:
+        methods.add("HEAD")
+    return sorted(methods)
+
+
+_HTTP_METHODS = {"get", "put", "post", "delete", "patch", "options", "head"}
+
+
+def _path_pattern(template: str, operations: dict[str, Any]) -> str:
+    integers = {
+        p["name"]
+        for op in operations.values()
+        if isinstance(op, dict)
+        for p in op.get("parameters", [])
+        if p.get("in") == "path" and p.get("schema", {}).get("type") == "integer"
+    }
+    pattern = ""
+    for literal, name in re.findall(r"([^{]*)(?:\{(\w+)\})?", template):
+        pattern += re.escape(literal)
+        if name:
+            pattern += "[0-9]+" if name in integers else "[^/]+"
+    return pattern
 
 
 #: Names pydantic gives the members of a union in an error's location (``offset.float``).

@@ -117,6 +117,11 @@ class _Request(BaseModel):
         return value
 
 
+def left_out(body: BaseModel) -> set[str]:
+    """The fields a request did not give (they hold their defaults)."""
+    return set(type(body).model_fields) - body.model_fields_set
+
+
 #: The user's short name for a recording, plan or simulation (at most 200 characters).
 Label = Annotated[
     Annotated[str, StringConstraints(max_length=200)] | None, BeforeValidator(blank_label_is_none)

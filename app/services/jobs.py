@@ -21,7 +21,7 @@ import logging
 import queue
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -230,14 +230,16 @@ class JobService:
         params: dict[str, Any],
         resource: dict[str, Any],
         label: str | None = None,
+        left_out: Collection[str] = (),
     ) -> dict[str, Any]:
         """Create a queued job (and its result row) and hand it to the runner; ``label`` is
-        the user's name for its result.
+        the user's name for its result; ``left_out`` names the fields the request did not give
+        (their defaults are lowered to the server's caps, ``JobLimits.fit``).
 
         Raises:
             ServiceError: the request asks for more work than a configured limit allows.
         """
-        self.limits.check(params)
+        params = self.limits.fit(params, left_out)
         with self.sessions() as session:
             job = crud.create_job(
                 session=session, kind=kind, params=params, resource=resource, label=label

@@ -8,6 +8,7 @@ variable that sets it, before any job is queued.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,6 +43,22 @@ class JobLimits:
             workers=settings.max_workers,
             cells=settings.max_sweep_cells,
         )
+
+    def fit(self, params: dict[str, Any], left_out: Collection[str] = ()) -> dict[str, Any]:
+        """``params`` with each field the request ``left_out`` lowered to its cap (a server
+        capped below a default still takes a request that does not ask for more), then
+        checked.
+
+        Raises:
+            ServiceError: a field the request gave is above its cap (422 naming it).
+        """
+        out = dict(params)
+        for name in REQUEST_FIELDS:
+            limit, value = getattr(self, name), out.get(name)
+            if name in left_out and limit is not None and isinstance(value, int) and value > limit:
+                out[name] = limit
+        self.check(out)
+        return out
 
     def check(self, params: dict[str, Any]) -> None:
         """Refuse ``params`` (a job's request) that ask for more than a cap.

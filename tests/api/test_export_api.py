@@ -100,8 +100,8 @@ def test_bad_export_requests_name_the_field(
     assert_problem(get(url), 422, field="format")
     assert_problem(get(url, params={"format": "csv", "rate": 0}), 422, field="rate")
     assert_problem(get(url, params={"format": "csv", "rate": 1e9}), 422, field="rate")
-    r = get(url, params={"format": "csv", "method": "bound"})
-    assert "expected one of quintic, paper" in assert_problem(r, 422, field="method")["detail"]
+    r = get(url, params={"format": "csv", "method": "bound"})  # a method, not in this plan
+    assert "expected one of quintic, paper" in assert_problem(r, 404, field="method")["detail"]
     assert_problem(get(url, params={"format": "csv", "method": "warp"}), 422, field="method")
     # URScript needs a six-joint arm: the library's one-line refusal, a 422.
     assert_problem(get(url, params={"format": "script"}), 422)

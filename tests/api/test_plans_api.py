@@ -83,9 +83,9 @@ def test_plan_result_is_the_cli_json_of_the_same_plan(shared_client: TestClient)
         f"/api/plans/{out['id']}/arrays", params={"name": ["t", "standard_energy"]}
     ).json()
     assert set(only["arrays"]) == {"t", "standard_energy"}
-    assert_problem(
+    assert_problem(  # no such array in this plan
         shared_client.get(f"/api/plans/{out['id']}/arrays", params={"name": "nope"}),
-        422,
+        404,
         field="name",
     )
 
@@ -276,6 +276,19 @@ def test_the_comparison_shows_any_two_planned_methods(shared_client: TestClient)
     ]["get"]["parameters"]
     listed = next(p for p in pairs if p["name"] == "methods")["schema"]["anyOf"][0]["enum"]
     assert len(listed) == 20 and "paper,bound" in listed and "bound,bound" not in listed
+    # An array this plan lacks is missing here (404), as a recording's channel; a name that
+    # no array could have is refused by the schema (found by schemathesis over HTTP).
+    arrays_url = f"/api/plans/{out['id']}/arrays"
+    r = shared_client.get(arrays_url, params={"name": ["paper_q", "human_optimal_q"]})
+    assert "human_optimal_q" in assert_problem(r, 404, field="name")["detail"]
+    assert_problem(shared_client.get(arrays_url, params={"name": ""}), 422, field="name.0")
+    # Each export format's media type is documented (mot was text/plain, documented text/csv).
+    spec = shared_client.get("/openapi.json").json()["paths"]
+    for path in ("/api/plans/{plan_id}/trajectory", "/api/simulations/{simulation_id}/trajectory"):
+        documented = set(spec[path]["get"]["responses"]["200"]["content"])
+        assert {"text/csv", "text/plain", "application/json", "application/yaml"} <= documented
+    mot = shared_client.get(f"/api/plans/{out['id']}/trajectory", params={"format": "mot"})
+    assert mot.headers["content-type"].split(";")[0] in documented
 
 
 def test_profiles_by_rest_are_the_library_comparison(shared_client: TestClient) -> None:

@@ -11,6 +11,7 @@ in the body that names nothing is a 404 naming the field. The fuzz test
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -84,6 +85,23 @@ def test_the_schema_states_this_servers_job_caps(
     with make_client(client.app.state.services.settings.data_dir.parent / "other") as other:
         default = other.get("/openapi.json").json()["components"]["schemas"]["PlanRequest"]
         assert default["properties"]["particles"]["maximum"] == 400  # the server's own caps
+
+
+def test_a_cap_below_a_default_lowers_the_default(tmp_path: Path) -> None:
+    """Found by schemathesis over HTTP on a server with ``BIOPLAN_MAX_PARTICLES=20``: ``POST
+    /api/plans {}`` was refused ("particles 40 exceeds the limit 20"), though it asked for
+    nothing. A field the request leaves out gets the cap; one it gives above it is refused."""
+    with make_client(tmp_path, runner=RecordingRunner(), max_particles=20) as capped:
+        plan = capped.get("/openapi.json").json()["components"]["schemas"]["PlanRequest"]
+        assert plan["properties"]["particles"]["default"] == 20
+        for url in ("/api/plans", "/api/simulations", "/api/profiles"):
+            r = capped.post(url, json={"robot": "human_arm_2dof"})
+            assert r.status_code == 202, (url, r.text)
+            assert r.json()["params"]["particles"] == 20  # what the job runs with
+            r = capped.post(url, json={"robot": "human_arm_2dof", "particles": 21})
+            assert_problem(r, 422, field="particles")
+        r = capped.post("/api/plans", json={"robot": "human_arm_2dof", "particles": 8})
+        assert r.json()["params"]["particles"] == 8  # below the cap: as asked
 
 
 def test_names_in_the_body_that_name_nothing_are_404(client: TestClient) -> None:

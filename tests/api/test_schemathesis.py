@@ -72,7 +72,14 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
         "cells": "durations x payloads x objectives within BIOPLAN_MAX_SWEEP_CELLS (a product)",
     },
     "GET /api/viewer/recordings/{recording_id}/analysis": {"t1": "not before t0"},
+    "GET /api/plans/{plan_id}/trajectory": {
+        "rate": "a rate the format's controller takes (URScript: 500 Hz / a whole number)",
+        "format": "a format the planned robot can run (URScript: a six-joint UR arm)",
+    },
 }
+UNSTATED_RULES["GET /api/simulations/{simulation_id}/trajectory"] = UNSTATED_RULES[
+    "GET /api/plans/{plan_id}/trajectory"
+]
 UNSTATED_RULES["POST /api/simulations"] = UNSTATED_RULES["POST /api/plans"]
 UNSTATED_RULES["POST /api/profiles"] = UNSTATED_RULES["POST /api/plans"]
 
@@ -177,8 +184,31 @@ def test_unknown_routes_and_methods_are_problems(schema: Any) -> None:
     for method, url, status in (
         ("GET", "/api/nope", 404),
         ("PUT", "/api/recordings", 405),
-        ("GET", "/api/recordings/abc", 422),
+        ("GET", "/api/recordings/abc", 404),  # an id is digits: this URL names nothing
+        ("PATCH", "/api/recordings/false", 404),  # whatever the method
+        ("DELETE", "/api/nope", 404),
+        ("GET", "/api/recordings/0", 422),  # digits out of range: the field says so
     ):
         r = client.request(method, url, headers={"Authorization": f"Bearer {TOKEN}"})
         assert r.status_code == status
         assert r.headers["content-type"].startswith("application/problem+json")
+
+
+def test_a_405_lists_every_method_of_the_path(schema: Any) -> None:
+    """Found by schemathesis's coverage phase over HTTP: ``OPTIONS /api/plans`` answered
+    ``Allow: GET, HEAD`` (the first route's), though the path also takes POST; and ``PATCH
+    /api/plans/compare`` reached ``PATCH /api/plans/{plan_id}`` and answered 422."""
+    from schemathesis.python.asgi import get_client
+
+    client = get_client(schema.app)
+    for method, url, allow in (
+        ("OPTIONS", "/api/plans", "GET, HEAD, POST"),
+        ("OPTIONS", "/api/jobs/1/cancel", "POST"),
+        ("PATCH", "/api/plans/compare", "GET, HEAD"),
+        ("PUT", "/api/recordings/1", "DELETE, GET, HEAD, PATCH"),
+        ("DELETE", "/api/plans/1", "GET, HEAD, PATCH"),
+        ("POST", "/api/recordings/1/frames/3.jpg", "GET, HEAD"),
+    ):
+        r = client.request(method, url, headers={"Authorization": f"Bearer {TOKEN}"})
+        assert r.status_code == 405, (method, url, r.status_code)
+        assert r.headers["allow"] == allow, (method, url, r.headers["allow"])

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from fastapi import Path, Query, Response
-from pydantic import BeforeValidator
+from pydantic import BeforeValidator, Field
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, undefer
 
@@ -130,9 +130,11 @@ def arrays_out(
     arrays = decode_arrays(row.arrays)
     if names:
         unknown = sorted(set(names) - set(arrays))
-        if unknown:
+        if unknown:  # as a recording's missing channels: not in this result
             raise ApiError(
-                422, f"unknown arrays {unknown} (expected some of {sorted(arrays)})", field="name"
+                404,
+                f"{kind} {result_id} has no arrays {unknown} (expected some of {sorted(arrays)})",
+                field="name",
             )
         arrays = {k: arrays[k] for k in names}
     n = max((a.shape[0] for a in arrays.values() if a.ndim >= 1), default=0)
@@ -155,6 +157,18 @@ EXPORT_MEDIA_TYPES: dict[str, str] = {
     "script": "text/plain",
     "mot": "text/plain",
 }
+#: The trajectory routes' documented answers: a file of one of the export media types.
+EXPORT_RESPONSES: dict[int | str, dict[str, Any]] = {
+    200: {
+        "description": "the export file",
+        "content": {media: {} for media in sorted(set(EXPORT_MEDIA_TYPES.values()))},
+    }
+}
+#: Names of stored arrays (``t``, ``standard_q``, ``bound_energy``...).
+ArrayNames = Annotated[
+    list[Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=64)]] | None,
+    Query(description="array names (default: all); one this result lacks is a 404"),
+]
 #: Highest export rate [Hz] (``app.planning.export.MAX_RATE_HZ``).
 MAX_EXPORT_RATE_HZ = 20_000.0
 
@@ -205,9 +219,9 @@ def trajectory_out(
             409, f"{kind} {result_id} was stored without its motion block: plan it again"
         )
     planned = row.result["motion"].get("methods") or {}
-    if method is not None and method not in planned:
+    if method is not None and method not in planned:  # not in this result, as a missing array
         raise ApiError(
-            422,
+            404,
             f"method '{method}' is not in {kind} {result_id}: expected one of {', '.join(planned)}",
             field="method",
         )

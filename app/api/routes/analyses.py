@@ -63,7 +63,7 @@ def list_analyses(
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
-@router.get("/{analysis_id}", response_model=AnalysisOut)
+@router.get("/{analysis_id:int}", response_model=AnalysisOut)
 def get_analysis(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
     row = get_result_row(session, "analysis", analysis_id)
     return {
@@ -76,7 +76,7 @@ def get_analysis(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
     }
 
 
-@router.get("/{analysis_id}/template", response_model=dict[str, Any])
+@router.get("/{analysis_id:int}/template", response_model=dict[str, Any])
 def get_template(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
     """The HumanTemplate JSON (what ``bioplan analyze --out`` writes; ``plan --template``)."""
     row = get_result_row(session, "analysis", analysis_id)

@@ -101,7 +101,7 @@ def method_pair(methods: str | None) -> tuple[str, str] | None:
     return a, b
 
 
-@router.get("/comparisons/{kind}/{result_id}", response_model=dict[str, Any])
+@router.get("/comparisons/{kind}/{result_id:int}", response_model=dict[str, Any])
 def comparison(
     services: ServicesDep,
     kind: ComparisonKind,
@@ -138,7 +138,7 @@ def comparison(
 
 
 @router.get(
-    "/comparisons/{kind}/{result_id}/export",
+    "/comparisons/{kind}/{result_id:int}/export",
     response_class=Response,
     responses={200: {"content": {"text/html": {}}, "description": "a self-contained HTML file"}},
 )
@@ -167,7 +167,7 @@ def export(
     )
 
 
-@router.get("/recordings/{recording_id}/analysis", response_model=dict[str, Any])
+@router.get("/recordings/{recording_id:int}/analysis", response_model=dict[str, Any])
 def recording_analysis(
     services: ServicesDep,
     recording_id: IdPath,

@@ -45,13 +45,13 @@ def list_jobs(
     }
 
 
-@router.get("/{job_id}", response_model=Job)
+@router.get("/{job_id:int}", response_model=Job)
 def get_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
     """A job: state, structured progress (``stage``, ``done`` of ``of``, ``best``), timings."""
     return jobs.get(job_id)
 
 
-@router.post("/{job_id}/cancel", response_model=Job, dependencies=[WriteAccess])
+@router.post("/{job_id:int}/cancel", response_model=Job, dependencies=[WriteAccess])
 def cancel_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
     """Cancel a queued or running job (a running one is stopped); 409 when it already ended."""
     return jobs.cancel(job_id)
@@ -88,7 +88,7 @@ def _sse(event: str, data: dict[str, Any], model: type[Job | JobSummary] = Job) 
 
 
 @router.get(
-    "/{job_id}/events",
+    "/{job_id:int}/events",
     response_class=StreamingResponse,
     responses={
         200: {

@@ -11,8 +11,10 @@ from sqlalchemy.orm import Session
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import (
+    EXPORT_RESPONSES,
     MAX_POINTS,
     PROBLEM_RESPONSES,
+    ArrayNames,
     FormatQuery,
     IdPath,
     MethodQuery,
@@ -35,6 +37,7 @@ from app.api.schemas import (
     PlanRequest,
     ResultOut,
     SimulationRequest,
+    left_out,
 )
 from app.errors import BioPlanError
 from app.services import ServiceError, Services
@@ -147,6 +150,7 @@ def submit_plan(
         params=body.model_dump(mode="json", exclude={"label"}),
         resource={"robot": body.robot},
         label=body.label,
+        left_out=left_out(body),
     )
     response.headers["Location"] = job["result_url"]
     return job
@@ -220,32 +224,32 @@ def compare_plans(
     }
 
 
-@router.get("/{plan_id}", response_model=ResultOut)
+@router.get("/{plan_id:int}", response_model=ResultOut)
 def get_plan(session: SessionDep, plan_id: IdPath) -> dict[str, Any]:
     return result_out(session, "plan", plan_id)
 
 
-@router.patch("/{plan_id}", response_model=ResultOut, dependencies=[WriteAccess])
+@router.patch("/{plan_id:int}", response_model=ResultOut, dependencies=[WriteAccess])
 def relabel_plan(session: SessionDep, plan_id: IdPath, body: LabelPatch) -> dict[str, Any]:
     """Give the plan a short name (shown in every list), or remove it with ``null``."""
     return relabel(session, "plan", plan_id, body.label)
 
 
-@router.get("/{plan_id}/arrays", response_model=ArraysOut)
+@router.get("/{plan_id:int}/arrays", response_model=ArraysOut)
 def get_plan_arrays(
     session: SessionDep,
     plan_id: IdPath,
     points: Annotated[int, Query(ge=2, le=MAX_POINTS)] = 500,
-    name: Annotated[list[str] | None, Query(description="array names (default: all)")] = None,
+    name: ArrayNames = None,
 ) -> dict[str, Any]:
     """Time grid and, per trajectory, q, qd, qdd, tau [SI], power [W], energy [J]."""
     return arrays_out(session, "plan", plan_id, points=points, names=name)
 
 
 @router.get(
-    "/{plan_id}/trajectory",
+    "/{plan_id:int}/trajectory",
     response_class=Response,
-    responses={200: {"description": "the export file", "content": {"text/csv": {}}}},
+    responses=EXPORT_RESPONSES,
 )
 def get_plan_trajectory(
     session: SessionDep,

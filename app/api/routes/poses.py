@@ -45,7 +45,7 @@ def list_poses(
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
-@router.get("/{pose_id}", response_model=PoseOut)
+@router.get("/{pose_id:int}", response_model=PoseOut)
 def get_pose(session: SessionDep, pose_id: IdPath) -> dict[str, Any]:
     """A pose job and, once it succeeded: frames, frames with a person, fps, image size,
     warnings, the landmarks file's id and how many skeleton frames were kept."""

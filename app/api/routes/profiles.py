@@ -10,7 +10,7 @@ from fastapi import APIRouter, Query, Response
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, list_results, result_out
-from app.api.schemas import Job, JobState, Page, ProfilesRequest, ResultOut
+from app.api.schemas import Job, JobState, Page, ProfilesRequest, ResultOut, left_out
 
 router = APIRouter(prefix="/api/profiles", tags=["profiles"], responses=PROBLEM_RESPONSES)
 
@@ -29,7 +29,10 @@ def submit_profiles(
                 field=name,
             )  # fmt: skip
     job = services.jobs.submit(
-        kind="profiles", params=body.model_dump(mode="json"), resource={"robot": body.robot}
+        kind="profiles",
+        params=body.model_dump(mode="json"),
+        resource={"robot": body.robot},
+        left_out=left_out(body),
     )
     response.headers["Location"] = job["result_url"]
     return job
@@ -49,6 +52,6 @@ def list_profiles(
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
-@router.get("/{profiles_id}", response_model=ResultOut)
+@router.get("/{profiles_id:int}", response_model=ResultOut)
 def get_profiles(session: SessionDep, profiles_id: IdPath) -> dict[str, Any]:
     return result_out(session, "profiles", profiles_id)

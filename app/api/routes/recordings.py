@@ -281,7 +281,7 @@ def _get(session: SessionDep, recording_id: int) -> RecordingSession:
     return rec
 
 
-@router.get("/{recording_id}", response_model=RecordingDetail)
+@router.get("/{recording_id:int}", response_model=RecordingDetail)
 def get_recording(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
     """Files (role, warnings, rate check, a video's pose extraction) and channels (flat,
     excluded), the session mode and the options in use."""
@@ -289,7 +289,7 @@ def get_recording(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
 
 
 @router.patch(
-    "/{recording_id}",
+    "/{recording_id:int}",
     response_model=RecordingDetail,
     dependencies=[WriteAccess],
     summary="Change a recording and rerun its analysis",
@@ -315,7 +315,7 @@ def patch_recording(
 
 
 @router.post(
-    "/{recording_id}/pose",
+    "/{recording_id:int}/pose",
     status_code=202,
     response_model=RecordingDetail,
     dependencies=[WriteAccess],
@@ -344,7 +344,7 @@ def restart_pose(
     return _detail(session, recording_id, pose_jobs=_submit_pose(services, rec, videos))
 
 
-@router.get("/{recording_id}/frames", response_model=SkeletonFrames)
+@router.get("/{recording_id:int}/frames", response_model=SkeletonFrames)
 def list_frames(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
     """The video frames with the detected skeleton drawn (a few per video), to check the fit."""
     _get(session, recording_id)
@@ -366,7 +366,7 @@ def list_frames(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
 
 
 @router.get(
-    "/{recording_id}/frames/{k}.jpg",
+    "/{recording_id:int}/frames/{k:int}.jpg",
     response_class=Response,
     responses={200: {"content": {"image/jpeg": {}}, "description": "the frame (JPEG)"}},
 )
@@ -392,7 +392,7 @@ def get_frame(
     return Response(jpeg, media_type="image/jpeg", headers=headers)
 
 
-@router.get("/{recording_id}/signals", response_model=Signals)
+@router.get("/{recording_id:int}/signals", response_model=Signals)
 def get_signals(
     session: SessionDep,
     recording_id: IdPath,
@@ -455,7 +455,7 @@ def get_signals(
 
 
 @router.get(
-    "/{recording_id}/files/{file_id}",
+    "/{recording_id:int}/files/{file_id:int}",
     response_class=Response,
     responses={200: {"content": {"application/octet-stream": {}}, "description": "raw bytes"}},
 )
@@ -474,7 +474,7 @@ def get_raw_file(
     )
 
 
-@router.delete("/{recording_id}", status_code=204, dependencies=[WriteAccess])
+@router.delete("/{recording_id:int}", status_code=204, dependencies=[WriteAccess])
 def delete_recording(services: ServicesDep, session: SessionDep, recording_id: IdPath) -> Response:
     """Delete a recording with its files, landmarks and skeleton frames; its pose jobs still
     queued or running are cancelled first (their workers stop; nothing of them is stored)."""

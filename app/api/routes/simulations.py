@@ -8,8 +8,10 @@ from fastapi import APIRouter, Query, Response
 
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import (
+    EXPORT_RESPONSES,
     MAX_POINTS,
     PROBLEM_RESPONSES,
+    ArrayNames,
     FormatQuery,
     IdPath,
     MethodQuery,
@@ -29,6 +31,7 @@ from app.api.schemas import (
     Page,
     ResultOut,
     SimulationRequest,
+    left_out,
 )
 
 router = APIRouter(prefix="/api/simulations", tags=["simulations"], responses=PROBLEM_RESPONSES)
@@ -45,6 +48,7 @@ def submit_simulation(
         params=body.model_dump(mode="json", exclude={"label"}),
         resource={"robot": body.robot},
         label=body.label,
+        left_out=left_out(body),
     )
     response.headers["Location"] = job["result_url"]
     return job
@@ -64,12 +68,12 @@ def list_simulations(
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
-@router.get("/{simulation_id}", response_model=ResultOut)
+@router.get("/{simulation_id:int}", response_model=ResultOut)
 def get_simulation(session: SessionDep, simulation_id: IdPath) -> dict[str, Any]:
     return result_out(session, "simulation", simulation_id)
 
 
-@router.patch("/{simulation_id}", response_model=ResultOut, dependencies=[WriteAccess])
+@router.patch("/{simulation_id:int}", response_model=ResultOut, dependencies=[WriteAccess])
 def relabel_simulation(
     session: SessionDep, simulation_id: IdPath, body: LabelPatch
 ) -> dict[str, Any]:
@@ -77,20 +81,20 @@ def relabel_simulation(
     return relabel(session, "simulation", simulation_id, body.label)
 
 
-@router.get("/{simulation_id}/arrays", response_model=ArraysOut)
+@router.get("/{simulation_id:int}/arrays", response_model=ArraysOut)
 def get_simulation_arrays(
     session: SessionDep,
     simulation_id: IdPath,
     points: Annotated[int, Query(ge=2, le=MAX_POINTS)] = 500,
-    name: Annotated[list[str] | None, Query(description="array names (default: all)")] = None,
+    name: ArrayNames = None,
 ) -> dict[str, Any]:
     return arrays_out(session, "simulation", simulation_id, points=points, names=name)
 
 
 @router.get(
-    "/{simulation_id}/trajectory",
+    "/{simulation_id:int}/trajectory",
     response_class=Response,
-    responses={200: {"description": "the export file", "content": {"text/csv": {}}}},
+    responses=EXPORT_RESPONSES,
 )
 def get_simulation_trajectory(
     session: SessionDep,

@@ -8,7 +8,7 @@ from fastapi import APIRouter, Query, Response
 
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, list_results, result_out
-from app.api.schemas import Job, JobState, Page, ResultOut, SweepRequest
+from app.api.schemas import Job, JobState, Page, ResultOut, SweepRequest, left_out
 
 router = APIRouter(prefix="/api/sweeps", tags=["sweeps"], responses=PROBLEM_RESPONSES)
 
@@ -20,7 +20,10 @@ def submit_sweep(
     """Queue a sweep (``bioplan sweep``); progress is reported per grid cell."""
     services.robots.joints(session, body.robot)  # UnknownRobotError: 404 naming the field
     job = services.jobs.submit(
-        kind="sweep", params=body.model_dump(mode="json"), resource={"robot": body.robot}
+        kind="sweep",
+        params=body.model_dump(mode="json"),
+        resource={"robot": body.robot},
+        left_out=left_out(body),
     )
     response.headers["Location"] = job["result_url"]
     return job
@@ -37,6 +40,6 @@ def list_sweeps(
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
-@router.get("/{sweep_id}", response_model=ResultOut)
+@router.get("/{sweep_id:int}", response_model=ResultOut)
 def get_sweep(session: SessionDep, sweep_id: IdPath) -> dict[str, Any]:
     return result_out(session, "sweep", sweep_id)
