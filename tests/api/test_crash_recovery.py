@@ -190,13 +190,22 @@ def test_sigkill_during_a_job_reruns_then_fails_it(servers: list[Server], tmp_pa
     assert server.get("/api/jobs", params={"state": "running"})["total"] == 0
 
 
+def _command(process: psutil.Process) -> str:
+    """A process's command line; "" for one that has just ended (a zombie until its parent,
+    perhaps this test as the subreaper, collects it)."""
+    try:
+        return " ".join(process.cmdline())
+    except psutil.Error:
+        return ""
+
+
 def _running_with_pool(server: Server, plan_id: int, sweep_id: int) -> list[psutil.Process]:
     """The server's descendants once the plan runs and the sweep's pool workers exist."""
     deadline = time.monotonic() + 180
     while time.monotonic() < deadline:
         states = {server.get(f"/api/jobs/{i}")["state"] for i in (plan_id, sweep_id)}
         procs = server.descendants()
-        workers = [p for p in procs if "multiprocessing.spawn" in " ".join(p.cmdline())]
+        workers = [p for p in procs if "multiprocessing.spawn" in _command(p)]
         if states == {"running"} and len(workers) >= 2:
             return procs
         assert states <= {"queued", "running"}, states
@@ -221,7 +230,8 @@ def test_a_killed_servers_job_processes_are_killed_with_it(
         sweep_id = server.post("/api/sweeps", json=sweep).json()["id"]
         procs = _running_with_pool(server, plan_id, sweep_id)
         # multiprocessing's resource tracker is no job process: it exits on its own.
-        tracked = {p.pid: " ".join(p.cmdline()) for p in procs}
+        # A process that has already ended (a zombie awaiting collection) is not tracked.
+        tracked = {p.pid: command for p in procs if (command := _command(p))}
         died = server.sigkill()
         endings = reap(tracked, died, timeout=120)
     assert set(endings) == set(tracked), {p: tracked[p] for p in set(tracked) - set(endings)}
