@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from app.errors import BioPlanError
+from app.errors import BioPlanError, one_line
 from app.names import PSO_DEFAULTS
 from app.planning.jsonsafe import json_safe
 from app.progress import ProgressFn, no_progress, report
@@ -340,8 +340,7 @@ def _member(root: Path, relative: str | None, what: str) -> Path | None:
     except (OSError, ValueError):  # a name too long for the file system, a NUL byte
         inside = False
     if not inside:
-        shown = relative if len(relative) <= 80 else f"{relative[:80]}..."
-        raise RobotError(f"{what} {shown!r} is not a file of the robot package")
+        raise RobotError(f"{what} '{one_line(relative, 80)}' is not a file of the robot package")
     return path
 
 

@@ -12,6 +12,7 @@ the planner; the SSE endpoint is left out because a job that never ends never cl
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -212,3 +213,35 @@ def test_a_405_lists_every_method_of_the_path(schema: Any) -> None:
         r = client.request(method, url, headers={"Authorization": f"Bearer {TOKEN}"})
         assert r.status_code == 405, (method, url, r.status_code)
         assert r.headers["allow"] == allow, (method, url, r.headers["allow"])
+
+
+def test_the_acceptance_check_excuses_only_the_listed_rules(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The allow-list is narrow: a 422 of valid data passes only when it names a rule of its
+    own operation; any other answer goes to schemathesis's check unchanged."""
+    from types import SimpleNamespace
+
+    judged: list[int] = []
+    monkeypatch.setattr(
+        sys.modules[__name__],
+        "_positive_data_acceptance",
+        lambda ctx, response, case: judged.append(response.status_code),
+    )
+
+    def answer(status: int, **problem: Any) -> Any:
+        return SimpleNamespace(status_code=status, json=lambda: problem)
+
+    def case(label: str, mode: GenerationMode = GenerationMode.POSITIVE) -> Any:
+        meta = SimpleNamespace(generation=SimpleNamespace(mode=mode))
+        return SimpleNamespace(meta=meta, operation=SimpleNamespace(label=label))
+
+    plans = case("POST /api/plans")
+    positive_data_acceptance(None, answer(422, field="duration"), plans)  # a listed rule
+    positive_data_acceptance(None, answer(422, file="a.csv"), case("POST /api/recordings"))
+    assert judged == []
+    positive_data_acceptance(None, answer(422, field="methods"), plans)  # not listed
+    positive_data_acceptance(None, answer(422, field="duration"), case("POST /api/analyses"))
+    positive_data_acceptance(None, answer(422, file="a.csv"), plans)  # plans take no file
+    positive_data_acceptance(None, answer(500), plans)
+    assert judged == [422, 422, 422, 500]

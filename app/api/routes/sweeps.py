@@ -8,7 +8,7 @@ from fastapi import APIRouter, Query, Response
 
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, list_results, result_out
-from app.api.schemas import Job, JobState, Page, ResultOut, SweepRequest, left_out
+from app.api.schemas import Job, JobState, Page, ResultOut, SweepRequest
 
 router = APIRouter(prefix="/api/sweeps", tags=["sweeps"], responses=PROBLEM_RESPONSES)
 
@@ -20,10 +20,7 @@ def submit_sweep(
     """Queue a sweep (``bioplan sweep``); progress is reported per grid cell."""
     services.robots.joints(session, body.robot)  # UnknownRobotError: 404 naming the field
     job = services.jobs.submit(
-        kind="sweep",
-        params=body.model_dump(mode="json"),
-        resource={"robot": body.robot},
-        left_out=left_out(body),
+        kind="sweep", params=body.model_dump(mode="json"), resource={"robot": body.robot}
     )
     response.headers["Location"] = job["result_url"]
     return job

@@ -34,11 +34,6 @@ function homeGuide() {
   return card;
 }
 
-/** A problem's message with its field in the form's words ("EMG rate: ..."). */
-export function inWords(err) {
-  return inFormWords(err, FIELD_WORDS);
-}
-
 export function render(main) {
   const files = []; // {file, li, status}
   const stops = []; // job followers to stop when the page is left
@@ -251,7 +246,7 @@ export function render(main) {
         const which = culprits.map(([f]) => f.file.name).join(", ");
         topError.append(banner("error", `Nothing was stored: ${culprits.length > 1 ? `${culprits.length} files` : which} could not be read (${culprits.length > 1 ? `${which}; each message is next to its file` : "its message is next to it"}).`));
       } else {
-        topError.append(banner("error", inWords(err)));
+        topError.append(banner("error", inFormWords(err, FIELD_WORDS)));
       }
     } finally {
       setBusy(false);

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Any, NoReturn
 
-from app.errors import storage_problem
+from app.errors import one_line, storage_problem
 from app.planning.robots._types import RobotError
 
 __all__ = [
@@ -127,7 +127,7 @@ def _extract_member(
     except _EXTRACT_ERRORS as exc:
         if storage_problem(exc) is not None:
             raise  # a full or read-only disk is the server's problem, not the upload's
-        member = info.filename if len(info.filename) <= 80 else f"{info.filename[:80]}..."
+        member = one_line(info.filename, 80)
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise RobotError(
             f"{name}: member '{member}' cannot be extracted ({reason}): expected a zip of a"
@@ -322,8 +322,8 @@ def _replicated(element: Any, factor: int) -> int:
 
 
 def _refuse(mjcf: Path, tag: str, attr: str, value: str) -> NoReturn:
-    shown = value if len(value) <= 80 else value[:77] + "..."
     raise RobotError(
-        f'{mjcf.name}: <{tag} {attr}="{shown}">: a path outside the uploaded robot\'s files: '
-        "expected a relative path inside the upload (a zip holds the included files and meshes)"
+        f'{mjcf.name}: <{tag} {attr}="{one_line(value, 80)}">: a path outside the uploaded '
+        "robot's files: expected a relative path inside the upload (a zip holds the included "
+        "files and meshes)"
     )
