@@ -14,13 +14,13 @@ dimension order, text as str or list of str), then channels are found by convent
 
 from __future__ import annotations
 
-import io
 import re
 from typing import Any
 
 import numpy as np
 
 from app.errors import BioPlanError
+from app.recordings import _hdf5
 from app.recordings._common import (
     F64,
     Options,
@@ -105,29 +105,51 @@ def _walk_v5(obj: Any, path: tuple[str, ...], out: Leaves, depth: int = 0) -> No
 MAX_DECODED_BYTES = 512 << 20
 
 
+class _H5Walk:
+    """What one walk of an HDF5 file has used: decoded bytes left, objects visited, open groups."""
+
+    def __init__(self) -> None:
+        self.budget = MAX_DECODED_BYTES
+        self.visits = _hdf5.Visits()
+
+
 def _walk_h5(
-    f: Any, node: Any, path: tuple[str, ...], out: Leaves, depth: int = 0, budget: Any = None
+    f: Any,
+    node: Any,
+    path: tuple[str, ...],
+    out: Leaves,
+    depth: int = 0,
+    walk: _H5Walk | None = None,
 ) -> None:
-    """Leaves of an HDF5 (MAT 7.3) file; ``budget`` ([bytes left]) is checked against each
-    dataset's declared size before it is read, so nothing over the limit is ever allocated."""
+    """Leaves of an HDF5 (MAT 7.3) file.
+
+    Every link is checked before it is followed and every dataset's storage before it is read
+    (``_hdf5``: nothing outside the uploaded bytes is ever opened); the decoded-size budget is
+    checked against each dataset's declared size before it is read, so nothing over the limit
+    is ever allocated.
+    """
     import h5py
 
-    budget = [MAX_DECODED_BYTES] if budget is None else budget
+    walk = _H5Walk() if walk is None else walk
     if depth > 20:
         return
     if isinstance(node, h5py.Group):
-        for k in node:
+        walk.visits.enter(node, path)
+        for k, child in _hdf5.children(node, path):
             if not k.startswith("#"):
-                _walk_h5(f, node[k], (*path, k), out, depth + 1, budget)
+                _walk_h5(f, child, (*path, k), out, depth + 1, walk)
+        walk.visits.leave()
         return
     if not isinstance(node, h5py.Dataset):
         return
+    walk.visits.enter(node, path)
+    _hdf5.check_dataset(node, path)
     cls = node.attrs.get("MATLAB_class", b"")
     cls = cls.decode("latin-1") if isinstance(cls, bytes) else str(cls)
     if node.attrs.get("MATLAB_empty", 0):
         return
-    budget[0] -= int(node.size) * max(int(node.dtype.itemsize), 1)
-    if budget[0] < 0:
+    walk.budget -= int(node.size) * max(int(node.dtype.itemsize), 1)
+    if walk.budget < 0:
         raise BioPlanError(
             f"its datasets decode to more than {MAX_DECODED_BYTES >> 20} MB in all (at "
             f"{'/'.join(path) or 'the root'}, shape {tuple(node.shape)}): a recording is far "
@@ -142,27 +164,32 @@ def _walk_h5(
         else:
             out[path] = "".join(chr(int(c)) for c in arr.ravel()).strip()
     elif cls == "cell" or (isinstance(value, np.ndarray) and value.dtype.kind == "O"):
-        items: list[Any] = []
-        for ref in np.asarray(value).T.ravel():
-            try:
-                items.append(f[ref])
-            except (ValueError, KeyError, TypeError):
-                continue
-        texts: list[str] = []
-        for i, item in enumerate(items):
-            sub: Leaves = {}
-            _walk_h5(f, item, (*path, str(i)), sub, depth + 1, budget)
-            if len(sub) == 1 and isinstance(next(iter(sub.values())), str):
-                texts.append(next(iter(sub.values())))
-            else:
-                out.update(sub)
-        if texts and len(texts) == len(items):
-            out[path] = texts
+        _walk_cell(f, value, path, out, depth, walk)
     else:
         arr = np.asarray(value)
         if arr.dtype.kind in "iuf" and arr.size:
             # HDF5 holds MATLAB arrays in reversed dimension order.
             out[path] = np.asarray(arr.T, dtype=np.float64)
+
+
+def _walk_cell(
+    f: Any, value: Any, path: tuple[str, ...], out: Leaves, depth: int, walk: _H5Walk
+) -> None:
+    """A cell array's items: object references into the same file, each target walked (and so
+    checked) like any other object; a cell of strings becomes one list of str."""
+    items = [
+        item for ref in np.asarray(value).T.ravel() if (item := _hdf5.deref(f, ref)) is not None
+    ]
+    texts: list[str] = []
+    for i, item in enumerate(items):
+        sub: Leaves = {}
+        _walk_h5(f, item, (*path, str(i)), sub, depth + 1, walk)
+        if len(sub) == 1 and isinstance(next(iter(sub.values())), str):
+            texts.append(next(iter(sub.values())))
+        else:
+            out.update(sub)
+    if texts and len(texts) == len(items):
+        out[path] = texts
 
 
 def _leaves(src: Source, data: bytes) -> tuple[Leaves, str]:
@@ -171,11 +198,9 @@ def _leaves(src: Source, data: bytes) -> tuple[Leaves, str]:
         or data[:8] == b"\x89HDF\r\n\x1a\n"
         or (len(data) > 520 and data[512:520] == b"\x89HDF\r\n\x1a\n")
     ):
-        import h5py
-
         out: Leaves = {}
         try:
-            with h5py.File(io.BytesIO(data), "r") as f:
+            with _hdf5.open_bytes(data) as f:
                 _walk_h5(f, f, (), out)
         except BioPlanError as exc:
             raise src.error(str(exc), expected="a MATLAB v7.3 recording") from None
