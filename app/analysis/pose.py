@@ -195,19 +195,161 @@ def _position_channels(recording: Recording) -> dict[str, Channel]:
     }
 
 
+#: Marker sets whose names the automatic lookup may miss, by preset name: role -> names, of
+#: which the ones present in the recording are averaged (so Plug-in Gait's wrist is RWRA, RWRB or
+#: their midpoint). A preset without a side (``plugin_gait``) tries both and keeps the better one.
+#: Plug-in Gait: Vicon's upper-body model; OpenCap: the ``*_study`` markers of its marker
+#: augmenter (lateral and medial elbow and wrist); Pose2Sim: OpenPose/COCO keypoint names in its
+#: TRC output.
+_PRESET_FAMILIES: dict[str, dict[str, tuple[str, ...]]] = {
+    "plugin_gait": {
+        "shoulder": ("{S}SHO",),
+        "elbow": ("{S}ELB",),
+        "wrist": ("{S}WRA", "{S}WRB"),
+        "hip": ("{S}ASI", "{S}PSI"),
+    },
+    "opencap": {
+        "shoulder": ("{s}_shoulder_study",),
+        "elbow": ("{s}_lelbow_study", "{s}_melbow_study"),
+        "wrist": ("{s}_lwrist_study", "{s}_mwrist_study"),
+        "hip": ("{s}.ASIS_study", "{s}.PSIS_study"),
+    },
+    "pose2sim": {
+        "shoulder": ("{S}Shoulder",),
+        "elbow": ("{S}Elbow",),
+        "wrist": ("{S}Wrist",),
+        "hip": ("{S}Hip",),
+    },
+}
+
+
+def _preset(family: str, side: Side) -> dict[str, tuple[str, ...]]:
+    # OpenCap writes r_... for the right and L_... for the left; names match case-insensitively.
+    letter = {"S": side[0].upper(), "s": "r" if side == "right" else "L"}
+    return {
+        role: tuple(n.format(**letter) for n in names)
+        for role, names in _PRESET_FAMILIES[family].items()
+    }
+
+
+#: Named landmark presets: name -> (side or None for either, role -> candidate names).
+LANDMARK_PRESETS: dict[str, tuple[Side | None, dict[str, tuple[str, ...]]]] = {
+    **{f: (None, _preset(f, "right")) for f in _PRESET_FAMILIES},
+    **{f"{f}_{s}": (s, _preset(f, s)) for f in _PRESET_FAMILIES for s in ("right", "left")},
+}
+
+
+@dataclass(frozen=True)
+class LandmarkSpec:
+    """Which channels are the arm's joints: a preset or an explicit role -> names mapping.
+
+    Attributes:
+        roles: role -> channel names; explicit names must all be present (several are
+            averaged); a preset's names are candidates (those present are averaged).
+        preset: the preset's name, or None for an explicit mapping.
+        side: the preset's side, None when it has none.
+    """
+
+    roles: Mapping[str, tuple[str, ...]]
+    preset: str | None = None
+    side: Side | None = None
+
+    def for_side(self, side: Side) -> Mapping[str, tuple[str, ...]]:
+        """The role -> names to look for on ``side`` (a side-less preset's names of that side)."""
+        if self.preset is None or self.side is not None:
+            return self.roles
+        return _preset(self.preset, side)
+
+    def to_text(self) -> str:
+        if self.preset is not None:
+            return self.preset
+        return ",".join(f"{r}={'+'.join(n)}" for r, n in self.roles.items())
+
+
+#: What ``arm_angles(landmarks=...)`` takes: a preset name, role=NAME text, a mapping, a spec.
+LandmarkOption = str | Mapping[str, str | Sequence[str]] | LandmarkSpec
+
+
+def _presets_text() -> str:
+    return ", ".join(LANDMARK_PRESETS)
+
+
+def landmark_spec(spec: LandmarkOption) -> LandmarkSpec:
+    """A landmark mapping from a preset name, ``"shoulder=RSHO,elbow=RELB,wrist=RWRA"`` (several
+    names joined by ``+`` are averaged: ``wrist=RWRA+RWRB``) or a role -> name(s) mapping.
+
+    Raises:
+        RecordingError: an unknown preset or role, or a malformed mapping; the message lists
+            the presets.
+    """
+    if isinstance(spec, LandmarkSpec):
+        return spec
+    if isinstance(spec, str):
+        text = spec.strip()
+        key = text.lower().replace("-", "_").replace(" ", "_")
+        if key in LANDMARK_PRESETS:
+            preset_side, preset_roles = LANDMARK_PRESETS[key]
+            return LandmarkSpec(roles=preset_roles, preset=key, side=preset_side)
+        if "=" not in text:
+            raise RecordingError(
+                f"unknown landmark preset {spec!r}",
+                expected=f"one of {_presets_text()}, or role=NAME pairs such as"
+                " 'shoulder=RSHO,elbow=RELB,wrist=RWRA'",
+            )
+        pairs: dict[str, str | Sequence[str]] = {}
+        for part in filter(None, (p.strip() for p in text.split(","))):
+            role, sep, names = part.partition("=")
+            split = [n.strip() for n in names.split("+") if n.strip()]
+            if not sep or not split:
+                raise RecordingError(
+                    f"landmark mapping {part!r} is not role=NAME",
+                    expected="e.g. 'shoulder=RSHO,elbow=RELB,wrist=RWRA' or a preset"
+                    f" ({_presets_text()})",
+                )
+            pairs[role.strip().lower()] = split
+        spec = pairs
+    roles: dict[str, tuple[str, ...]] = {}
+    for role, value in spec.items():
+        if role not in ROLES:
+            raise RecordingError(
+                f"unknown landmark role {role!r}",
+                expected=f"roles among {', '.join(ROLES)} (or a preset: {_presets_text()})",
+            )
+        chosen = (value,) if isinstance(value, str) else tuple(value)
+        if not chosen or not all(isinstance(n, str) and n.strip() for n in chosen):
+            raise RecordingError(
+                f"landmark role {role!r} names no channel", expected="one or more channel names"
+            )
+        roles[role] = chosen
+    return LandmarkSpec(roles=roles)
+
+
 def _resolve(
     recording: Recording,
     side: Side,
-    landmarks: Mapping[str, str | Sequence[str]] | None,
+    landmarks: LandmarkSpec | None,
 ) -> tuple[dict[str, list[Channel]], bool]:
-    """Channels per role for one side, and whether the names were side-specific."""
+    """Channels per role for one side, and whether the names were side-specific.
+
+    An explicit mapping's names must all exist; a preset's present names are averaged, and a
+    role none of them names is missing (the hip then falls back to the automatic names).
+    """
     available = _position_channels(recording)
     found: dict[str, list[Channel]] = {}
     sided = False
+    given = landmarks.for_side(side) if landmarks is not None else {}
+    preset = landmarks is not None and landmarks.preset is not None
     for role, options in _candidates(side).items():
-        if landmarks and role in landmarks:
-            spec = landmarks[role]
-            names = (spec,) if isinstance(spec, str) else tuple(spec)
+        names = given.get(role, ())
+        if preset:
+            present = [n for n in names if _key(n) in available]
+            if present:
+                found[role] = [available[_key(n)] for n in present]
+                sided = True
+                continue
+            if role != "hip":
+                continue  # this side lacks the role: no arm here
+        elif names:
             missing = [n for n in names if _key(n) not in available]
             if missing:
                 raise RecordingError(
@@ -436,28 +578,47 @@ def smooth_and_differentiate(
 def _choose_arm(
     recording: Recording,
     side: Side | None,
-    landmarks: Mapping[str, str | Sequence[str]] | None,
+    landmarks: LandmarkOption | None,
     min_visibility: float,
 ) -> tuple[Side, dict[str, list[Channel]], bool]:
     """(side, channels per role, whether the names were sided) of the arm to use: ``side``,
     or the one with more usable samples (then higher mean visibility)."""
     if side not in (None, "left", "right"):
         raise RecordingError(f"unknown side {side!r}", expected="'left', 'right' or None")
+    spec = None if landmarks is None else landmark_spec(landmarks)
+    if spec is not None and spec.side is not None:
+        if side is not None and side != spec.side:
+            raise RecordingError(
+                f"landmark preset {spec.preset!r} is the {spec.side} arm, but side {side!r}"
+                " was asked for",
+                file=recording.source,
+                expected=f"side {spec.side!r}, or the preset of the {side} arm",
+            )
+        side = spec.side
     options: list[Side] = [side] if side is not None else ["left", "right"]
     resolved: list[tuple[tuple[float, float], Side, dict[str, list[Channel]], bool]] = []
     for s in options:
-        found, sided = _resolve(recording, s, landmarks)
+        found, sided = _resolve(recording, s, spec)
         if all(role in found for role in ("shoulder", "elbow", "wrist")):
             arm = [ch for role in ("shoulder", "elbow", "wrist") for ch in found[role]]
             resolved.append((_confidence(arm, min_visibility), s, found, sided))
     if not resolved:
-        names = sorted(_position_channels(recording))
+        names = [
+            name
+            for name, ch in recording.channels.items()
+            if ch.kind in ("landmark", "marker") and ch.data.ndim == 2
+        ]
+        shown = ", ".join(names[:30]) + (" ..." if len(names) > 30 else "")
         raise RecordingError(
-            "no arm landmarks found" + (f" for the {side} side" if side else ""),
+            "no arm landmarks found"
+            + (f" for the {side} side" if side else "")
+            + (f" with landmarks {spec.to_text()!r}" if spec is not None else ""),
             file=recording.source,
             expected="shoulder, elbow and wrist landmarks or markers (e.g. left_shoulder, "
-            "left_elbow, left_wrist; LSHO, LELB, LWRA; or ACRO_tip, EPICl/EPICm, STYLr/STYLu)"
-            + (f"; position channels present: {names[:12]}" if names else "; none present"),
+            "left_elbow, left_wrist; LSHO, LELB, LWRA+LWRB; or ACRO_tip, EPICl/EPICm, "
+            f"STYLr/STYLu), or a landmark preset ({_presets_text()}) or mapping"
+            " (shoulder=NAME,elbow=NAME,wrist=NAME)"
+            + (f"; position channels present: {shown}" if names else "; none present"),
         )
     resolved.sort(key=lambda item: (-item[0][0], -item[0][1]))
     _, chosen_side, found, sided = resolved[0]
@@ -475,7 +636,7 @@ def arm_angles(
     recording: Recording,
     *,
     side: Side | None = None,
-    landmarks: Mapping[str, str | Sequence[str]] | None = None,
+    landmarks: LandmarkOption | None = None,
     min_visibility: float = 0.5,
     max_gap: float = 0.2,
     max_speed: float = 15.0,
@@ -493,7 +654,9 @@ def arm_angles(
             ``STYLr/STYLu``, ``ASIS*/PSIS*`` (averaged where several are listed).
         side: ``"left"`` or ``"right"``; None picks the side whose landmarks are visible most.
         landmarks: role (``shoulder``, ``elbow``, ``wrist``, ``hip``) -> channel name(s) to use
-            instead of the automatic lookup (several names are averaged).
+            instead of the automatic lookup (several names are averaged), the same as text
+            (``"shoulder=RSHO,elbow=RELB,wrist=RWRA"``), or a preset of ``LANDMARK_PRESETS``
+            (``plugin_gait_right``, ``opencap_left``, ``pose2sim``...).
         min_visibility: landmark samples with lower confidence are treated as missing.
         max_gap: holes up to this long [s] are interpolated; longer ones stay gaps.
         max_speed: an angle change faster than this between valid samples [rad/s] is a jump
@@ -573,7 +736,11 @@ _JOINT_WORDS = {
 
 
 def _side_of(name: str) -> str | None:
-    low = name.lower()
+    # OpenSim 4 state paths: /jointset/r_elbow/r_elbow_flex/value -> r_elbow_flex
+    parts = [p for p in name.lower().split("/") if p]
+    if len(parts) >= 2 and parts[-1] in ("value", "speed"):
+        parts.pop()
+    low = parts[-1] if parts else name.lower()
     if low.endswith(("_r", "_right")) or low.startswith(("r_", "right_")):
         return "right"
     if low.endswith(("_l", "_left")) or low.startswith(("l_", "left_")):

@@ -6,6 +6,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import shutil
+import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -111,6 +114,11 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     pose: dict[str, Any] = {}
     if args.side != "auto":
         pose["side"] = args.side
+    if args.landmarks:
+        from app.analysis.pose import landmark_spec
+
+        landmark_spec(args.landmarks)  # an unknown preset or a malformed mapping stops here
+        pose["landmarks"] = args.landmarks
     return {
         "emg_rate": args.emg_rate,
         "muscle_map": _muscle_map(args.muscle),
@@ -165,12 +173,47 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     return 0
 
 
+#: CPython versions MediaPipe 0.10.21 (the pose environment's) has wheels for.
+POSE_PYTHONS = ((3, 9), (3, 12))
+
+
+def _pose_base_python(given: str | None) -> str:
+    """The interpreter the pose environment is made from, checked: a CPython MediaPipe 0.10.21
+    has wheels for (else a CliError that says what to give instead)."""
+    base = (shutil.which(given) or given) if given else sys.executable
+    probe = "import sys; print(sys.implementation.name, *sys.version_info[:2])"
+    try:
+        done = subprocess.run([base, "-c", probe], capture_output=True, text=True, timeout=60)
+        name, major, minor = done.stdout.split()
+        version = (int(major), int(minor))
+    except (OSError, ValueError, subprocess.TimeoutExpired):
+        raise CliError(f"--python {base}: not a Python interpreter that runs") from None
+    (lo_major, lo_minor), (hi_major, hi_minor) = POSE_PYTHONS
+    if name != "cpython" or not POSE_PYTHONS[0] <= version <= POSE_PYTHONS[1]:
+        raise CliError(
+            f"the pose environment needs CPython {lo_major}.{lo_minor}-{hi_major}.{hi_minor}"
+            f" (MediaPipe 0.10.21 has wheels for no other), but {base} is {name} {major}.{minor}:"
+            f" give --python python{hi_major}.{hi_minor} (or another in that range);"
+            " everything but video works without it"
+        )
+    return base
+
+
 def cmd_pose_env(args: argparse.Namespace) -> int:
     from app.recordings import create_pose_env, default_pose_env
 
     target = Path(args.dir) if args.dir else default_pose_env()
-    print(f"creating the pose environment in {target} (MediaPipe 0.10.21) ...", file=sys.stderr)
-    py = create_pose_env(target, python=args.python, quiet=not args.verbose)
+    base = _pose_base_python(args.python)
+    uv = shutil.which("uv")
+    tool = f"uv ({uv})" if uv else "venv + pip (uv is not on PATH)"
+    pins = os.environ.get("UV_CONSTRAINT" if uv else "PIP_CONSTRAINT")
+    print(
+        f"creating the pose environment in {target} (MediaPipe 0.10.21) from {base} with {tool}"
+        + (f", versions pinned by {pins}" if pins else "")
+        + " ...",
+        file=sys.stderr,
+    )
+    py = create_pose_env(target, python=base, quiet=not args.verbose)
     print(py)
     return 0
 
@@ -207,6 +250,15 @@ def register(sub: Any) -> None:
         choices=("auto", "left", "right"),
         default="auto",
         help="which arm (auto: the better visible one)",
+    )
+    p.add_argument(
+        "--landmarks",
+        default=None,
+        metavar="PRESET|ROLE=NAME,...",
+        help="which markers are the shoulder, elbow and wrist: a preset (plugin_gait_right,"
+        " plugin_gait_left, opencap_right, opencap_left, pose2sim_right, pose2sim_left; without"
+        " _right/_left: the better side) or 'shoulder=RSHO,elbow=RELB,wrist=RWRA' (NAME+NAME"
+        " averages)",
     )
     p.add_argument(
         "--offset", default=None, help="EMG-to-pose clock offset [s], or 'auto' (cross-correlation)"

@@ -144,6 +144,9 @@ def _analysis_options(payload: dict[str, Any]) -> dict[str, Any]:
     side = options.pop("side", None)
     if side not in (None, "auto"):
         options["pose_options"] = {**options.get("pose_options", {}), "side": side}
+    landmarks = options.pop("landmarks", None)
+    if landmarks:
+        options["pose_options"] = {**options.get("pose_options", {}), "landmarks": landmarks}
     return options
 
 

@@ -6,6 +6,7 @@ message names the file, the line or channel, and what was expected.
 """
 
 from app.names import MAX_VIDEO_SECONDS
+from app.recordings._bids import BidsDataset, bids_entities, read_bids
 from app.recordings._mediapipe import LANDMARK_NAMES
 from app.recordings._read import read_bytes, read_recording
 from app.recordings._sniff import FORMATS, sniff_format
@@ -43,6 +44,7 @@ __all__ = [
     "POSE_PYTHON_ENV",
     "SITES",
     "VIDEO_EXTENSIONS",
+    "BidsDataset",
     "Channel",
     "ChannelKind",
     "DatalogSensor",
@@ -54,6 +56,7 @@ __all__ = [
     "Site",
     "SkeletonFrame",
     "VideoProbe",
+    "bids_entities",
     "create_pose_env",
     "default_pose_env",
     "extract_pose",
@@ -63,6 +66,7 @@ __all__ = [
     "map_muscle",
     "probe_video",
     "rate_check",
+    "read_bids",
     "read_bytes",
     "read_recording",
     "save_skeletons",

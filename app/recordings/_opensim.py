@@ -137,6 +137,15 @@ def read_trc(src: Source, opts: Options) -> Recording:
 
 
 _ROTATION_EXCLUDE = re.compile(r"(_t[xyz]|_trans[xyz]?|trans[xyz])$", re.IGNORECASE)
+#: Words of OpenSim coordinate names (arm26, Rajagopal, MoBL, gait models): an STO column in
+#: radians is an angle only when it names a coordinate, not a muscle's activation or force.
+_COORDINATE_WORDS = re.compile(
+    r"(flex|elev|elv|_ele|rot|add|abd|angle|tilt|list|pro_sup|dev|bend|extension|supination"
+    r"|pronation|shoulder|elbow|wrist|knee|hip|ankle|lumbar|pelvis|subtalar|mtp|thorax|neck)",
+    re.IGNORECASE,
+)
+#: OpenSim 4 state paths: ``/jointset/<joint>/<coordinate>/value`` (and ``/speed``).
+_STATE_PATH = re.compile(r"^/jointset/[^/]+/(?P<coord>[^/]+)/(?P<what>value|speed)$")
 
 
 def read_mot(src: Source, opts: Options, *, fmt: str = "mot") -> Recording:
@@ -145,7 +154,9 @@ def read_mot(src: Source, opts: Options, *, fmt: str = "mot") -> Recording:
     MOT columns are coordinates: rotations become angles (degrees converted to radians when
     ``inDegrees=yes``), translations (``*_tx``...) stay metres. STO columns named
     ``*_moment``/``*_force`` are N·m/N; other STO columns are coordinates when
-    ``inDegrees=yes`` and unitless otherwise.
+    ``inDegrees=yes``; with ``inDegrees=no`` (OpenSim's IK and states files in radians) the
+    columns that name a coordinate (``r_elbow_flex``, ``/jointset/r_elbow/r_elbow_flex/value``)
+    are angles in radians (``.../speed`` in rad/s), the rest (activations...) unitless.
     """
     data = src.text()
     lines = head_lines(data)
@@ -161,19 +172,23 @@ def read_mot(src: Source, opts: Options, *, fmt: str = "mot") -> Recording:
             k, _, v = text.partition("=")
             header[k.strip()] = v.strip()
     table, names_line = _mot_table(src, data, lines, end)
-    in_degrees = header.get("inDegrees", "no").strip().lower() == "yes"
+    stated = {k.lower(): v.strip().lower() for k, v in header.items()}
+    in_degrees = stated.get("indegrees", "no") == "yes"
+    radians = stated.get("indegrees") == "no"
     tcol = next((c for c in table.numeric if c.strip().lower() == "time"), None)
     rate, start, times = _mot_timing(src, opts, table, tcol, names_line)
     channels: dict[str, Channel] = {}
     for column in table.numeric:
         if column == tcol:
             continue
-        kind, unit = _mot_kind(column, fmt, in_degrees)
+        kind, unit = _mot_kind(column, fmt, in_degrees, radians=radians)
         name = unique_name(column, channels)
+        values = table.finite(column)
+        if unit == "deg/s":
+            values, unit = np.deg2rad(values), "rad/s"
         channels[name] = scalar_channel(
-            name, table.finite(column), rate=rate, unit=unit, kind=kind, src=src, start=start,
-            time=times,
-        )  # fmt: skip
+            name, values, rate=rate, unit=unit, kind=kind, src=src, start=start, time=times
+        )
     if not channels:
         raise src.error("has no data columns", line=names_line, expected="coordinates")
     metadata: dict[str, Any] = {
@@ -238,13 +253,23 @@ def _mot_timing(
     return check_rate(rate, src=src, what="rate from the time column"), start, times
 
 
-def _mot_kind(column: str, fmt: str, in_degrees: bool) -> tuple[ChannelKind, str]:
+def _mot_kind(
+    column: str, fmt: str, in_degrees: bool, *, radians: bool = False
+) -> tuple[ChannelKind, str]:
+    """(kind, unit as stored) of a MOT/STO column; ``radians``: the header says inDegrees=no."""
     lower = column.lower()
     if lower.endswith(("_moment", "_torque")):
         return "other", "N*m"
     if lower.endswith("_force"):
         return "other", "N"
-    if fmt == "sto" and not in_degrees:
+    state = _STATE_PATH.match(column.strip())
+    if state is not None:
+        translation = _ROTATION_EXCLUDE.search(state["coord"]) is not None
+        if state["what"] == "speed":
+            return "other", "m/s" if translation else ("deg/s" if in_degrees else "rad/s")
+        return ("other", "m") if translation else ("angle", "deg" if in_degrees else "rad")
+    coordinate = radians and _COORDINATE_WORDS.search(column) and "/" not in column
+    if fmt == "sto" and not in_degrees and not coordinate:
         return "other", ""
     if _ROTATION_EXCLUDE.search(column):
         return "other", "m"

@@ -29,6 +29,7 @@ from app.recordings._mediapipe import read_mediapipe_csv, read_mediapipe_json
 from app.recordings._opensim import read_mot, read_sto, read_trc
 from app.recordings._sniff import FORMATS, SNIFF_BYTES, SUPPORTED, sniff_bytes
 from app.recordings._vendors import read_delsys, read_qualisys
+from app.recordings._xdf import read_xdf
 from app.recordings.muscles import parse_site
 from app.recordings.types import Channel, DatalogSensor, RateCheck, Recording, RecordingError
 
@@ -49,6 +50,7 @@ READERS: dict[str, Reader] = {
     "sto": read_sto,
     "delsys_csv": read_delsys,
     "qualisys_tsv": read_qualisys,
+    "xdf": read_xdf,
 }
 
 _LONGEST_PLAUSIBLE_S = 24 * 3600.0

@@ -27,6 +27,7 @@ FORMATS: tuple[str, ...] = (
     "sto",
     "delsys_csv",
     "qualisys_tsv",
+    "xdf",
 )
 
 SNIFF_BYTES = 1 << 16
@@ -38,7 +39,8 @@ _INT = re.compile(r"^[-+]?\d+$")
 SUPPORTED = (
     "one of: C3D; EDF/BDF (with BIDS _channels.tsv/_emg.json sidecars); MATLAB .mat; CSV/TSV/TXT"
     " exports (generic, Noraxon MR3, Delsys EMGworks/Trigno, Vicon, Qualisys TSV, Biometrics"
-    " DataLOG); OpenSim TRC/MOT/STO; MediaPipe landmark CSV/JSON; video (mp4, mov, avi)"
+    " DataLOG); OpenSim TRC/MOT/STO; MediaPipe landmark CSV/JSON; XDF (Lab Streaming Layer);"
+    " video (mp4, mov, avi)"
 )
 VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".m4v", ".mkv", ".webm")
 
@@ -63,6 +65,8 @@ def sniff_bytes(head: bytes, filename: str) -> str:
     ext = Path(filename).suffix.lower()
     if not head.strip(b"\xef\xbb\xbf \t\r\n"):
         raise RecordingError("file is empty", file=filename, expected="a recording")
+    if head.startswith(b"XDF:"):
+        return "xdf"
     if head[:8] == b"0       " or head[:8] == b"\xffBIOSEMI":
         return "edf"
     if head.startswith(b"MATLAB 5.0 MAT-file") or head.startswith(b"MATLAB 7.3 MAT-file"):
@@ -89,7 +93,7 @@ def sniff_bytes(head: bytes, filename: str) -> str:
     first = next((t.strip() for t in texts if t.strip()), "")
     if first[:1] in "{[":
         return "mediapipe_json"
-    if sniff_qualisys(first):
+    if sniff_qualisys(texts):
         return "qualisys_tsv"
     if sniff_delsys(texts):
         return "delsys_csv"

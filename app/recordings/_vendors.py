@@ -2,9 +2,12 @@
 
 Delsys exports give every signal its own time column: a header row ``X[s],<signal>,X[s],
 <signal>,...`` (EMGworks: ``R BICEPS BRACHII: EMG 1``; Trigno Discover: ``EMG 1 (mV)`` under a
-row of sensor labels such as ``Biceps R (81728)``), preceded by ``Application:``/``Date``
-lines; slower signals (accelerometers) end earlier, so their columns have empty tails. The
-user's muscle labels are kept in the channel names (``Biceps R: EMG 1``) and mapped to sites.
+row of sensor labels such as ``Biceps R (81728)``; Trigno Discover 2.x: ``EMG 1 Time Series
+(s),EMG 1 (mV),ACC X Time Series (s),ACC X (G)`` with a ``sensor mode:`` row above and a rate row
+``, 1259.2593 Hz, ...`` and a period row below), preceded by ``Application:``/``Date`` lines and
+``Key: value`` rows (``Stop Trigger Method: None``) that are metadata, never labels; slower
+signals (accelerometers) end earlier, so their columns have empty tails. The user's muscle
+labels are kept in the channel names (``Biceps R: EMG 1``) and mapped to sites.
 
 Qualisys Track Manager TSV exports start with ``KEY<TAB>value`` header lines
 (``NO_OF_FRAMES``, ``FREQUENCY``, ``MARKER_NAMES``... for 3D data; ``NO_OF_CHANNELS``,
@@ -36,7 +39,12 @@ from app.recordings._common import (
 from app.recordings._table import decode
 from app.recordings.types import Channel, Recording
 
-_DELSYS_TIME = re.compile(r"^\s*\"?x\s*\[s\]\"?\s*$", re.IGNORECASE)
+#: A Delsys time column: ``X[s]`` (EMGworks, Trigno Discover 1.x) or ``EMG 1 Time Series (s)``
+#: (Trigno Discover 2.x, one per signal).
+_DELSYS_TIME = re.compile(r"^\s*\"?(x\s*\[s\]|[^,;\t]*\btime series\s*\(s\))\"?\s*$", re.IGNORECASE)
+#: Metadata cells above the column names: ``Stop Trigger Method: None``, ``sensor mode: 65``,
+#: ``1259.2593 Hz``, ``0.000794 s``; never sensor labels.
+_DELSYS_META_CELL = re.compile(r"^[^:]+:\s*\S|:$|^[-+\d.,eE]+\s*(hz|s)?$", re.IGNORECASE)
 _SERIAL = re.compile(r"\s*\(\d+\)\s*$")
 
 
@@ -61,6 +69,8 @@ def _numbers(data: bytes, skip: int, n_cols: int, delimiter: str, decimal: str) 
             column_types=dict.fromkeys(names, pa.float64()),
             include_columns=names,
             include_missing_columns=True,
+            # Trigno Discover 2.x writes ", " between cells: a blank cell is empty
+            null_values=["", " ", "  ", "NaN", "nan", "NA", "N/A"],
         ),
     )
     return np.column_stack(
@@ -73,7 +83,7 @@ def _numbers(data: bytes, skip: int, n_cols: int, delimiter: str, decimal: str) 
 
 
 def sniff_delsys(texts: list[str]) -> bool:
-    """True when a line starts with Delsys's ``X[s]`` time column."""
+    """True when a line starts with a Delsys time column (``X[s]``, ``... Time Series (s)``)."""
     for t in texts[:40]:
         for delim in (",", ";", "\t"):
             first = t.split(delim, 1)[0]
@@ -98,7 +108,7 @@ def _sensor_labels(above: list[str], delim: str, header: list[str]) -> list[str]
     for line in above[::-1]:
         row = _fields(line, delim)
         cells = [c for c in row if c]
-        if not cells or any(_is_num(c) or c.endswith(":") for c in cells):
+        if not cells or any(_is_num(c) or _DELSYS_META_CELL.search(c) for c in cells):
             continue
         if any(c.lower().startswith(("sensor mode", "application", "date")) for c in cells):
             continue
@@ -126,6 +136,30 @@ def _delsys_name(label: str, signal: str) -> tuple[str, str | None]:
     return name, unit
 
 
+def _stated_rates(rows: list[str], delim: str, n: int) -> list[float | None]:
+    """Per column, the rate of a Trigno Discover 2.x rate row (``, 1259.2593 Hz, , ...``)."""
+    for line in rows:
+        cells = _fields(line, delim)
+        if any(re.fullmatch(r"[-+\d.eE]+\s*hz", c, re.IGNORECASE) for c in cells):
+            out: list[float | None] = []
+            for k in range(n):
+                m = re.fullmatch(r"([-+\d.eE]+)\s*hz", cells[k] if k < len(cells) else "", re.I)
+                out.append(float(m.group(1)) if m and _is_num(m.group(1)) else None)
+            return out
+    return [None] * n
+
+
+def _stated_rate(src: Source, name: str, stated: float, from_times: float) -> float:
+    """The header's rate (more digits than the rounded time column) when the times agree."""
+    if abs(stated - from_times) <= 0.01 * from_times:
+        return check_rate(stated, src=src, what="stated rate", channel=name)
+    src.warn(
+        f"channel {name!r}: stated rate {stated:g} Hz disagrees with its time column"
+        f" ({from_times:.6g} Hz); the time column is used"
+    )
+    return from_times
+
+
 def read_delsys(src: Source, opts: Options) -> Recording:
     """Delsys EMGworks / Trigno Discover CSV export (one time column per signal)."""
     del opts
@@ -140,6 +174,7 @@ def read_delsys(src: Source, opts: Options) -> Recording:
         raise src.error("has no data rows", line=h + 2, expected="numbers under the header")
     decimal = "," if delim == ";" and "," in lines[first] else "."
     block = _numbers(data, first, len(header), delim, decimal)
+    stated = _stated_rates(lines[h + 1 : first], delim, len(header))
     channels: dict[str, Channel] = {}
     for k in range(0, len(header) - 1, 2):
         if not _DELSYS_TIME.match(header[k]) or not header[k + 1]:
@@ -150,6 +185,9 @@ def read_delsys(src: Source, opts: Options) -> Recording:
         if t.size < 2:
             continue
         rate, start, times = rate_from_times(t, src=src, channel=name, first_line=first + 1)
+        said = stated[k + 1]
+        if times is None and said is not None:
+            rate = _stated_rate(src, name, said, rate)
         # The signal part says what the sensor measures ("EMG 1", "ACC X 1"); the muscle
         # label in front would make an accelerometer on the biceps look like EMG.
         kind = classify(split_unit(header[k + 1])[0].split(":")[-1], unit)
@@ -171,9 +209,37 @@ def read_delsys(src: Source, opts: Options) -> Recording:
 # Qualisys
 
 
-def sniff_qualisys(first_line: str) -> bool:
-    key = first_line.split("\t", 1)[0].strip().upper()
-    return key in ("NO_OF_FRAMES", "NO_OF_CHANNELS", "NO_OF_CAMERAS", "NO_OF_MARKERS")
+_QTM_FIRST_KEYS = (
+    "NO_OF_FRAMES",
+    "NO_OF_CHANNELS",
+    "NO_OF_CAMERAS",
+    "NO_OF_MARKERS",
+    "NO_OF_SAMPLES",
+    "TOT_NO_OF_CHAN",
+    "FILE_VERSION",
+)
+_QTM_KEY = re.compile(r"^[A-Z][A-Z0-9_]*$")
+
+
+def sniff_qualisys(texts: list[str]) -> bool:
+    """A QTM TSV export: ``KEY<TAB>value`` lines first (3D: ``NO_OF_FRAMES``...; analog:
+    ``TOT_NO_OF_CHAN``/``NO_OF_SAMPLES``, ``FREQUENCY``, ``NO_OF_CHANNELS``, ``CHANNEL_NAMES``)."""
+    lines = [t for t in texts[:40] if t.strip()]
+    if not lines or "\t" not in lines[0]:
+        return False
+    keys = []
+    for t in lines:
+        key = t.split("\t", 1)[0].strip()
+        if not _QTM_KEY.match(key):
+            break
+        keys.append(key)
+    if not keys or keys[0] not in _QTM_FIRST_KEYS:
+        return False
+    if keys[0] in _QTM_FIRST_KEYS[:4]:
+        return True
+    return "FREQUENCY" in keys and any(
+        k in keys for k in ("NO_OF_CHANNELS", "CHANNEL_NAMES", "MARKER_NAMES")
+    )
 
 
 def _qualisys_header(src: Source, lines: list[str]) -> tuple[dict[str, list[str]], int, bool]:
@@ -214,6 +280,19 @@ def read_qualisys(src: Source, opts: Options) -> Recording:
         channels = _qualisys_markers(src, header, block, named)
     else:
         channels = _qualisys_analog(src, header, block, named)
+    rate = next(iter(channels.values())).rate
+    steps = np.diff(block[:, 1]) if named and block.shape[1] > 1 else np.zeros(0)
+    if steps.size and np.median(steps) > 0:
+        file_rate = 1.0 / float(np.median(steps))
+        if abs(file_rate - rate) > 0.01 * rate:
+            src.warn(
+                f"FREQUENCY {rate:g} Hz disagrees with the TIME column ({file_rate:.6g} Hz);"
+                " FREQUENCY is used"
+            )
+    for key in ("NO_OF_FRAMES", "NO_OF_SAMPLES"):
+        declared = (header.get(key) or [""])[0]
+        if _is_num(declared) and int(float(declared)) != len(block):
+            src.warn(f"header says {key} {declared}, the file holds {len(block)} rows")
     meta = {k.lower(): v[0] if len(v) == 1 else v for k, v in header.items() if k != "MARKER_NAMES"}
     return Recording(channels=channels, source=src.name, format="qualisys_tsv", metadata=meta)
 

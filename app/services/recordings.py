@@ -547,7 +547,7 @@ def analysis_payload(session: Session, blobs: BlobStore, params: dict[str, Any])
             }
         )
     keys = ("emg_rate", "muscle_map", "exclude_channels", "phase_bounds_deg", "body_mass",
-            "body_height", "load_mass", "together", "offset", "side")  # fmt: skip
+            "body_height", "load_mass", "together", "offset", "side", "landmarks")  # fmt: skip
     size = options.get("image_size")
     echo = {
         "rate_hz": options.get("rate"),

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 from numpy.typing import NDArray
@@ -9,6 +12,7 @@ from numpy.typing import NDArray
 from app.analysis.pose import arm_angles, joint_angles
 from app.recordings.types import Channel, Recording, RecordingError
 from tests.analysis._data import mediapipe_csv, pyomeca_c3d
+from tests.utils.markers import curl_markers, write_trc
 
 L1, L2 = 0.30, 0.35  # upper arm, forearm [m]
 
@@ -244,3 +248,130 @@ def test_fft_savgol_matches_scipy(n: int, deriv: int) -> None:
     ref = savgol_filter(y, 31, 3, deriv=deriv, delta=0.01, axis=0, mode="interp")
     got = savgol(y, 31, 3, deriv=deriv, delta=0.01)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * float(np.max(np.abs(ref))))
+
+
+# ---------------------------------------------------------------------------------------------
+# landmark presets and mappings (issue 29)
+
+
+def test_plugin_gait_right_with_one_wrist_marker_needs_the_preset() -> None:
+    rec, q2 = curl_markers({"shoulder": "RSHO", "elbow": "RELB", "wrist": "RWRA"})
+    with pytest.raises(RecordingError) as err:
+        arm_angles(rec)
+    message = str(err.value)
+    # the message lists the names present and the presets
+    assert "RSHO, RELB, RWRA, C7" in message
+    assert "plugin_gait_right" in message and "opencap_left" in message and "pose2sim" in message
+    for spec in ("plugin_gait_right", "plugin_gait", "shoulder=RSHO,elbow=RELB,wrist=RWRA"):
+        a = arm_angles(rec, landmarks=spec, lowpass=None)
+        ok = a.valid
+        np.testing.assert_allclose(a.elbow[ok], q2[ok], atol=1e-6)
+    assert arm_angles(rec, landmarks="plugin_gait_right").side == "right"
+    with pytest.raises(RecordingError, match="left side with landmarks 'plugin_gait_left'"):
+        arm_angles(rec, landmarks="plugin_gait_left")
+    with pytest.raises(RecordingError, match="is the right arm"):
+        arm_angles(rec, landmarks="plugin_gait_right", side="left")
+
+
+@pytest.mark.parametrize(
+    ("preset", "names"),
+    [
+        (
+            "opencap_right",
+            {"shoulder": "r_shoulder_study", "elbow": "r_melbow_study", "wrist": "r_mwrist_study"},
+        ),
+        (
+            "opencap_left",
+            {"shoulder": "L_shoulder_study", "elbow": "L_lelbow_study", "wrist": "L_lwrist_study"},
+        ),
+        ("pose2sim_right", {"shoulder": "RShoulder", "elbow": "RElbow", "wrist": "RWrist"}),
+        ("pose2sim_left", {"shoulder": "LShoulder", "elbow": "LElbow", "wrist": "LWrist"}),
+        ("plugin_gait_left", {"shoulder": "LSHO", "elbow": "LELB", "wrist": "LWRB"}),
+    ],
+)
+def test_presets_find_their_marker_sets(preset: str, names: dict[str, str]) -> None:
+    rec, q2 = curl_markers(names)
+    with pytest.raises(RecordingError, match="no arm landmarks"):
+        arm_angles(rec)
+    a = arm_angles(rec, landmarks=preset, lowpass=None)
+    assert a.side == preset.rsplit("_", 1)[1]
+    np.testing.assert_allclose(a.elbow[a.valid], q2[a.valid], atol=1e-6)
+
+
+def test_preset_averages_the_markers_present() -> None:
+    # OpenCap's lateral and medial elbow markers straddle the joint centre: the preset averages.
+    rec, q2 = curl_markers(
+        {"shoulder": "r_shoulder_study", "elbow": "r_lelbow_study", "wrist": "r_lwrist_study"}
+    )
+    elbow = rec.channels["r_lelbow_study"].data
+    # markers 3 cm either side of the joint centre, along the elbow's flexion axis
+    offset = np.cross(elbow[0] - rec.channels["r_shoulder_study"].data[0], [0.0, 0.0, 1.0])
+    offset = 0.03 * offset / np.linalg.norm(offset)
+    rec.channels["r_lelbow_study"] = Channel("r_lelbow_study", elbow + offset, 100.0, "m", "marker")
+    rec.channels["r_melbow_study"] = Channel("r_melbow_study", elbow - offset, 100.0, "m", "marker")
+    a = arm_angles(rec, landmarks="opencap_right", lowpass=None)
+    np.testing.assert_allclose(a.elbow[a.valid], q2[a.valid], atol=1e-6)
+    lateral = arm_angles(rec, landmarks="shoulder=r_shoulder_study,elbow=r_lelbow_study,"
+                         "wrist=r_lwrist_study", lowpass=None)  # fmt: skip
+    assert np.nanmax(np.abs(lateral.elbow - q2)) > 1e-3  # one marker alone is off the centre
+
+
+def test_bad_landmark_specs_are_clear_errors() -> None:
+    rec, _ = curl_markers({"shoulder": "RSHO", "elbow": "RELB", "wrist": "RWRA"})
+    with pytest.raises(RecordingError, match=r"unknown landmark preset 'vicon'.*plugin_gait_right"):
+        arm_angles(rec, landmarks="vicon")
+    with pytest.raises(RecordingError, match="unknown landmark role 'hand'"):
+        arm_angles(rec, landmarks="shoulder=RSHO,hand=RWRA")
+    with pytest.raises(RecordingError, match=r"\['RWRB'\] given for the wrist"):
+        arm_angles(rec, landmarks="shoulder=RSHO,elbow=RELB,wrist=RWRB")
+
+
+def test_cli_landmarks_option_changes_the_result(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from app.cli import main
+
+    rec, _ = curl_markers({"shoulder": "RSHO", "elbow": "RELB", "wrist": "RWRA"}, 12.0)
+    trc = write_trc(tmp_path / "pig_right.trc", rec)
+    assert main(["analyze", str(trc), "--json"]) != 0
+    err = capsys.readouterr().err
+    assert "no arm landmarks" in err and "RSHO, RELB, RWRA" in err and "plugin_gait_right" in err
+    assert main(["analyze", str(trc), "--json", "--landmarks", "plugin_gait_right"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["settings"]["pose"]["landmarks"] == "plugin_gait_right"
+    assert out["files"][0]["pose"]["side"] == "right"
+    assert out["n_lifts"] == len(out["files"][0]["lifts"]) == 6  # 12 s of 0.5 Hz curls
+    assert main(["analyze", str(trc), "--json", "--landmarks", "wrist"]) != 0
+    assert "unknown landmark preset 'wrist'" in capsys.readouterr().err
+
+
+def test_api_and_job_take_the_landmarks_option(tmp_path: Path) -> None:
+    from pydantic import ValidationError
+
+    from app.api.schemas import AnalysisRequest
+    from app.jobs.tasks import analyse
+
+    assert AnalysisRequest(recording_id=1, landmarks="opencap_left").landmarks == "opencap_left"
+    assert AnalysisRequest(recording_id=1).landmarks is None
+    with pytest.raises(ValidationError, match=r"unknown landmark preset 'rsho'.*pose2sim_right"):
+        AnalysisRequest(recording_id=1, landmarks="rsho")
+    rec, _ = curl_markers({"shoulder": "RSHO", "elbow": "RELB", "wrist": "RWRA"}, 12.0)
+    trc = write_trc(tmp_path / "pig_right.trc", rec)
+    files = [{"name": trc.name, "data": trc.read_bytes(), "sidecars": {}, "read_options": {}}]
+    with pytest.raises(RecordingError, match="no arm landmarks"):
+        analyse({"files": files, "options": {"side": "auto"}})
+    out = analyse({"files": files, "options": {"side": "auto", "landmarks": "plugin_gait_right"}})
+    assert out["result"]["n_lifts"] == 6
+    assert out["result"]["settings"]["pose"]["landmarks"] == "plugin_gait_right"
+
+
+def test_upload_form_offers_every_landmark_preset() -> None:
+    import re
+
+    from app.analysis.pose import LANDMARK_PRESETS
+    from app.config import PACKAGED_PAGES
+
+    js = (PACKAGED_PAGES / "js" / "recordings.js").read_text(encoding="utf-8")
+    listed = re.search(r"const LANDMARK_PRESETS = \[(.*?)\];", js)
+    assert listed is not None
+    assert re.findall(r'"([a-z0-9_]+)"', listed.group(1)) == list(LANDMARK_PRESETS)

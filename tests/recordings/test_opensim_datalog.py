@@ -101,6 +101,67 @@ def test_tab_mot_in_degrees(tmp_path: Path) -> None:
     np.testing.assert_allclose(rec.channels["elbow_flexion"].data, np.deg2rad(np.round(elbow, 6)))
 
 
+def _opensim_sto(path: Path, labels: list[str], t: np.ndarray, cols: np.ndarray, deg: str) -> Path:
+    """An STO written by OpenSim itself (STOFileAdapter, as IK and the Manager write them)."""
+    osim = pytest.importorskip("opensim", reason="opensim (pip install opensim) writes the STO")
+    table = osim.TimeSeriesTable()
+    table.setColumnLabels(labels)
+    for i, ti in enumerate(t):
+        row = osim.RowVector(len(labels), 0.0)
+        for j in range(len(labels)):
+            row[j] = float(cols[i, j])
+        table.appendRow(float(ti), row)
+    table.addTableMetaDataString("inDegrees", deg)
+    osim.STOFileAdapter.write(table, str(path))
+    return path
+
+
+def test_opensim4_states_sto_in_radians(tmp_path: Path) -> None:
+    from app.analysis import angles_from_channels
+
+    t = np.arange(200) / 100.0
+    elbow = 0.2 + 1.1 * (1 - np.cos(np.pi * t))
+    shoulder = 0.1 + 0.05 * np.sin(np.pi * t)
+    labels = [
+        "/jointset/r_shoulder/r_shoulder_elev/value",
+        "/jointset/r_elbow/r_elbow_flex/value",
+        "/jointset/r_elbow/r_elbow_flex/speed",
+        "/forceset/BIClong/activation",
+    ]
+    cols = np.column_stack([shoulder, elbow, 1.1 * np.pi * np.sin(np.pi * t), 0.3 + 0 * t])
+    path = _opensim_sto(tmp_path / "arm26_states.sto", labels, t, cols, "no")
+    assert "inDegrees=no" in path.read_text() and "OpenSimVersion=" in path.read_text()
+    rec = read_recording(path)
+    assert rec.format == "sto"
+    flex = rec.channels["/jointset/r_elbow/r_elbow_flex/value"]
+    assert flex.kind == "angle" and flex.unit == "rad" and flex.rate == pytest.approx(100.0)
+    np.testing.assert_allclose(flex.data, elbow, rtol=1e-12)  # radians kept, not scaled
+    speed = rec.channels["/jointset/r_elbow/r_elbow_flex/speed"]
+    assert speed.kind == "other" and speed.unit == "rad/s"
+    act = rec.channels["/forceset/BIClong/activation"]
+    assert act.kind == "other" and act.unit == ""
+    assert not any("assumed" in w for w in rec.metadata["warnings"])
+    arm = angles_from_channels(rec)
+    assert arm is not None and arm.side == "right"
+    assert np.nanmax(arm.elbow) == pytest.approx(2.4, abs=0.02)
+    assert np.nanmax(arm.shoulder) == pytest.approx(0.15, abs=0.01)
+
+
+def test_opensim_ik_sto_in_radians_and_degrees(tmp_path: Path) -> None:
+    t = np.arange(100) / 50.0
+    elbow = 1.2 - 1.0 * np.cos(np.pi * t)
+    labels = ["elbow_flexion", "shoulder_elv", "pelvis_tx", "BIClong"]
+    cols = np.column_stack([elbow, 0.2 + 0 * t, 0.5 + 0.01 * t, 0.4 + 0.1 * t])
+    rad = read_recording(_opensim_sto(tmp_path / "ik_rad.sto", labels, t, cols, "no"))
+    assert rad.channels["elbow_flexion"].kind == "angle"
+    assert rad.channels["elbow_flexion"].unit == "rad"
+    np.testing.assert_allclose(rad.channels["elbow_flexion"].data, elbow, rtol=1e-12)
+    assert rad.channels["pelvis_tx"].unit == "m"
+    assert rad.channels["BIClong"].kind == "other"  # an activation, not a coordinate
+    deg = read_recording(_opensim_sto(tmp_path / "ik_deg.sto", labels, t, np.rad2deg(cols), "yes"))
+    np.testing.assert_allclose(deg.channels["elbow_flexion"].data, elbow, rtol=1e-12)
+
+
 # ---------------------------------------------------------------------------------------------
 # DataLOG
 

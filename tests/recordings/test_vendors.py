@@ -76,6 +76,71 @@ def test_delsys_trigno_discover_takes_labels_from_the_sensor_row(tmp_path: Path)
     assert rec.channels["Deltoid anterior R: EMG 1"].site == "deltoid"
 
 
+def test_delsys_trigger_rows_are_not_sensor_labels(tmp_path: Path) -> None:
+    # Trigno Discover 1.x writes its trigger settings as "Key: value" cells above the columns;
+    # they once became every channel's name prefix.
+    rate, acc_rate = 2148.1481, 148.1481
+    emg = emg_like(3000, rate, seed=7) * 1e3
+    acc = np.sin(np.arange(200) / 10.0)
+    rows = [
+        "Application:,Trigno Discover (v1.5.2)",
+        "Date/Time:,01/02/2024 10:00:00",
+        "Collection Length (seconds):,1.4",
+        "Start Trigger Method: None,,Stop Trigger Method: None,",
+        "",
+        "X [s],EMG 1 (mV),X [s],ACC X 1 (G)",
+    ]
+    for i in range(3000):
+        tail = f"{i / acc_rate:.6f},{acc[i]:.5f}" if i < 200 else ","
+        rows.append(f"{i / rate:.6f},{emg[i]:.6f},{tail}")
+    path = tmp_path / "trigno_trigger.csv"
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    rec = read_recording(path)
+    assert set(rec.channels) == {"EMG 1", "ACC X 1"}
+    accel = rec.channels["ACC X 1"]
+    assert accel.kind == "accel" and accel.unit == "m/s^2"
+    np.testing.assert_allclose(accel.data, np.round(acc, 5) * 9.80665, rtol=1e-9)
+    assert rec.channels["EMG 1"].unit == "V"
+
+
+def test_delsys_trigno_discover_2_layout(tmp_path: Path) -> None:
+    """Trigno Discover 2.x: sensor row, ``sensor mode:`` row, ``... Time Series (s)`` time
+    columns, a rate row and a period row, ``", "`` between cells, ACC in g."""
+    rate, acc_rate = 1259.2593, 148.1481
+    emg = np.column_stack([emg_like(2500, rate, seed=8), emg_like(2500, rate, seed=9)]) * 1e3
+    acc = np.cos(np.arange(290) / 15.0)
+    block = "EMG 1 Time Series (s), EMG 1 (mV), ACC X Time Series (s), ACC X (G)"
+    head = [
+        "Application:, Trigno Discover (2.1.0.7)",
+        "Date/Time:, 01-01-2026 10:00:00",
+        "Collection Length (seconds):, 1.985",
+        "Biceps R (81728), , , , Triceps R (81730), , , ",
+        "sensor mode: 65, , , , sensor mode: 65, , , ",
+        f"{block}, {block}",
+        f", {rate} Hz, , {acc_rate} Hz, , {rate} Hz, , {acc_rate} Hz",
+        f", {1 / rate:.6f} s, , {1 / acc_rate:.6f} s, , {1 / rate:.6f} s, , {1 / acc_rate:.6f} s",
+    ]
+    rows = []
+    for i in range(2500):
+        a = f"{i / acc_rate:.6f}, {acc[i]:.5f}" if i < 290 else ", "
+        rows.append(f"{i / rate:.6f}, {emg[i, 0]:.6f}, {a}, {i / rate:.6f}, {emg[i, 1]:.6f}, {a}")
+    path = tmp_path / "trigno2.csv"
+    path.write_text("\n".join(head + rows) + "\n", encoding="utf-8")
+    assert sniff_format(path) == "delsys_csv"
+    rec = read_recording(path)
+    assert set(rec.channels) == {
+        "Biceps R: EMG 1", "Biceps R: ACC X", "Triceps R: EMG 1", "Triceps R: ACC X",
+    }  # fmt: skip
+    biceps = rec.channels["Biceps R: EMG 1"]
+    assert biceps.site == "biceps" and biceps.unit == "V" and biceps.rate == rate
+    np.testing.assert_allclose(biceps.data, emg[:, 0] * 1e-3, atol=6e-10)
+    assert rec.channels["Triceps R: EMG 1"].site == "triceps"
+    accel = rec.channels["Triceps R: ACC X"]
+    assert accel.kind == "accel" and accel.unit == "m/s^2" and accel.site is None
+    assert accel.rate == acc_rate and accel.n_samples == 290
+    np.testing.assert_allclose(accel.data, np.round(acc, 5) * 9.80665, rtol=1e-9)
+
+
 def _qualisys_3d(path: Path, xyz_mm: np.ndarray, names: list[str], rate: float) -> Path:
     n = xyz_mm.shape[0]
     head = [
@@ -131,6 +196,50 @@ def test_qualisys_analog_emg(tmp_path: Path) -> None:
     biceps = rec.channels["Biceps EMG"]
     assert biceps.kind == "emg" and biceps.site == "biceps" and biceps.rate == rate
     np.testing.assert_allclose(biceps.data, emg[:, 0], rtol=1e-5)
+
+
+def test_qtm_analog_tsv_export_is_sniffed_and_read(tmp_path: Path) -> None:
+    """QTM's analog export (File > Export > TSV, analog data): TOT_NO_OF_CHAN and NO_OF_SAMPLES
+    come first, then FREQUENCY, the board, NO_OF_CHANNELS, CHANNEL_NUMBERS, CHANNEL_NAMES; a
+    SAMPLE/TIME column row; EMG in volts."""
+    rate = 2000.0
+    n = 3000
+    emg = np.column_stack([emg_like(n, rate, seed=11), emg_like(n, rate, seed=12)])
+    trigger = (np.arange(n) > 1500).astype(float) * 5.0
+    head = [
+        "TOT_NO_OF_CHAN\t3",
+        f"NO_OF_SAMPLES\t{n}",
+        f"FREQUENCY\t{rate:g}",
+        "TIME_STAMP\t2024-01-02, 10:00:00.123\t1234.567",
+        "DATA_INCLUDED\tAnalog",
+        "BOARD_NAME\tDelsys Trigno",
+        "NO_OF_CHANNELS\t3",
+        "CHANNEL_NUMBERS\t1\t2\t3",
+        "CHANNEL_NAMES\tBiceps R\tDeltoid anterior R\tTrigger",
+        "SAMPLE\tTIME\tBiceps R\tDeltoid anterior R\tTrigger",
+    ]
+    rows = [
+        f"{i + 1}\t{i / rate:.5f}\t{emg[i, 0]:.6e}\t{emg[i, 1]:.6e}\t{trigger[i]:.3f}"
+        for i in range(n)
+    ]
+    path = tmp_path / "curl_a_1.tsv"
+    path.write_text("\n".join(head + rows) + "\n", encoding="utf-8")
+    assert sniff_format(path) == "qualisys_tsv"
+    rec = read_recording(path)
+    assert rec.format == "qualisys_tsv" and rec.metadata["board_name"] == "Delsys Trigno"
+    assert list(rec.channels) == ["Biceps R", "Deltoid anterior R", "Trigger"]
+    biceps = rec.channels["Biceps R"]
+    assert biceps.kind == "emg" and biceps.site == "biceps" and biceps.unit == "V"
+    assert biceps.rate == rate and biceps.n_samples == n
+    np.testing.assert_allclose(biceps.data, emg[:, 0], rtol=1e-5)
+    assert rec.channels["Deltoid anterior R"].site == "deltoid"
+    assert rec.channels["Trigger"].kind == "other"
+    assert not rec.metadata["warnings"]
+    # the rate is FREQUENCY's; a TIME column that disagrees is reported
+    other = path.read_text().replace(f"FREQUENCY\t{rate:g}", "FREQUENCY\t1000")
+    rec = read_bytes(other.encode(), "curl_a_1.tsv")
+    assert rec.channels["Biceps R"].rate == 1000.0
+    assert any("disagrees with the TIME column (2000 Hz)" in w for w in rec.metadata["warnings"])
 
 
 def test_opensim_coordinate_names_give_the_arm_of_the_moving_side(tmp_path: Path) -> None:
