@@ -32,6 +32,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         check_rate,
         format_of,
         motion_of_result,
+        one_line,
         write_export,
     )
 
@@ -64,7 +65,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         "bytes": size,
     }
     text = (
-        f"wrote {written} ({fmt}, {size} bytes): robot {motion.robot}, method {chosen.name}, "
+        f"wrote {written} ({fmt}, {size} bytes): robot {one_line(motion.robot)}, "
+        f"method {chosen.name}, "
         f"{rate:g} Hz over {motion.duration:g} s"
     )
     emit(args, payload, text)

@@ -93,3 +93,22 @@ def _cells(params: dict[str, Any]) -> int | None:
     for g in grid:
         count *= len(g)  # type: ignore[arg-type]
     return count
+
+
+#: The trajectory routes' query parameter whose schema maximum is ``BIOPLAN_MAX_EXPORT_SAMPLES``.
+EXPORT_SAMPLES_PARAMETER = "samples"
+
+
+def state_export_limit(schema: dict[str, Any], max_export_samples: int) -> None:
+    """The trajectory routes' ``samples`` parameter goes no higher than this server's cap
+    (``Settings.max_export_samples``), so a client learns it before it is refused."""
+    for route, path in schema.get("paths", {}).items():
+        if not route.endswith("/trajectory"):
+            continue
+        for operation in path.values():
+            for param in operation.get("parameters", []) if isinstance(operation, dict) else []:
+                if param.get("name") != EXPORT_SAMPLES_PARAMETER or param.get("in") != "query":
+                    continue
+                for branch in param.get("schema", {}).get("anyOf", [param.get("schema", {})]):
+                    if branch.get("type") == "integer":
+                        branch["maximum"] = max_export_samples

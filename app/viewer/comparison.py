@@ -37,6 +37,10 @@ class ComparisonError(LookupError):
     """Stored arrays that do not make a comparison (a key missing, a shape wrong)."""
 
 
+class NothingToCompare(ComparisonError):
+    """A result with fewer than two planned trajectories: no pair of ``methods`` to show."""
+
+
 @dataclass(frozen=True)
 class Comparison:
     """Standard and optimised trajectories of one plan or simulation.
@@ -349,17 +353,22 @@ def comparison_from_arrays(
         robot: the robot, with the payload the job used.
         urdf: the robot's URDF text (default: read from ``robot.urdf_path``).
         methods: two planned methods to show as ``standard`` and ``optimized`` (their
-            ``<method>_*`` arrays); None: the quintic and the paper's method.
+            ``<method>_*`` arrays); None: the stored ``standard``/``optimized`` pair (the
+            quintic and the paper's method), or, for a plan without the paper's method, the
+            quintic and the first other planned method (:func:`default_methods`).
         allowed_roots: folders meshes must lie in (an uploaded robot's folder).
 
     Raises:
         ComparisonError: an array is missing or has the wrong shape, or a method was not
             planned.
+        NothingToCompare: no pair was given and the result has no two trajectories.
     """
     from app.planning.planner import elbow_flexion_deg
 
     if kind not in KINDS:
         raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
+    if methods is None and not all(f"{label}_q" in arrays for label in LABELS):
+        methods = default_methods(arrays)
     if methods is not None:
         arrays = _method_arrays(arrays, methods)
     t = _get(arrays, "t")
@@ -408,6 +417,24 @@ def comparison_from_arrays(
         locks=dict(robot.locks),
         methods=planned,
     )
+
+
+def default_methods(arrays: Mapping[str, Any]) -> tuple[str, str]:
+    """The pair shown when none was asked for: the quintic (else the first planned method)
+    and the paper's method (else the first other planned one).
+
+    Raises:
+        NothingToCompare: fewer than two methods were planned.
+    """
+    planned = [m for m in METHODS if f"{m}_q" in arrays]
+    if len(planned) < 2:
+        raise NothingToCompare(
+            f"methods: this result has {len(planned)} planned trajectory "
+            f"({', '.join(planned) or 'none'}): expected two to compare"
+        )
+    solid = "quintic" if "quintic" in planned else planned[0]
+    ghost = "paper" if "paper" in planned else next(m for m in planned if m != solid)
+    return solid, ghost
 
 
 def _method_arrays(arrays: Mapping[str, Any], methods: tuple[str, str]) -> dict[str, Any]:

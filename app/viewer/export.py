@@ -112,7 +112,8 @@ def _curves_figure(c: Comparison) -> Any:
     from plotly.subplots import make_subplots
 
     e = c.elbow_joint
-    elbow = c.joint_names[e]
+    # Plotly.js reads a subset of HTML in titles (links, styles): a joint name is text only.
+    elbow = html.escape(c.joint_names[e])
     fig = make_subplots(
         rows=3,
         cols=2,

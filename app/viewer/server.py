@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import quote
 
+from app.viewer._text import markdown_text, without_paths
 from app.viewer.access import Grant, Refused, ViewerAccess
 from app.viewer.comparison import (
     LABELS,
@@ -363,11 +364,15 @@ class ViewerServer:
         try:
             prepared = self.prepare(kind, result_id)
         except LookupError as exc:  # unknown, unfinished or deleted
-            client.gui.add_markdown(f"**Cannot show {kind} {result_id}:** {exc}")
+            reason = markdown_text(without_paths(exc))
+            shown = f"{markdown_text(kind)} {int(result_id)}"
+            client.gui.add_markdown(f"**Cannot show {shown}:** {reason}")
             return
         except Exception:
             logger.exception("viewer cannot prepare %s %d", kind, result_id)
-            client.gui.add_markdown(f"**Cannot show {kind} {result_id}** (see the server log).")
+            client.gui.add_markdown(
+                f"**Cannot show {markdown_text(kind)} {int(result_id)}** (see the server log)."
+            )
             return
         session = self._build_session(client, kind, result_id, prepared)
         _choose_methods(session, grant.methods)
@@ -504,7 +509,7 @@ def _add_gui(
 
 def _details(gui: Any, scene: ComparisonScene, solid: str, ghost: str) -> dict[str, Any]:
     c = scene.prepared.comparison
-    gui.add_markdown(f"**{c.title}**")
+    gui.add_markdown(f"**{markdown_text(c.title)}**")
     handles = {
         "speed": gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x"),
         "layout": gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="side by side"),
@@ -517,7 +522,7 @@ def _details(gui: Any, scene: ComparisonScene, solid: str, ghost: str) -> dict[s
         "Ghost robot", tuple(names), initial_value=trajectory_label(ghost)
     )
     handles["phase"] = gui.add_markdown(_phase_text(scene.phases_now, scene.shown))
-    handles["human"] = gui.add_markdown(c.human_note or no_human_text(c))
+    handles["human"] = gui.add_markdown(markdown_text(c.human_note or no_human_text(c)))
     handles["plot"] = gui.add_uplot(
         power_plot(c, 0.0, labels=(solid, ghost)),
         _plot_series((solid, ghost)),

@@ -74,8 +74,10 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
     },
     "GET /api/viewer/recordings/{recording_id}/analysis": {"t1": "not before t0"},
     "GET /api/plans/{plan_id}/trajectory": {
-        "rate": "a rate the format's controller takes (URScript: 500 Hz / a whole number)",
+        "rate": "a rate the format's controller takes (URScript: 500 Hz / a whole number), "
+        "and rate x duration samples within BIOPLAN_MAX_EXPORT_SAMPLES",
         "format": "a format the planned robot can run (URScript: a six-joint UR arm)",
+        "samples": "not beside rate; (samples - 1) / duration a rate the format takes",
     },
 }
 UNSTATED_RULES["GET /api/simulations/{simulation_id}/trajectory"] = UNSTATED_RULES[

@@ -41,6 +41,7 @@ PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
         (409, "conflict"),
         (413, "request body too large"),
         (422, "invalid request"),
+        (429, "too many requests: waiting jobs or open event streams at their cap (Retry-After)"),
     )
 }
 
@@ -187,6 +188,15 @@ RateQuery = Annotated[
 MethodQuery = Annotated[
     ExportMethod | None, Query(description="method to export (default: the optimised one)")
 ]
+SamplesQuery = Annotated[
+    int | None,
+    Query(
+        ge=2,
+        description="samples over the motion instead of a rate (rate = (samples - 1) / "
+        "duration); the schema's maximum is this server's BIOPLAN_MAX_EXPORT_SAMPLES, which "
+        "also caps what a rate may ask for (fewer for robots of more than six joints)",
+    ),
+]
 
 
 def _export_field(message: str) -> str | None:
@@ -206,9 +216,24 @@ def trajectory_out(
     fmt: str,
     rate: float | None,
     method: str | None,
+    samples: int | None = None,
+    max_samples: int | None = None,
 ) -> Response:
-    """The bytes of ``app.planning.export.export_bytes`` for a stored plan or simulation."""
-    from app.jobs.tasks import export_trajectory
+    """A stored plan's or simulation's export file, streamed (``export_stream``'s chunks).
+
+    ``samples`` (instead of ``rate``) asks for that many samples over the motion; the file
+    holds at most ``max_samples`` (``Settings.max_export_samples``), else a 422 naming
+    ``samples`` or ``rate``, before anything is sampled."""
+    from fastapi.responses import StreamingResponse
+
+    from app.jobs.tasks import robot_from_spec
+    from app.planning.export import (
+        check_export_size,
+        export_sample_limit,
+        export_stream,
+        motion_of_result,
+    )
+    from app.viewer._text import without_paths
 
     row = get_result_row(session, kind, result_id)
     if row.result is None:
@@ -225,15 +250,39 @@ def trajectory_out(
             f"method '{method}' is not in {kind} {result_id}: expected one of {', '.join(planned)}",
             field="method",
         )
-    spec = robots.spec(session, row.robot)
     try:
-        data = export_trajectory(spec, row.result, fmt, method=method, rate=rate)
+        motion = motion_of_result(row.result)
+        if samples is not None:
+            if rate is not None:
+                raise ApiError(422, "give rate or samples, not both", field="samples")
+            joints = len(motion.joint_names)
+            limit = None if max_samples is None else export_sample_limit(joints, max_samples)
+            if limit is not None and samples > limit:
+                raise ApiError(
+                    422,
+                    f"samples {samples} exceeds the limit {limit} for {joints} joints "
+                    "(BIOPLAN_MAX_EXPORT_SAMPLES)",
+                    field="samples",
+                )
+            rate = (samples - 1) / motion.duration
+        check_export_size(motion, fmt, rate, max_samples)
     except BioPlanError as exc:
-        raise ApiError(422, str(exc), field=_export_field(str(exc))) from None
+        field = "samples" if samples is not None else _export_field(str(exc))
+        raise ApiError(422, str(exc), field=field) from None
+    spec = robots.spec(session, row.robot)
+    payload = motion.conditions.get("payload")
+    try:
+        with robot_from_spec(spec, None if payload is None else float(payload)) as robot:
+            chunks = export_stream(
+                motion, fmt, method=method, rate=rate, robot=robot, max_samples=max_samples
+            )
+    except BioPlanError as exc:  # a robot file gone or changed: its name, not its folder
+        text = without_paths(exc)
+        raise ApiError(422, text, field=_export_field(text)) from None
     chosen = method or row.result["motion"]["default_method"]
     filename = f"{kind}-{result_id}-{chosen}.{fmt}"  # each format's extension is its name
-    return Response(
-        content=data,
+    return StreamingResponse(
+        chunks,
         media_type=EXPORT_MEDIA_TYPES[fmt],
         headers={"Content-Disposition": f'attachment; filename="{filename}"'},
     )

@@ -20,8 +20,13 @@ from fastapi.responses import FileResponse
 from app.api.deps import ServicesDep
 from app.api.errors import ApiError
 from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath
+from app.errors import BioPlanError
 from app.names import METHODS
+from app.services import ServiceError, Services
+from app.viewer._text import without_paths
+from app.viewer.comparison import NothingToCompare
 from app.viewer.export import report_html, scene_html
+from app.viewer.scene import PreparedComparison
 
 router = APIRouter(prefix="/api/viewer", tags=["viewer"], responses=PROBLEM_RESPONSES)
 
@@ -87,7 +92,8 @@ MethodsQuery = Annotated[
     MethodPair | None,
     Query(
         description="two different planned methods shown as standard,optimized (default: "
-        "quintic,paper); a method the result did not plan is a 404 naming this field",
+        "quintic,paper, or the quintic and the first other planned method when the result "
+        "has no paper's method); a method the result did not plan is a 404 naming this field",
         examples=["quintic,bound"],
     ),
 ]
@@ -99,6 +105,21 @@ def method_pair(methods: str | None) -> tuple[str, str] | None:
         return None
     a, b = methods.split(",")
     return a, b
+
+
+def _prepared(
+    services: Services, kind: str, result_id: int, methods: str | None
+) -> PreparedComparison:
+    """The prepared comparison; a result with nothing to compare is a 409 naming ``methods``
+    and a robot that cannot be loaded a 422 whose text names no server folder."""
+    try:
+        return services.comparisons(kind, result_id, method_pair(methods))
+    except NothingToCompare as exc:
+        raise ApiError(409, str(exc), field="methods") from None
+    except ServiceError:
+        raise  # unknown result or method (404), no result yet (409): the service's own answer
+    except BioPlanError as exc:
+        raise ApiError(422, without_paths(exc)) from None
 
 
 @router.get("/comparisons/{kind}/{result_id:int}", response_model=dict[str, Any])
@@ -113,7 +134,7 @@ def comparison(
     and where the 3-D viewer shows it. ``methods=a,b`` shows any two planned methods as
     ``standard`` (a) and ``optimized`` (b); ``summary.methods`` says which."""
     pair = method_pair(methods)
-    c = services.comparisons(kind, result_id, pair).comparison
+    c = _prepared(services, kind, result_id, methods).comparison
     out = c.summary()
     out["curves"] = c.curves(points=points)
     out["result"] = c.result
@@ -154,7 +175,7 @@ def export(
     methods: MethodsQuery = None,
 ) -> Response:
     """A file that opens without the server: the recorded 3-D comparison, or the report."""
-    prepared = services.comparisons(kind, result_id, method_pair(methods))
+    prepared = _prepared(services, kind, result_id, methods)
     if format == "scene":
         page = scene_html(prepared, layout=layout)
     else:

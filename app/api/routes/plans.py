@@ -8,7 +8,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query, Response
 from sqlalchemy.orm import Session
 
-from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
+from app.api.deps import RobotsDep, ServicesDep, SessionDep, SettingsDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import (
     EXPORT_RESPONSES,
@@ -19,6 +19,7 @@ from app.api.routes._common import (
     IdPath,
     MethodQuery,
     RateQuery,
+    SamplesQuery,
     arrays_out,
     get_result_row,
     job_of,
@@ -256,9 +257,21 @@ def get_plan_trajectory(
     robots: RobotsDep,
     plan_id: IdPath,
     format: FormatQuery,
+    settings: SettingsDep,
     rate: RateQuery = None,
     method: MethodQuery = None,
+    samples: SamplesQuery = None,
 ) -> Response:
     """One method's trajectory as a file (``bioplan export``): csv, json, yaml (ROS 2
     JointTrajectory), mcap (rosbag2), script (URScript) or mot (OpenSim); ``docs/export.md``."""
-    return trajectory_out(session, robots, "plan", plan_id, fmt=format, rate=rate, method=method)
+    return trajectory_out(
+        session,
+        robots,
+        "plan",
+        plan_id,
+        fmt=format,
+        rate=rate,
+        method=method,
+        samples=samples,
+        max_samples=settings.max_export_samples,
+    )

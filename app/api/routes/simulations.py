@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
 
-from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
+from app.api.deps import RobotsDep, ServicesDep, SessionDep, SettingsDep, WriteAccess
 from app.api.routes._common import (
     EXPORT_RESPONSES,
     MAX_POINTS,
@@ -16,6 +16,7 @@ from app.api.routes._common import (
     IdPath,
     MethodQuery,
     RateQuery,
+    SamplesQuery,
     arrays_out,
     list_results,
     relabel,
@@ -101,11 +102,21 @@ def get_simulation_trajectory(
     robots: RobotsDep,
     simulation_id: IdPath,
     format: FormatQuery,
+    settings: SettingsDep,
     rate: RateQuery = None,
     method: MethodQuery = None,
+    samples: SamplesQuery = None,
 ) -> Response:
     """One method's trajectory as a file (``bioplan export``): csv, json, yaml (ROS 2
     JointTrajectory), mcap (rosbag2), script (URScript) or mot (OpenSim); ``docs/export.md``."""
     return trajectory_out(
-        session, robots, "simulation", simulation_id, fmt=format, rate=rate, method=method
+        session,
+        robots,
+        "simulation",
+        simulation_id,
+        fmt=format,
+        rate=rate,
+        method=method,
+        samples=samples,
+        max_samples=settings.max_export_samples,
     )

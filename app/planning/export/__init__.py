@@ -13,13 +13,23 @@ Formats (``FORMATS``): csv, json, yaml (ROS 2 JointTrajectory), mcap (rosbag2), 
 """
 
 from app.planning.export._api import (
+    check_export_size,
     export_bytes,
     export_result,
+    export_sample_limit,
+    export_stream,
     format_of,
     motion_of_result,
     write_export,
 )
-from app.planning.export._formats import FORMATS, ExportFormat, full_arm
+from app.planning.export._formats import (
+    FORMATS,
+    ExportFormat,
+    csv_cell,
+    full_arm,
+    one_line,
+    public_spec,
+)
 from app.planning.export._motion import (
     MAX_RATE_HZ,
     MOTION_FORMAT,
@@ -30,6 +40,7 @@ from app.planning.export._motion import (
     check_rate,
     plan_methods,
     plan_motion,
+    sample_count,
 )
 
 __all__ = [
@@ -41,13 +52,20 @@ __all__ = [
     "MethodMotion",
     "PlanMotion",
     "Samples",
+    "check_export_size",
     "check_rate",
+    "csv_cell",
     "export_bytes",
     "export_result",
+    "export_sample_limit",
+    "export_stream",
     "format_of",
     "full_arm",
     "motion_of_result",
+    "one_line",
     "plan_methods",
     "plan_motion",
+    "public_spec",
+    "sample_count",
     "write_export",
 ]

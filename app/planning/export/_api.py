@@ -7,19 +7,29 @@ JSON a ``plan`` or ``simulate`` command saved (its ``"motion"`` block).
 
 from __future__ import annotations
 
+import itertools
 import os
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from app.planning.export._formats import FORMATS
-from app.planning.export._motion import ExportError, PlanMotion, check_rate
+from app.planning.export._formats import FORMATS, one_line
+from app.planning.export._motion import ExportError, PlanMotion, check_rate, sample_count
 
 if TYPE_CHECKING:
     from app.planning.robots import Robot
 
-__all__ = ["export_bytes", "export_result", "format_of", "motion_of_result", "write_export"]
+__all__ = [
+    "check_export_size",
+    "export_bytes",
+    "export_result",
+    "export_sample_limit",
+    "export_stream",
+    "format_of",
+    "motion_of_result",
+    "write_export",
+]
 
 _ALIASES = {".yml": "yaml", ".urscript": "script", ".sto": "mot"}
 
@@ -34,14 +44,77 @@ def format_of(path: str | Path) -> str:
         return _ALIASES[suffix]
     known = ", ".join(f.extension for f in FORMATS.values())
     raise ExportError(
-        f"{Path(path).name}: unknown export extension '{suffix}': expected one of {known}"
+        f"{one_line(Path(path).name)}: unknown export extension '{one_line(suffix)}': "
+        f"expected one of {known}"
     )
 
 
 def _format(fmt: str) -> Any:
     if fmt not in FORMATS:
-        raise ExportError(f"export format '{fmt}': expected one of {', '.join(FORMATS)}")
+        raise ExportError(f"export format '{one_line(fmt)}': expected one of {', '.join(FORMATS)}")
     return FORMATS[fmt]
+
+
+def export_sample_limit(joints: int, max_samples: int) -> int:
+    """The most samples an export of ``joints`` free joints may hold under a cap of
+    ``max_samples`` for a six-joint arm: samples x joints stays within ``6 * max_samples``."""
+    return max(2, max_samples * 6 // max(joints, 6))
+
+
+def check_export_size(
+    motion: PlanMotion, fmt: str, rate: float | None, max_samples: int | None
+) -> tuple[float, int]:
+    """The export's rate [Hz] and sample count, refused when it holds too many samples.
+
+    Args:
+        max_samples: the most samples of a six-joint arm (None: only the library's own cap);
+            a robot with more free joints gets proportionally fewer
+            (:func:`export_sample_limit`).
+
+    Raises:
+        ExportError: unknown format, a bad rate, or too many samples (naming ``rate``).
+    """
+    spec = _format(fmt)
+    hz = check_rate(spec.default_rate if rate is None else rate)
+    count = sample_count(motion.duration, hz)
+    if max_samples is not None:
+        joints = len(motion.joint_names)
+        limit = export_sample_limit(joints, max_samples)
+        if count > limit:
+            raise ExportError(
+                f"rate {hz:g} Hz gives {count} samples over {motion.duration:g} s: expected "
+                f"at most {limit} samples for {joints} joints (a lower rate)"
+            )
+    return hz, count
+
+
+def export_stream(
+    motion: PlanMotion,
+    fmt: str,
+    *,
+    method: str | None = None,
+    rate: float | None = None,
+    robot: Robot | None = None,
+    max_samples: int | None = None,
+) -> Iterator[bytes]:
+    """One method of a plan as the chunks of an export file (a few thousand samples each).
+
+    Everything that can be refused is checked before this returns (the first chunk is made
+    already), so a caller that streams the chunks never sends half a file and then an error.
+    Arguments as :func:`export_bytes`; ``max_samples`` as :func:`check_export_size`.
+    """
+    spec = _format(fmt)
+    chosen = motion.method(method)
+    hz, _ = check_export_size(motion, fmt, rate, max_samples)
+    if robot is None:
+        from app.planning.robots import load_robot_spec
+
+        robot = load_robot_spec(motion.robot_spec)
+    motion.check_robot(robot)
+    samples = motion.sample(chosen.name, hz, robot)
+    chunks = iter(spec.stream(motion, chosen, samples))
+    first = next(chunks, b"")
+    return itertools.chain((first,), chunks)
 
 
 def export_bytes(
@@ -67,17 +140,7 @@ def export_bytes(
             from the planned one, or a format the robot cannot use (URScript needs six joints).
         RobotError: the robot cannot be rebuilt (its files are gone).
     """
-    spec = _format(fmt)
-    chosen = motion.method(method)
-    hz = check_rate(spec.default_rate if rate is None else rate)
-    if robot is None:
-        from app.planning.robots import load_robot_spec
-
-        robot = load_robot_spec(motion.robot_spec)
-    motion.check_robot(robot)
-    samples = motion.sample(chosen.name, hz, robot)
-    data: bytes = spec.write(motion, chosen, samples)
-    return data
+    return b"".join(export_stream(motion, fmt, method=method, rate=rate, robot=robot))
 
 
 def motion_of_result(result: Mapping[str, Any]) -> PlanMotion:
@@ -119,14 +182,15 @@ def write_export(
         The path written.
     """
     target = Path(path)
-    data = export_bytes(motion, fmt or format_of(target), method=method, rate=rate, robot=robot)
+    chunks = export_stream(motion, fmt or format_of(target), method=method, rate=rate, robot=robot)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
         raise ExportError(f"{target}: folder {folder} does not exist: expected an existing folder")
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".bioplan-export-", suffix=target.suffix)
     try:
         with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
+            for chunk in chunks:
+                handle.write(chunk)
         os.replace(tmp, target)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

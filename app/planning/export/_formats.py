@@ -8,13 +8,15 @@ whose rotational coordinates are in degrees as OpenSim expects (``inDegrees=yes`
 
 from __future__ import annotations
 
+import csv
 import functools
 import io
 import json
+import re
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PureWindowsPath
 from typing import Any
 
 import numpy as np
@@ -26,11 +28,17 @@ from app.planning.jsonsafe import json_safe
 __all__ = ["FORMATS", "ExportFormat", "full_arm"]
 
 FloatArray = NDArray[np.float64]
-Writer = Callable[[PlanMotion, MethodMotion, Samples], bytes]
+Writer = Callable[[PlanMotion, MethodMotion, Samples], Iterator[bytes]]
 
 #: The Universal Robots controller's servo rate [Hz] (e-Series; CB3 runs at 125 Hz = 500 / 4).
 UR_CONTROLLER_HZ = 500.0
 UR_JOINTS = 6
+#: Samples written per chunk of a streamed export (a chunk is a few hundred kB of text).
+CHUNK_SAMPLES = 2000
+#: A CSV cell starting with one of these is a formula to a spreadsheet (OWASP CSV injection).
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+#: An absolute path: POSIX, home, Windows drive or UNC.
+_ABSOLUTE = re.compile(r"^(?:/|~|[A-Za-z]:[\\/]|\\\\)")
 
 
 @dataclass(frozen=True)
@@ -49,7 +57,45 @@ class ExportFormat:
     extension: str
     default_rate: float
     description: str
-    write: Writer
+    stream: Writer
+
+    def write(self, motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
+        """The whole file's bytes (:attr:`stream`'s chunks joined)."""
+        return b"".join(self.stream(motion, method, samples))
+
+
+def one_line(text: object) -> str:
+    """``text`` safe inside a one-line comment or header of any format: every character that
+    is not printable (newlines, carriage returns, tabs, other control and format characters,
+    Unicode line separators) is written as its escape (``\\n``, ``\\x00``, ``\\u2028``), so
+    a name from a robot file can never start a line of its own."""
+    out = []
+    for ch in str(text):
+        if ch.isprintable():
+            out.append(ch)
+        else:
+            out.append(ch.encode("unicode_escape").decode("ascii"))
+    return "".join(out)
+
+
+def csv_cell(text: object) -> str:
+    """A text cell a spreadsheet shows as text: one starting with ``= + - @``, a tab or a
+    carriage return gets a leading single quote (OWASP's advice against CSV injection)."""
+    value = str(text)
+    return "'" + value if value.startswith(_FORMULA_START) else value
+
+
+def _blocks(count: int) -> Iterator[slice]:
+    for start in range(0, count, CHUNK_SAMPLES):
+        yield slice(start, min(start + CHUNK_SAMPLES, count))
+
+
+def _table(table: FloatArray, delimiter: str) -> Iterator[bytes]:
+    """Rows of numbers (17 significant digits), a chunk of rows at a time."""
+    for block in _blocks(table.shape[0]):
+        buffer = io.StringIO()
+        np.savetxt(buffer, table[block], fmt="%.17g", delimiter=delimiter)
+        yield buffer.getvalue().encode()
 
 
 def _g(x: float) -> str:
@@ -61,30 +107,58 @@ def _row(values: Iterable[float]) -> str:
 
 
 def _header_comment(motion: PlanMotion, method: MethodMotion, samples: Samples) -> str:
-    return (
+    """One line (the robot's name escaped by :func:`one_line`)."""
+    return one_line(
         f"BioPlan export: robot {motion.robot}, method {method.name}, {samples.t.size} samples "
         f"at {samples.rate:g} Hz over {motion.duration:g} s"
     )
 
 
-def write_csv(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
-    """Time, then position, velocity, acceleration and torque per joint; units in the header."""
+def write_csv(motion: PlanMotion, method: MethodMotion, samples: Samples) -> Iterator[bytes]:
+    """Time, then position, velocity, acceleration and torque per joint; units in the header.
+
+    The header is one line written by the ``csv`` module (a joint name with a comma or a quote
+    stays one cell, a newline in it is escaped) and no header cell reads as a spreadsheet
+    formula (:func:`csv_cell`)."""
     columns = ["time [s]"]
     for prefix, unit in (("q", "rad"), ("qd", "rad/s"), ("qdd", "rad/s^2"), ("tau", "Nm")):
         columns += [f"{prefix}_{name} [{unit}]" for name in motion.joint_names]
+    header = io.StringIO()
+    csv.writer(header, lineterminator="\n").writerow([csv_cell(one_line(c)) for c in columns])
+    yield header.getvalue().encode()
     table = np.column_stack([samples.t, samples.q, samples.qd, samples.qdd, samples.tau])
-    buffer = io.StringIO()
-    buffer.write(",".join(columns) + "\n")
-    np.savetxt(buffer, table, fmt="%.17g", delimiter=",")
-    return buffer.getvalue().encode()
+    yield from _table(table, ",")
 
 
-def write_json(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
+def _file_name(value: Any) -> Any:
+    """A path's last part (``/srv/data/robots/ab12/arm.urdf`` -> ``arm.urdf``); not a path:
+    itself. An export leaves the machine it was made on: no folder of it is written."""
+    if not isinstance(value, str) or not _ABSOLUTE.match(value):
+        return value
+    return PureWindowsPath(value).name  # splits at both / and \\
+
+
+def public_spec(spec: Any) -> dict[str, Any]:
+    """``Robot.spec`` with its files as file names only (``source``, ``mjcf``, ``sidecar``,
+    ``package_dirs``): what an export says about its robot without the folders it was in."""
+    out = dict(spec)
+    for key in ("source", "mjcf", "sidecar"):
+        if key in out:
+            out[key] = _file_name(out[key])
+    if isinstance(out.get("package_dirs"), list):
+        out["package_dirs"] = [_file_name(p) for p in out["package_dirs"]]
+    return out
+
+
+def write_json(motion: PlanMotion, method: MethodMotion, samples: Samples) -> Iterator[bytes]:
     """The samples with the task, robot, method and metrics (one JSON object)."""
+    conditions = dict(motion.conditions)
+    if "template" in conditions:
+        conditions["template"] = _file_name(conditions["template"])
     document = {
         "format": "bioplan.trajectory/1",
         "robot": motion.robot,
-        "robot_spec": dict(motion.robot_spec),
+        "robot_spec": public_spec(motion.robot_spec),
         "method": method.name,
         "method_kind": method.kind,
         "joint_names": list(motion.joint_names),
@@ -100,14 +174,18 @@ def write_json(motion: PlanMotion, method: MethodMotion, samples: Samples) -> by
         "units": {"t": "s", "q": "rad", "qd": "rad/s", "qdd": "rad/s^2", "tau": "Nm"},
         "metrics": json_safe(dict(method.metrics)),
         "floors": json_safe(dict(motion.floors)),
-        "conditions": json_safe(dict(motion.conditions)),
-        "t": samples.t.tolist(),
-        "q": samples.q.tolist(),
-        "qd": samples.qd.tolist(),
-        "qdd": samples.qdd.tolist(),
-        "tau": samples.tau.tolist(),
+        "conditions": json_safe(conditions),
     }
-    return (json.dumps(document, allow_nan=False) + "\n").encode()
+    head = json.dumps(document, allow_nan=False)
+    yield head[:-1].encode()  # without its closing brace: the arrays follow
+    for key in ("t", "q", "qd", "qdd", "tau"):
+        array = getattr(samples, key)
+        yield f', "{key}": ['.encode()
+        for n, block in enumerate(_blocks(array.shape[0])):
+            part = json.dumps(array[block].tolist(), allow_nan=False)[1:-1]
+            yield ((", " if n else "") + part).encode()
+        yield b"]"
+    yield b"}\n"
 
 
 def _yaml_float(x: float) -> str:
@@ -125,28 +203,48 @@ def _duration(t: float) -> tuple[int, int]:
     return total // 1_000_000_000, total % 1_000_000_000
 
 
-def write_yaml(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
+def _yaml_names(names: Iterable[str]) -> str:
+    """``joint_names: [...]`` by PyYAML's safe dumper: every name one quoted string."""
+    import yaml
+
+    text: str = yaml.safe_dump(
+        {"joint_names": [str(n) for n in names]},
+        default_flow_style=True,
+        default_style='"',
+        width=float("inf"),
+        allow_unicode=False,
+    )
+    # ``{"joint_names": [...]}`` -> ``"joint_names": [...]`` (one line: escapes, no breaks)
+    return text.strip()[1:-1]
+
+
+def write_yaml(motion: PlanMotion, method: MethodMotion, samples: Samples) -> Iterator[bytes]:
     """A ROS 2 ``trajectory_msgs/msg/JointTrajectory`` in YAML (what ``ros2 action send_goal``
-    and MoveIt read); positions [rad], velocities [rad/s], accelerations [rad/s^2], effort [Nm]."""
+    and MoveIt read); positions [rad], velocities [rad/s], accelerations [rad/s^2], effort [Nm].
+
+    Names reach the file only as PyYAML-quoted strings or in a comment of one line."""
     lines = [
         f"# {_header_comment(motion, method, samples)}",
         "# trajectory_msgs/msg/JointTrajectory; SI units, radians",
         "header:",
         "  stamp: {sec: 0, nanosec: 0}",
         "  frame_id: ''",
-        "joint_names: [" + ", ".join(json.dumps(n) for n in motion.joint_names) + "]",
+        _yaml_names(motion.joint_names),
         "points:",
     ]
-    for k, t in enumerate(samples.t):
-        sec, nanosec = _duration(float(t))
-        lines += [
-            f"  - positions: {_yaml_list(samples.q[k])}",
-            f"    velocities: {_yaml_list(samples.qd[k])}",
-            f"    accelerations: {_yaml_list(samples.qdd[k])}",
-            f"    effort: {_yaml_list(samples.tau[k])}",
-            f"    time_from_start: {{sec: {sec}, nanosec: {nanosec}}}",
-        ]
-    return ("\n".join(lines) + "\n").encode()
+    yield ("\n".join(lines) + "\n").encode()
+    for block in _blocks(samples.t.size):
+        lines = []
+        for k in range(block.start, block.stop):
+            sec, nanosec = _duration(float(samples.t[k]))
+            lines += [
+                f"  - positions: {_yaml_list(samples.q[k])}",
+                f"    velocities: {_yaml_list(samples.qd[k])}",
+                f"    accelerations: {_yaml_list(samples.qdd[k])}",
+                f"    effort: {_yaml_list(samples.tau[k])}",
+                f"    time_from_start: {{sec: {sec}, nanosec: {nanosec}}}",
+            ]
+        yield ("\n".join(lines) + "\n").encode()
 
 
 @functools.cache
@@ -157,7 +255,7 @@ def _typestore() -> Any:
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
-def write_mcap(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
+def write_mcap(motion: PlanMotion, method: MethodMotion, samples: Samples) -> Iterator[bytes]:
     """A rosbag2 in MCAP storage holding the whole ``trajectory_msgs/msg/JointTrajectory`` as
     one message on ``/joint_trajectory`` at log time 0 (what a trajectory controller takes)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
@@ -189,7 +287,8 @@ def write_mcap(motion: PlanMotion, method: MethodMotion, samples: Samples) -> by
         with Writer(bag, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
             topic = writer.add_connection("/joint_trajectory", msgtype, typestore=store)
             writer.write(topic, 0, store.serialize_cdr(trajectory, msgtype))
-        return next(bag.glob("*.mcap")).read_bytes()
+        data = next(bag.glob("*.mcap")).read_bytes()
+    yield data
 
 
 def full_arm(motion: PlanMotion, q: FloatArray) -> FloatArray:
@@ -201,17 +300,19 @@ def full_arm(motion: PlanMotion, q: FloatArray) -> FloatArray:
     return out
 
 
-def write_urscript(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
+def write_urscript(motion: PlanMotion, method: MethodMotion, samples: Samples) -> Iterator[bytes]:
     """A URScript program: ``movej`` to the start, then one ``servoj`` per sample, then stop.
 
     ``servoj``'s ``t`` is the sample period, which must be a whole number of controller steps
-    (500 Hz / k). All six joints are sent, locked ones at their locked values.
+    (500 Hz / k). All six joints are sent, locked ones at their locked values. Names (robot,
+    joints) appear only in comments of one line; the program's code is the code's own.
     """
     joints = motion.all_joint_names
     if len(joints) != UR_JOINTS:
         raise ExportError(
             f"format script (URScript) needs a 6-joint Universal Robots arm: robot "
-            f"'{motion.robot}' has {len(joints)} joints ({', '.join(joints)})"
+            f"'{one_line(motion.robot)}' has {len(joints)} joints "
+            f"({one_line(', '.join(joints))})"
         )
     steps = UR_CONTROLLER_HZ / samples.rate
     if samples.rate > UR_CONTROLLER_HZ or abs(steps - round(steps)) > 1e-9:
@@ -223,26 +324,35 @@ def write_urscript(motion: PlanMotion, method: MethodMotion, samples: Samples) -
     q = full_arm(motion, samples.q)
     lines = [
         f"# {_header_comment(motion, method, samples)}",
-        f"# joints: {', '.join(joints)}; radians; servoj t = {period:g} s",
+        f"# joints: {one_line(', '.join(joints))}; radians; servoj t = {period:g} s",
         "def bioplan_trajectory():",
         f"  movej([{_row(q[0])}], a=0.5, v=0.25)",
     ]
-    lines += [f"  servoj([{_row(row)}], 0, 0, {_g(period)}, 0.1, 300)" for row in q]
-    lines += ["  stopj(2.0)", "end"]
-    return ("\n".join(lines) + "\n").encode()
+    yield ("\n".join(lines) + "\n").encode()
+    for block in _blocks(q.shape[0]):
+        rows = [f"  servoj([{_row(row)}], 0, 0, {_g(period)}, 0.1, 300)\n" for row in q[block]]
+        yield "".join(rows).encode()
+    yield b"  stopj(2.0)\nend\n"
 
 
-def write_mot(motion: PlanMotion, method: MethodMotion, samples: Samples) -> bytes:
-    """An OpenSim motion file: time and each joint as a coordinate, in degrees."""
-    columns = ["time", *motion.joint_names]
+def _mot_label(name: str) -> str:
+    """A column label of a ``.mot`` file: one tab-separated word (whitespace -> ``_``) that a
+    spreadsheet opening the file does not take for a formula."""
+    return csv_cell("_".join(one_line(name).split()) or "_")
+
+
+def write_mot(motion: PlanMotion, method: MethodMotion, samples: Samples) -> Iterator[bytes]:
+    """An OpenSim motion file: time and each joint as a coordinate, in degrees.
+
+    The header is exactly six lines (name, version, nRows, nColumns, inDegrees, endheader): the
+    name's robot part is escaped to one line and each column label to one word."""
+    columns = ["time", *(_mot_label(n) for n in motion.joint_names)]
     table = np.column_stack([samples.t, np.degrees(samples.q)])
-    buffer = io.StringIO()
-    buffer.write(
-        f"bioplan_{motion.robot}_{method.name}\nversion=1\nnRows={table.shape[0]}\n"
+    yield (
+        f"bioplan_{'_'.join(one_line(motion.robot).split())}_{method.name}\nversion=1\nnRows={table.shape[0]}\n"
         f"nColumns={table.shape[1]}\ninDegrees=yes\nendheader\n" + "\t".join(columns) + "\n"
-    )
-    np.savetxt(buffer, table, fmt="%.17g", delimiter="\t")
-    return buffer.getvalue().encode()
+    ).encode()
+    yield from _table(table, "\t")
 
 
 FORMATS: dict[str, ExportFormat] = {

@@ -36,6 +36,7 @@ __all__ = [
     "check_rate",
     "plan_methods",
     "plan_motion",
+    "sample_count",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -302,7 +303,7 @@ class PlanMotion:
         """
         motion = self.method(method)
         rate = check_rate(rate)
-        count = math.ceil(self.duration * rate - 1e-9) + 1
+        count = sample_count(self.duration, rate)
         if count > MAX_SAMPLES:
             raise ExportError(
                 f"rate {rate:g} Hz gives {count} samples over {self.duration:g} s: expected at "
@@ -337,6 +338,11 @@ class PlanMotion:
                     f"where the plan had {motion.check_tau[k, j]:.6g} Nm (the robot files or "
                     "payload changed): expected the same robot"
                 )
+
+
+def sample_count(duration: float, rate: float) -> int:
+    """Samples of an export at ``rate`` [Hz]: t = k / rate from 0 to at least ``duration``."""
+    return math.ceil(duration * rate - 1e-9) + 1
 
 
 def check_rate(rate: float) -> float:
