@@ -76,9 +76,29 @@ class Settings(BaseSettings):
         max_particles, max_iterations, max_samples, max_sweep_cells: the most PSO particles,
             iterations, optimiser grid points and sweep cells one request may ask for (422
             above; a sweep's ``workers`` is capped by ``max_workers`` the same way).
+        max_export_samples: the most samples one trajectory export may hold for a robot of up
+            to six free joints (fewer for more joints: samples x joints stays within six times
+            this); a ``rate`` or ``samples`` asking for more is refused (422).
         job_time_limit_s: wall-clock seconds a job may run on the local executor before it is
             stopped and failed with "time limit" (unset: no limit).
         min_free_mb: free disk space [MB] under which ``/api/health`` says "degraded".
+        max_mesh_mb, max_mesh_triangles: the largest mesh [MB, decoded] and the most triangles
+            of one mesh in an uploaded robot package (422 at upload; the viewer skips a
+            stored mesh past either instead of parsing it).
+        max_robot_unpacked_mb: what one robot package may unpack to in all [MB] (422 past it).
+        data_quota_mb: disk space [MB] the data directory may take in all; an upload that
+            would pass it (its unpacked files counted) is refused with 413.
+        max_streams, max_streams_per_client: open event streams (``/api/events/jobs``,
+            ``/api/jobs/{id}/events``) at once, in all and per client address; more are
+            refused with 429 and ``Retry-After``.
+        stream_idle_s: seconds an event stream stays open without a change to report
+            (keep-alive comments do not count); then it ends and the browser reconnects.
+        job_memory_mb: memory [MB] a local job process may take beyond what it starts with
+            (``RLIMIT_AS``; unset: no limit); past it the job fails with "ran out of memory".
+        max_queued: jobs waiting to run at once; a submission beyond it is refused with 429
+            and nothing is stored.
+        result_inline_kb: a job result's JSON larger than this [KiB] is kept in the file
+            store, the database holding a reference (read back transparently).
         log_level: the server's log level.
     """
 
@@ -113,8 +133,19 @@ class Settings(BaseSettings):
     max_iterations: int = Field(default=2000, ge=1)
     max_samples: int = Field(default=2000, ge=10)
     max_sweep_cells: int = Field(default=400, ge=1)
+    max_export_samples: int = Field(default=200_000, ge=2)
     job_time_limit_s: float | None = Field(default=3600.0, gt=0)
     min_free_mb: float = Field(default=200.0, ge=0)
+    max_mesh_mb: float = Field(default=64.0, gt=0, le=1024)
+    max_mesh_triangles: int = Field(default=2_000_000, ge=1)
+    max_robot_unpacked_mb: float = Field(default=256.0, gt=0, le=1024)
+    data_quota_mb: float = Field(default=20480.0, gt=0)
+    max_streams: int = Field(default=64, ge=1, le=100000)
+    max_streams_per_client: int = Field(default=8, ge=1, le=100000)
+    stream_idle_s: float = Field(default=300.0, gt=0, le=86400)
+    job_memory_mb: float | None = Field(default=4096.0, ge=16)
+    max_queued: int = Field(default=100, ge=1, le=1000000)
+    result_inline_kb: float = Field(default=1024.0, ge=0)
     log_level: Literal["debug", "info", "warning", "error"] = "info"
 
     @field_validator("cors_origins", "allowed_hosts", mode="before")
@@ -134,6 +165,14 @@ class Settings(BaseSettings):
     @classmethod
     def _empty_token_is_none(cls, value: Any) -> Any:
         if isinstance(value, str) and not value.strip():
+            return None
+        return value
+
+    @field_validator("job_memory_mb", mode="before")
+    @classmethod
+    def _no_memory_limit(cls, value: Any) -> Any:
+        # BIOPLAN_JOB_MEMORY_MB= (empty) or "none": jobs run without a memory limit.
+        if isinstance(value, str) and value.strip().lower() in ("", "none"):
             return None
         return value
 

@@ -192,6 +192,9 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
 
 
 def _status_of(exc: BioPlanError) -> int:
+    status = getattr(exc, "status", None)  # a refusal that states its own (429: a full queue)
+    if isinstance(status, int) and 400 <= status < 500:
+        return status
     if isinstance(exc, ParseLimitError):
         return 413
     if isinstance(exc, NotFoundError):
@@ -221,10 +224,12 @@ async def _bad_input(request: Request, exc: Exception) -> JSONResponse:
     extra = {"job": job} if named else {}
     if isinstance(files, list):
         extra["files"] = files
+    headers = getattr(exc, "headers", None)  # e.g. Retry-After of a 429
     return problem(
         status,
         title,
         one_line(str(exc)),
+        headers=headers if isinstance(headers, dict) else None,
         file=file if isinstance(file, str) else None,
         field=field if isinstance(field, str) else None,
         members=extra or None,

@@ -8,6 +8,7 @@ and a deletion removes the rows first and only then the blobs nobody refers to a
 from __future__ import annotations
 
 import hashlib
+import json
 import logging
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -15,12 +16,14 @@ from datetime import datetime
 from typing import Any
 
 import numpy as np
-from sqlalchemy import Select, delete, func, or_, select, update
+from sqlalchemy import Select, delete, event, func, or_, select, update
 from sqlalchemy.orm import Session, selectinload, undefer
+from sqlalchemy.orm.attributes import set_committed_value
 
 from app.db.arrays import encode_array, encode_arrays
 from app.db.blobs import BlobStore
 from app.db.models import (
+    RESULT_BLOB_KEY,
     RESULT_MODELS,
     TERMINAL_STATES,
     ChannelRecord,
@@ -28,6 +31,7 @@ from app.db.models import (
     PoseExtraction,
     RecordingFile,
     RecordingSession,
+    ResultBlob,
     RobotRecord,
     SkeletonFrame,
     utcnow,
@@ -317,6 +321,7 @@ def get_channels(
 def referenced_hashes(*, session: Session) -> set[str]:
     """SHA-256 of every blob some row refers to."""
     refs = set(session.scalars(select(RecordingFile.sha256)))
+    refs |= set(session.scalars(select(ResultBlob.sha256)))
     for column in (
         RobotRecord.urdf_sha256,
         RobotRecord.mjcf_sha256,
@@ -707,10 +712,16 @@ def store_result(
     arrays: dict[str, Any] | None = None,
     template: dict[str, Any] | None = None,
     message: str = "done",
+    blobs: BlobStore | None = None,
+    inline_bytes: int | None = None,
 ) -> bool:
     """Store a job's result and mark it succeeded, in one transaction.
 
-    A job that was cancelled (or failed) meanwhile keeps its state and gets no result.
+    A job that was cancelled (or failed) meanwhile keeps its state and gets no result. With
+    ``blobs`` and ``inline_bytes``, a result whose JSON is larger than ``inline_bytes`` goes to
+    the file store and the row keeps a reference (a ``ResultBlob`` keeps the file referenced);
+    rows loaded through a session whose ``info[BLOBS_KEY]`` is the store read it back as if it
+    were in the row.
     """
     job = session.get(JobRecord, job_id, with_for_update=True, populate_existing=True)
     if job is None or job.state in TERMINAL_STATES:
@@ -720,14 +731,65 @@ def store_result(
     if row is None:
         session.rollback()
         return False
-    row.result = json_safe(result)
+    safe = json_safe(result)
     if arrays is not None and hasattr(row, "arrays"):
         row.arrays = encode_arrays(arrays)
     if template is not None and hasattr(row, "template"):
         row.template = json_safe(template)
     _succeed(job, message)
-    session.commit()
+    text = None if blobs is None or inline_bytes is None else _json_bytes(safe)
+    if text is None or len(text) <= inline_bytes:  # type: ignore[operator]
+        row.result = safe
+        session.commit()
+        return True
+    assert blobs is not None
+    with blobs.lock:  # put and commit together: a clean-up between them would drop the file
+        sha = blobs.put(text)
+        row.result = {RESULT_BLOB_KEY: sha, "bytes": len(text)}
+        session.merge(ResultBlob(job_id=job_id, sha256=sha, size=len(text)))
+        try:
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
     return True
+
+
+def _json_bytes(value: Any) -> bytes:
+    return json.dumps(value, separators=(",", ":"), allow_nan=False).encode("utf-8")
+
+
+#: ``Session.info`` key of the file store that results too large for their row are read from.
+BLOBS_KEY = "bioplan_blobs"
+
+
+def _inflate(target: Any, context: Any, attrs: Any = None) -> None:
+    """A result row whose ``result`` is a reference to the file store gets its result back
+    (as if it had been in the row), without marking the row changed."""
+    ref = target.__dict__.get("result")
+    if not (isinstance(ref, dict) and RESULT_BLOB_KEY in ref):
+        return
+    session = getattr(context, "session", None)
+    blobs = None if session is None else session.info.get(BLOBS_KEY)
+    if not isinstance(blobs, BlobStore):
+        raise RuntimeError(
+            f"the result of job {target.id} is kept in the file store, and this session has no "
+            f"file store (Session.info[{BLOBS_KEY!r}])"
+        )
+    set_committed_value(target, "result", json.loads(blobs.get(str(ref[RESULT_BLOB_KEY]))))
+
+
+for _model in set(RESULT_MODELS.values()):
+    event.listen(_model, "load", _inflate)
+    event.listen(_model, "refresh", _inflate)
+
+
+def count_jobs(*, session: Session, state: str | None = None) -> int:
+    """How many jobs there are (in ``state``)."""
+    stmt = select(func.count(JobRecord.id))
+    if state is not None:
+        stmt = stmt.where(JobRecord.state == state)
+    return int(session.scalar(stmt) or 0)
 
 
 def active_jobs(*, session: Session) -> list[JobRecord]:

@@ -1,4 +1,6 @@
-"""One server per data directory: an inter-process lock on ``<data_dir>/bioplan.lock``.
+"""One server per data directory (an inter-process lock on ``<data_dir>/bioplan.lock``) and one
+server per database (:func:`lock_database`: a claim on the database itself, so two servers on
+different data directories sharing one ``BIOPLAN_DATABASE_URL`` cannot both run).
 
 Two servers on one data directory corrupt each other: the second's start-up cleanup removes
 files the first has written but not yet committed, and it re-runs the first's running jobs. The
@@ -18,7 +20,9 @@ import contextlib
 import errno
 import fcntl
 import os
+import socket
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -109,3 +113,152 @@ def _read_pid(fd: int) -> int | None:
     with contextlib.suppress(OSError, ValueError):
         return int(os.pread(fd, 32, 0).decode().strip())
     return None
+
+
+# ------------------------------------------------------------------------------ database claim
+
+#: The PostgreSQL advisory lock key of "the server of this database" (``b"bioplan"``).
+PG_LOCK_KEY = 0x62696F706C616E
+
+_db_held: dict[str, list[object]] = {}  # database key -> [release callable, holders]
+
+
+class DatabaseBusyError(DataDirError):
+    """Another server uses this database (from another data directory, or another machine)."""
+
+
+@dataclass(frozen=True)
+class DatabaseLock:
+    """A hold on a database's claim; :meth:`release` once (the last one in the process frees
+    it)."""
+
+    key: str
+
+    def release(self) -> None:
+        with _guard:
+            entry = _db_held.get(self.key)
+            if entry is None:
+                return
+            entry[1] = int(entry[1]) - 1  # type: ignore[call-overload]
+            if entry[1] == 0:
+                del _db_held[self.key]
+                free = entry[0]
+                assert callable(free)
+                with contextlib.suppress(Exception):
+                    free()
+
+
+def _holder_line(data_dir: Path | None) -> str:
+    where = f" serving {data_dir.resolve()}" if data_dir is not None else ""
+    return f"pid {os.getpid()} on {socket.gethostname()}{where}"
+
+
+def lock_database(url: str, *, data_dir: Path | None = None) -> DatabaseLock:
+    """Claim the database for this server (or share the claim, within this process).
+
+    Two servers on one database, even from different data directories, re-run and fail each
+    other's running jobs. SQLite: an exclusive ``flock`` on ``<database>.server.lock`` beside
+    the database file, which names its holder. PostgreSQL: a session-level advisory lock
+    (``pg_try_advisory_lock``) held by one connection for the server's life, whose
+    ``application_name`` names its holder. The claim goes with the process, even a SIGKILLed
+    one (the kernel closes the descriptor; PostgreSQL ends the session). Other databases (and
+    in-memory SQLite) are not claimed.
+
+    Raises:
+        DatabaseBusyError: another server holds it; the message names that server.
+    """
+    from sqlalchemy.engine import make_url
+
+    parsed = make_url(url)
+    backend = parsed.get_backend_name()
+    if backend == "sqlite":
+        database = parsed.database or ""
+        if not database or database == ":memory:" or database.startswith("file:"):
+            return DatabaseLock("")
+        key = f"sqlite:{Path(database).resolve()}"
+    elif backend == "postgresql":
+        key = parsed.render_as_string(hide_password=True)
+    else:
+        return DatabaseLock("")
+    with _guard:
+        entry = _db_held.get(key)
+        if entry is not None:
+            entry[1] = int(entry[1]) + 1  # type: ignore[call-overload]
+            return DatabaseLock(key)
+        if backend == "sqlite":
+            free = _claim_sqlite(Path(database).resolve(), data_dir)
+        else:
+            free = _claim_postgres(url, key, data_dir)
+        _db_held[key] = [free, 1]
+        return DatabaseLock(key)
+
+
+def _claim_sqlite(database: Path, data_dir: Path | None) -> Callable[[], None]:
+    path = database.with_name(database.name + ".server.lock")
+    try:
+        database.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    except OSError:  # a folder we cannot write: the database cannot be written either
+        return lambda: None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = ""
+        with contextlib.suppress(OSError):
+            holder = os.pread(fd, 512, 0).decode(errors="replace").strip()
+        os.close(fd)
+        who = holder or "another process"
+        raise DatabaseBusyError(
+            f"the database {database} is in use by another server ({who}): one server per "
+            "database; stop it, or give this one its own database (BIOPLAN_DATABASE_URL)"
+        ) from None
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{_holder_line(data_dir)}\n".encode(), 0)
+
+    def free() -> None:
+        os.close(fd)
+
+    return free
+
+
+def _claim_postgres(url: str, shown: str, data_dir: Path | None) -> Callable[[], None]:
+    from sqlalchemy import create_engine, text
+    from sqlalchemy.pool import NullPool
+
+    name = f"bioplan {_holder_line(data_dir)}"[:63]
+    engine = create_engine(url, poolclass=NullPool, connect_args={"application_name": name})
+    conn = engine.connect()
+    try:
+        got = conn.execute(text("SELECT pg_try_advisory_lock(:k)"), {"k": PG_LOCK_KEY}).scalar()
+        conn.commit()
+        if not got:
+            row = conn.execute(
+                text(
+                    "SELECT a.application_name, a.client_addr, a.pid FROM pg_locks l "
+                    "JOIN pg_stat_activity a ON a.pid = l.pid WHERE l.locktype = 'advisory' "
+                    "AND l.granted AND l.classid = :hi AND l.objid = :lo AND l.database = "
+                    "(SELECT oid FROM pg_database WHERE datname = current_database())"
+                ),
+                {"hi": PG_LOCK_KEY >> 32, "lo": PG_LOCK_KEY & 0xFFFFFFFF},
+            ).first()
+            who = "another server"
+            if row is not None:
+                client = row[1] or "a local socket"
+                who = f"{row[0] or 'a client'} (connection from {client}, backend {row[2]})"
+            raise DatabaseBusyError(
+                f"the database {shown} is in use by {who}: one server per database; stop it, "
+                "or give this one its own database (BIOPLAN_DATABASE_URL)"
+            )
+    except BaseException:
+        conn.close()
+        engine.dispose()
+        raise
+
+    def free() -> None:
+        try:
+            conn.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": PG_LOCK_KEY})
+        finally:
+            conn.close()
+            engine.dispose()
+
+    return free

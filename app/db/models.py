@@ -315,6 +315,22 @@ class Profiles(_ResultMixin, Base):
     job: Mapped[JobRecord] = relationship()
 
 
+class ResultBlob(Base):
+    """A job result too large for its row, kept in the file store: the row's ``result`` holds
+    ``{RESULT_BLOB_KEY: sha256, "bytes": n}`` and this row keeps the blob referenced (read back
+    transparently: ``app.db.crud``)."""
+
+    __tablename__ = "result_blobs"
+
+    job_id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    sha256: Mapped[str] = mapped_column(String(64), index=True)
+    size: Mapped[int] = mapped_column(BigInteger)
+
+
+#: The key of a result row's reference to its result in the file store.
+RESULT_BLOB_KEY = "$result_blob"
+
+
 RESULT_MODELS: dict[
     str,
     type[Analysis]

@@ -35,6 +35,7 @@ import contextlib
 import logging
 import os
 import queue
+import resource
 import signal
 import threading
 import time
@@ -147,6 +148,46 @@ class JobRunner(ABC):
 # ------------------------------------------------------------------------------------ local
 
 
+def _address_space() -> int:
+    """This process's virtual memory now [bytes] (``VmSize``)."""
+    with open("/proc/self/status", encoding="ascii") as status:
+        for line in status:
+            if line.startswith("VmSize:"):
+                return int(line.split()[1]) * 1024
+    return 0  # pragma: no cover - every Linux has VmSize
+
+
+def limit_memory(memory_mb: float | None) -> None:
+    """Refuse this process more than ``memory_mb`` of address space beyond what it has now
+    (``RLIMIT_AS``: an allocation past it fails with ``MemoryError``; children inherit it)."""
+    if memory_mb is None:
+        return
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    limit = _address_space() + int(memory_mb * 1024 * 1024)
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+
+
+def out_of_memory(memory_mb: float | None) -> str:
+    """The ``error`` of a job that passed its memory limit."""
+    return (
+        f"ran out of memory: the job needed more than {memory_mb:g} MB beyond its start "
+        f"(BIOPLAN_JOB_MEMORY_MB={memory_mb:g})"
+    )
+
+
+#: What a failed allocation says when it is not a ``MemoryError``: a C++ library's
+#: ``std::bad_alloc``, a shared library that cannot be mapped, an ``ENOMEM``.
+_MEMORY_WORDS = ("bad_alloc", "failed to map segment", "cannot allocate memory")
+
+
+def _is_memory_error(exc: BaseException) -> bool:
+    """``MemoryError``, or another type that says an allocation failed."""
+    text = str(exc).lower()
+    return isinstance(exc, MemoryError) or any(word in text for word in _MEMORY_WORDS)
+
+
 def _child_main(
     target: Target,
     job_id: int,
@@ -154,6 +195,7 @@ def _child_main(
     payload: dict[str, Any],
     conn: Any,
     server_pid: int,
+    memory_mb: float | None = None,
 ) -> None:
     """Body of a local job process: run the target, send progress and the outcome."""
     fork_server = os.getppid()
@@ -163,6 +205,7 @@ def _child_main(
     die_with_parent(fork_server)
     if not _alive(server_pid):  # the server died before the fork server could take us along
         os.killpg(0, signal.SIGKILL)
+    limit_memory(memory_mb)
     last = [0.0]
 
     def progress(update: Progress) -> None:
@@ -177,8 +220,13 @@ def _child_main(
         result = target(kind, payload, progress)
         conn.send(("result", result))
     except BaseException as exc:
-        logger.error("job %d (%s) failed:\n%s", job_id, kind, traceback.format_exc())
-        conn.send(("error", describe_error(exc)))
+        if memory_mb is not None and _is_memory_error(exc):
+            del exc  # let go of the frames that hold the memory before saying so
+            logger.error("job %d (%s) %s", job_id, kind, out_of_memory(memory_mb))
+            conn.send(("error", out_of_memory(memory_mb)))
+        else:
+            logger.error("job %d (%s) failed:\n%s", job_id, kind, traceback.format_exc())
+            conn.send(("error", describe_error(exc)))
     finally:
         conn.close()
 
@@ -262,6 +310,8 @@ class LocalRunner(JobRunner):
         preload: modules the fork server imports once, so forked jobs start warm.
         time_limit: wall-clock seconds a job may run before it is stopped and failed with
             "time limit" (None: no limit).
+        memory_mb: memory [MB] each job process may take beyond what it starts with
+            (``RLIMIT_AS``; None: no limit); past it the job fails with "ran out of memory".
     """
 
     executor = "local"
@@ -273,6 +323,7 @@ class LocalRunner(JobRunner):
         target: Target | None = None,
         preload: tuple[str, ...] = ("app.jobs._preload",),
         time_limit: float | None = None,
+        memory_mb: float | None = None,
     ) -> None:
         import multiprocessing as mp
 
@@ -280,6 +331,7 @@ class LocalRunner(JobRunner):
             raise ValueError(f"max_workers must be >= 1, got {max_workers}")
         self.max_workers = max_workers
         self.time_limit = time_limit
+        self.memory_mb = memory_mb
         self._target = target or _default_target()
         self._ctx = mp.get_context("forkserver")
         # The fork server first ties its life to the server's, then imports what jobs need.
@@ -385,7 +437,15 @@ class LocalRunner(JobRunner):
             reader, writer = self._ctx.Pipe(duplex=False)
             proc = self._ctx.Process(
                 target=_child_main,
-                args=(self._target, job.job_id, job.kind, job.payload, writer, os.getpid()),
+                args=(
+                    self._target,
+                    job.job_id,
+                    job.kind,
+                    job.payload,
+                    writer,
+                    os.getpid(),
+                    self.memory_mb,
+                ),
                 name=f"bioplan-job-{job.job_id}",
                 daemon=False,  # a sweep may start its own worker pool
             )
@@ -691,11 +751,16 @@ class DaskRunner(JobRunner):
 
 
 def make_runner(
-    executor: str, *, max_workers: int = 2, time_limit: float | None = None
+    executor: str,
+    *,
+    max_workers: int = 2,
+    time_limit: float | None = None,
+    memory_mb: float | None = None,
 ) -> JobRunner:
     """The runner for a ``Settings.executor`` value (``local`` or ``dask://HOST:PORT``);
-    ``time_limit`` [s] applies to the local executor (a Dask cluster has its own)."""
+    ``time_limit`` [s] and ``memory_mb`` apply to the local executor (a Dask cluster has its
+    own: its workers' ``memory_limit``)."""
     if executor == "local":
-        return LocalRunner(max_workers, time_limit=time_limit)
+        return LocalRunner(max_workers, time_limit=time_limit, memory_mb=memory_mb)
     address = executor.replace("dask://", "tcp://", 1)
     return DaskRunner(address)

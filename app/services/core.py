@@ -19,20 +19,21 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.config import Settings
 from app.db import crud
 from app.db.blobs import BlobStore
-from app.db.lock import DataDirLock, lock_data_dir
+from app.db.lock import DatabaseLock, DataDirLock, lock_data_dir, lock_database
 from app.db.session import make_engine, make_sessionmaker, upgrade
 from app.jobs.runner import JobRunner, make_runner
 from app.services import sandbox
-from app.services.broker import JobBroker
+from app.services.broker import JobBroker, StreamLimits
 from app.services.cache import ResponseCache
 from app.services.comparisons import ComparisonLoader
 from app.services.human_replay import HumanReplayLoader
 from app.services.jobs import JobService
 from app.services.limits import JobLimits
 from app.services.overlays import RecordingOverlays
-from app.services.robots import RobotCatalog
+from app.services.robots import RobotCatalog, mesh_limits
 from app.services.sandbox import ParseSandbox
 from app.viewer.access import ViewerAccess
+from app.viewer.kinematics import use_mesh_limits
 from app.viewer.scene import PreparedCache
 from app.viewer.server import ViewerServer
 
@@ -58,6 +59,9 @@ class Services:
             page (kept in memory, most recently used first).
         viewer: the 3-D viewer, once started.
         data_lock: this server's hold on its data directory (one server per folder).
+        db_lock: this server's claim on its database (one server per database, whatever
+            its data directory).
+        streams: the caps on open event streams (``BIOPLAN_MAX_STREAMS*``, idle timeout).
         recordings_cache: cached ``GET /api/recordings`` pages.
         parse_slots: uploads parsed at once (``BIOPLAN_MAX_PARALLEL_PARSES``); the others wait
             their turn, so a burst of large uploads cannot take every worker thread from reads.
@@ -76,6 +80,8 @@ class Services:
     comparisons: PreparedCache
     viewer: ViewerServer | None = None
     data_lock: DataDirLock | None = None
+    db_lock: DatabaseLock | None = None
+    streams: StreamLimits = field(default_factory=StreamLimits)
     recordings_cache: ResponseCache = field(default_factory=ResponseCache)
     parse_slots: threading.BoundedSemaphore = field(
         default_factory=lambda: threading.BoundedSemaphore(2)
@@ -126,10 +132,19 @@ def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Se
     """
     data_lock = lock_data_dir(settings.data_dir)  # before anything touches the folder
     try:
-        return _start(settings, runner, data_lock)
+        # Before migrating or recovering: another server on this database owns its jobs.
+        db_lock = lock_database(settings.db_url, data_dir=settings.data_dir)
     except BaseException:
         data_lock.release()
         raise
+    try:
+        services = _start(settings, runner, data_lock)
+    except BaseException:
+        db_lock.release()
+        data_lock.release()
+        raise
+    services.db_lock = db_lock
+    return services
 
 
 def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock) -> Services:
@@ -137,6 +152,8 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
     engine = make_engine(settings.db_url)
     sessions = make_sessionmaker(engine)
     blobs = BlobStore(settings.blob_dir)
+    # Results kept in the file store are read back through the session (``crud``'s load hook).
+    sessions.configure(info={crud.BLOBS_KEY: blobs})
     with sessions() as session:
         removed = crud.collect_garbage(session=session, blobs=blobs)
     if removed:
@@ -151,6 +168,7 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
             settings.executor,
             max_workers=settings.max_workers,
             time_limit=settings.job_time_limit_s,
+            memory_mb=settings.job_memory_mb,
         ),
         limits=JobLimits.from_settings(settings),
         broker=broker,
@@ -158,12 +176,15 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
         max_attempts=settings.job_max_attempts,
         max_video_seconds=settings.max_video_seconds,
         scratch_dir=settings.data_dir / "scratch" if settings.executor == "local" else None,
+        max_queued=settings.max_queued,
+        inline_result_bytes=int(settings.result_inline_kb * 1024),
     )
     jobs.start()
     # Uploads are read in a child process with limits from now on (after the runner set the
     # fork server's preload, so the child starts with the readers imported).
     parse_sandbox = ParseSandbox(memory_mb=settings.parse_memory_mb, seconds=settings.parse_seconds)
     sandbox.use(parse_sandbox)
+    use_mesh_limits(mesh_limits(settings))  # the viewer never parses a mesh past them
     return Services(
         settings=settings,
         engine=engine,
@@ -179,11 +200,18 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
         data_lock=data_lock,
         parse_slots=threading.BoundedSemaphore(settings.max_parallel_parses),
         parse_sandbox=parse_sandbox,
+        streams=StreamLimits(
+            total=settings.max_streams,
+            per_client=settings.max_streams_per_client,
+            idle_s=settings.stream_idle_s,
+        ),
     )
 
 
 def stop_services(services: Services) -> None:
-    """Stop the viewer and the jobs (running ones go back to the queue), close the database."""
+    """End the event streams, stop the viewer and the jobs (running ones go back to the
+    queue), close the database."""
+    services.broker.close_all()
     if services.parse_sandbox is not None:
         sandbox.release(services.parse_sandbox)
     if services.viewer is not None:
@@ -191,5 +219,8 @@ def stop_services(services: Services) -> None:
         services.viewer = None
     services.jobs.close()
     services.engine.dispose()
+    if services.db_lock is not None:
+        services.db_lock.release()
+        services.db_lock = None
     if services.data_lock is not None:
         services.data_lock.release()

@@ -13,6 +13,10 @@ Restart semantics (``recover``, run at start-up before requests are served): a j
 is run again while it has attempts left (``max_attempts`` starts in all), otherwise marked
 ``failed`` with the reason. A graceful shutdown kills running jobs and puts them back to
 ``queued`` without spending an attempt, so they run at the next start. No job stays ``running``.
+
+Bounds: at most ``max_queued`` jobs wait at once; a submission beyond it is refused
+(:class:`QueueFullError`, 429 with ``Retry-After``) before anything is stored. A result whose
+JSON is larger than ``inline_result_bytes`` is kept in the file store (``crud.store_result``).
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ from app.jobs.runner import JobEvent, JobRunner
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
 from app.services import recordings
 from app.services.broker import JobBroker
-from app.services.errors import ConflictError, NotFoundError
+from app.services.errors import ConflictError, NotFoundError, ServiceError
 from app.services.limits import JobLimits
 from app.services.robots import RobotCatalog
 
@@ -146,6 +150,23 @@ def _progress_columns(ev: JobEvent) -> dict[str, Any]:
 
 _STOP = object()
 
+#: Seconds a client refused for a full queue is told to wait.
+QUEUE_RETRY_AFTER = 30
+
+
+class QueueFullError(ServiceError):
+    """Too many jobs wait already: the submission is refused, nothing is stored (429)."""
+
+    status = 429
+    title = "Too Many Requests"
+
+    def __init__(self, limit: int) -> None:
+        super().__init__(
+            f"the job queue is full: {limit} jobs are waiting, the limit "
+            f"(BIOPLAN_MAX_QUEUED={limit}); nothing was stored: retry in a while"
+        )
+        self.headers = {"Retry-After": str(QUEUE_RETRY_AFTER)}
+
 
 class JobService:
     """Submits, tracks, cancels and recovers jobs.
@@ -161,6 +182,9 @@ class JobService:
         max_video_seconds: longest video a pose job turns into landmarks [s].
         scratch_dir: folder for pose jobs' temporary copies of videos (None: the system's
             temporary folder; a local executor gets one in the data folder).
+        max_queued: jobs waiting at once (None: no bound); more are refused.
+        inline_result_bytes: largest result JSON kept in the database row; larger ones go to
+            the file store (None: always in the row).
     """
 
     def __init__(
@@ -176,8 +200,13 @@ class JobService:
         max_video_seconds: float = MAX_VIDEO_SECONDS,
         scratch_dir: Path | None = None,
         limits: JobLimits | None = None,
+        max_queued: int | None = None,
+        inline_result_bytes: int | None = None,
     ) -> None:
         self.sessions = sessions
+        self.max_queued = max_queued
+        self.inline_result_bytes = inline_result_bytes
+        self._submitting = threading.Lock()
         self.limits = limits or JobLimits()
         self.blobs = blobs
         self.runner = runner
@@ -231,16 +260,24 @@ class JobService:
         resource: dict[str, Any],
         label: str | None = None,
         left_out: Collection[str] = (),
+        bounded: bool = True,
     ) -> dict[str, Any]:
         """Create a queued job (and its result row) and hand it to the runner; ``label`` is
         the user's name for its result; ``left_out`` names the fields the request did not give
-        (their defaults are lowered to the server's caps, ``JobLimits.fit``).
+        (their defaults are lowered to the server's caps, ``JobLimits.fit``); ``bounded``
+        False skips the queue bound (a follow-up job the server starts itself).
 
         Raises:
             ServiceError: the request asks for more work than a configured limit allows.
+            QueueFullError: ``max_queued`` jobs are waiting already (nothing stored).
         """
         params = self.limits.fit(params, left_out)
-        with self.sessions() as session:
+        # One submission at a time counts and inserts: the bound holds under a burst (and one
+        # server owns its database: ``app.db.lock.lock_database``).
+        with self._submitting, self.sessions() as session:
+            limit = self.max_queued if bounded else None
+            if limit is not None and crud.count_jobs(session=session, state="queued") >= limit:
+                raise QueueFullError(limit)
             job = crud.create_job(
                 session=session, kind=kind, params=params, resource=resource, label=label
             )
@@ -454,6 +491,8 @@ class JobService:
                         result=out["result"],
                         arrays=out.get("arrays"),
                         template=out.get("template"),
+                        blobs=self.blobs,
+                        inline_bytes=self.inline_result_bytes,
                     )
         except Exception as exc:
             logger.exception("cannot store the result of job %d", ev.job_id)
@@ -473,7 +512,12 @@ class JobService:
         except BioPlanError as exc:
             logger.info("recording %d not analysed after its pose job: %s", recording_id, exc)
             return
-        self.submit(kind="analysis", params=params, resource={"recording_id": recording_id})
+        self.submit(
+            kind="analysis",
+            params=params,
+            resource={"recording_id": recording_id},
+            bounded=False,
+        )
 
     def _write_again(self, events: list[JobEvent]) -> list[JobEvent]:
         """Write the ends a full disk refused, in order; returns those still refused."""

@@ -120,14 +120,20 @@ export function followJob(job, onUpdate) {
     source.addEventListener("progress", (e) => handle(e, false));
     source.addEventListener("done", (e) => handle(e, true));
     source.onerror = async () => {
-      // The stream broke (server restart, proxy): fall back to one read of the job.
-      if (stopped || source.readyState !== EventSource.CLOSED) return;
-      try {
-        const now = await api(`/api/jobs/${job.id}`);
-        onUpdate(now);
-        if (isTerminal(now.state)) resolve(now);
-      } catch {
-        /* keep the last state shown */
+      // An ended stream (idle, a server restart) is reopened by the browser itself. A refused
+      // one (429: too many streams, a proxy) is closed: read the job every few seconds instead.
+      while (!stopped && source.readyState === EventSource.CLOSED) {
+        try {
+          const now = await api(`/api/jobs/${job.id}`);
+          onUpdate(now);
+          if (isTerminal(now.state)) {
+            resolve(now);
+            return;
+          }
+        } catch {
+          /* keep the last state shown */
+        }
+        await new Promise((wake) => setTimeout(wake, 3000));
       }
     };
   });

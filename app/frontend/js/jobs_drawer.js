@@ -11,6 +11,8 @@ const OPEN_KEY = "bioplan.drawer.open";
 const RECENT = 20;
 /** Seconds between polls when the stream cannot be used (a proxy, reads needing a token). */
 const POLL_SECONDS = 5;
+/** Seconds before a refused job stream is tried again (polling meanwhile). */
+const RETRY_STREAM_SECONDS = 60;
 
 const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", simulation: "Simulation", sweep: "Sweep", profiles: "Profiles" };
 
@@ -18,7 +20,7 @@ const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", 
 export function resultLink(job) {
   if (job.kind === "plan" || job.kind === "simulation") return [`#/compare/${job.kind}/${job.id}`, "Compare"];
   if ((job.kind === "analysis" || job.kind === "pose") && job.recording_id) return [`#/recordings/${job.recording_id}`, "Recording"];
-  if (job.kind === "sweep") return ["#/compare", "Heat maps"];
+  if (job.kind === "sweep") return [`#/compare?sweep=${job.id}`, "Heat maps"];
   return null;
 }
 
@@ -29,7 +31,8 @@ function jobItem(job, onCancel) {
   const detail = job.state === "failed" ? job.error : job.state === "succeeded" ? null : job.message;
   return h("li", { class: `job-item ${job.state}`, dataset: { jobId: String(job.id), state: job.state } },
     h("div", { class: "row" },
-      h("strong", {}, `${KIND_WORDS[job.kind] || job.kind} #${job.id}`), tag(job.state),
+      h("strong", {}, `${KIND_WORDS[job.kind] || job.kind} #${job.id}`),
+      job.label ? h("span", { class: "job-label", title: "the job's label" }, `“${job.label}”`) : null, tag(job.state),
       h("span", { class: "small muted", style: "margin-left:auto" }, active ? (job.run_seconds === null ? "waiting" : `${fmt(job.run_seconds, 3)} s`) : when(job.finished_at))),
     h("div", { class: "small mono" }, job.about),
     active ? h("div", { class: "progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": String(pctDone) },
@@ -37,6 +40,8 @@ function jobItem(job, onCancel) {
     detail ? h("div", { class: `small ${job.state === "failed" ? "error-text" : "muted"}` }, detail) : null,
     h("div", { class: "row" },
       link ? h("a", { class: "job-open", href: link[0] }, `${link[1]} →`) : null,
+      // A running plan: its progress and convergence curve on the Plan page.
+      active && (job.kind === "plan" || job.kind === "simulation") ? h("a", { class: "job-follow", href: `#/plan?job=${job.id}` }, "Progress →") : null,
       job.kind === "analysis" && job.state === "succeeded" ? h("a", { href: `#/plan?analysis=${job.id}` }, "Use template") : null,
       active ? h("button", { type: "button", class: "danger small job-cancel", style: "margin-left:auto", onclick: (e) => onCancel(job, e.currentTarget) }, "Cancel") : null));
 }
@@ -58,6 +63,12 @@ export function mountJobDrawer(button, drawer) {
     localStorage.setItem(OPEN_KEY, open ? "1" : "0");
   }
   button.addEventListener("click", () => setOpen(drawer.hidden));
+  // Escape closes it (focus back on the button that opens it).
+  document.addEventListener("keydown", (e) => {
+    if (e.key !== "Escape" || drawer.hidden) return;
+    setOpen(false);
+    button.focus();
+  });
   setOpen(localStorage.getItem(OPEN_KEY) === "1");
 
   async function cancel(job, btn) {
@@ -77,6 +88,10 @@ export function mountJobDrawer(button, drawer) {
     const shown = running.concat(sorted.filter((j) => isTerminal(j.state)).slice(0, RECENT));
     clear(list).append(...shown.map((j) => jobItem(j, cancel)));
     if (!shown.length) list.append(h("li", { class: "muted small" }, "No jobs yet: analyses, plans, simulations and sweeps appear here while they run."));
+    if (String(running.length) !== (count.textContent || "0")) {
+      // The header's status line says how many run: it reads them again at once.
+      document.dispatchEvent(new CustomEvent("bioplan:jobs", { detail: { active: running.length } }));
+    }
     count.textContent = running.length ? String(running.length) : "";
     count.hidden = !running.length;
     button.title = running.length ? `${running.length} job(s) running` : "No job running";
@@ -85,7 +100,7 @@ export function mountJobDrawer(button, drawer) {
   function upsert(job) {
     const { params, ...rest } = job; // a full Job from a cancel: the drawer keeps the summary form
     const old = jobs.get(job.id);
-    jobs.set(job.id, { ...old, ...rest, about: rest.about ?? old?.about ?? "", recording_id: rest.recording_id ?? old?.recording_id ?? params?.recording_id ?? null });
+    jobs.set(job.id, { ...old, ...rest, about: rest.about ?? old?.about ?? "", label: rest.label ?? old?.label ?? null, recording_id: rest.recording_id ?? old?.recording_id ?? params?.recording_id ?? null });
     render();
   }
 
@@ -111,11 +126,16 @@ export function mountJobDrawer(button, drawer) {
     });
     source.addEventListener("job", (e) => upsert(JSON.parse(e.data)));
     source.onerror = () => {
-      // The browser reconnects by itself unless the server refused the stream (then: poll).
-      if (source.readyState === EventSource.CLOSED && !poll) {
-        note.textContent = "Live updates are unavailable; refreshed every few seconds.";
-        pollOnce();
-        poll = setInterval(pollOnce, POLL_SECONDS * 1000);
+      // The browser reconnects by itself when the stream ends (the server ends an idle one
+      // after BIOPLAN_STREAM_IDLE_S) unless the server refused it (429: too many streams):
+      // then poll, and try the stream again a minute later.
+      if (source.readyState === EventSource.CLOSED) {
+        if (!poll) {
+          note.textContent = "Live updates are unavailable; refreshed every few seconds.";
+          pollOnce();
+          poll = setInterval(pollOnce, POLL_SECONDS * 1000);
+        }
+        setTimeout(connect, RETRY_STREAM_SECONDS * 1000);
       }
     };
   }

@@ -1,0 +1,125 @@
+"""Security finding 10 against a real ``bioplan serve``: a job past ``BIOPLAN_JOB_MEMORY_MB``
+fails with "ran out of memory" while the server goes on; at most ``BIOPLAN_MAX_QUEUED`` jobs
+wait (then 429 with ``Retry-After``, nothing stored); a result larger than
+``BIOPLAN_RESULT_INLINE_KB`` is kept in the file store and read back as if it were in its row,
+also after a restart (the start-up clean-up keeps its file)."""
+
+from __future__ import annotations
+
+import sqlite3
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+from tests.utils.server import Server
+
+TINY = {
+    "robot": "human_arm_2dof",
+    "particles": 8,
+    "iterations": 5,
+    "methods": ["quintic", "paper"],
+}
+#: A plan that runs long enough to stay running while others queue.
+LONG = {**TINY, "robot": "curtain_wall_6dof", "particles": 400, "iterations": 2000}
+#: A plan whose optimal control needs far more than 16 MB (CasADi, IPOPT, 2000 samples).
+HEAVY = {
+    "robot": "curtain_wall_6dof",
+    "particles": 8,
+    "iterations": 5,
+    "n_samples": 2000,
+    "methods": ["quintic", "paper", "bound"],
+}
+MAX_QUEUED = 2
+
+
+def _wait(server: Server, job_id: int, states: set[str], deadline_s: float = 300.0) -> Any:
+    deadline = time.monotonic() + deadline_s
+    while True:
+        job = server.get(f"/api/jobs/{job_id}")
+        if job["state"] in states:
+            return job
+        assert time.monotonic() < deadline, f"job {job_id} is still {job['state']}"
+        time.sleep(0.3)
+
+
+def _stored(data_dir: Path, sql: str, *args: Any) -> list[tuple[Any, ...]]:
+    with sqlite3.connect(data_dir / "bioplan.db") as db:
+        return list(db.execute(sql, args))
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    s = Server(
+        tmp_path_factory.mktemp("bounds") / "data",
+        BIOPLAN_MAX_WORKERS="1",
+        BIOPLAN_MAX_QUEUED=str(MAX_QUEUED),
+        BIOPLAN_RESULT_INLINE_KB="1",
+        BIOPLAN_JOB_MEMORY_MB="16",
+    )
+    s.start()
+    try:
+        yield s
+    finally:
+        s.cleanup()
+
+
+def test_a_job_past_its_memory_limit_fails_and_the_server_goes_on(server: Server) -> None:
+    response = server.post("/api/plans", json=HEAVY)
+    assert response.status_code == 202, response.text
+    job = _wait(server, response.json()["id"], {"succeeded", "failed"})
+    assert job["state"] == "failed"
+    assert "ran out of memory" in job["error"]
+    assert "BIOPLAN_JOB_MEMORY_MB=16" in job["error"]
+    assert httpx.get(server.url + "/api/health", timeout=60).status_code == 200
+    assert server.proc is not None and server.proc.poll() is None
+
+
+def test_a_large_result_round_trips_through_the_file_store(server: Server) -> None:
+    response = server.post("/api/plans", json=TINY)
+    assert response.status_code == 202, response.text
+    job_id = response.json()["id"]
+    assert _wait(server, job_id, {"succeeded", "failed"})["state"] == "succeeded"
+    served = server.get(f"/api/plans/{job_id}")
+    assert served["result"]["motion"]["methods"], served  # the whole result, as before
+    # Stored as a reference to a file, not in the row.
+    [(row,)] = _stored(server.data_dir, "SELECT result FROM plans WHERE id = ?", job_id)
+    assert "$result_blob" in row and len(row) < 300
+    [(sha, size)] = _stored(
+        server.data_dir, "SELECT sha256, size FROM result_blobs WHERE job_id = ?", job_id
+    )
+    blob = server.data_dir / "blobs" / sha[:2] / sha
+    assert blob.is_file() and blob.stat().st_size == size > 1024
+    print(f"plan result: {size} bytes in the file store, {len(row)} bytes in its row")
+
+
+def test_the_queue_is_bounded(server: Server) -> None:
+    before = server.get("/api/jobs?limit=1")["total"]
+    running = server.post("/api/plans", json=LONG).json()["id"]
+    _wait(server, running, {"running"})
+    queued = [server.post("/api/plans", json=TINY) for _ in range(MAX_QUEUED)]
+    assert [r.status_code for r in queued] == [202] * MAX_QUEUED
+    refused = server.post("/api/plans", json=TINY)
+    assert refused.status_code == 429
+    assert int(refused.headers["retry-after"]) >= 1
+    assert refused.headers["content-type"].startswith("application/problem+json")
+    assert f"BIOPLAN_MAX_QUEUED={MAX_QUEUED}" in refused.json()["detail"]
+    # Nothing stored for the refused one.
+    assert server.get("/api/jobs?limit=1")["total"] == before + 1 + MAX_QUEUED
+    for job_id in [running] + [r.json()["id"] for r in queued]:
+        server.post(f"/api/jobs/{job_id}/cancel")
+    # Room again once the queue drains.
+    again = server.post("/api/plans", json=TINY)
+    assert again.status_code == 202, again.text
+    _wait(server, again.json()["id"], {"succeeded", "failed"})
+
+
+def test_a_stored_result_survives_a_restart(server: Server) -> None:
+    [(job_id,)] = _stored(server.data_dir, "SELECT job_id FROM result_blobs LIMIT 1")
+    before = server.get(f"/api/plans/{job_id}")["result"]
+    server.stop()
+    server.start()  # the start-up clean-up removes unreferenced files: this one is referenced
+    assert server.get(f"/api/plans/{job_id}")["result"] == before
