@@ -19,6 +19,7 @@ from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
 from app.errors import BioPlanError
 from app.names import METHODS
+from app.planning.export import public_result
 from app.planning.jsonsafe import json_safe
 from app.services import RobotCatalog, job_to_dict
 
@@ -72,7 +73,7 @@ def result_out(session: Session, kind: str, result_id: int) -> dict[str, Any]:
         "robot": getattr(row, "robot", ""),
         "label": job["label"],
         "job": job,
-        "result": row.result,
+        "result": public_result(row.result),
     }
 
 
@@ -114,7 +115,7 @@ def list_results(
                 "template": getattr(row, "template", None),
                 "label": job.label,
                 "job": job_to_dict(job),
-                "result": row.result,
+                "result": public_result(row.result),
             }
         )
     return items, int(session.scalar(count) or 0)

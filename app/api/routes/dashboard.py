@@ -22,6 +22,7 @@ from app.api.errors import ApiError
 from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath
 from app.errors import BioPlanError
 from app.names import METHODS
+from app.planning.export import public_result
 from app.services import ServiceError, Services
 from app.viewer._text import without_paths
 from app.viewer.comparison import NothingToCompare
@@ -137,7 +138,7 @@ def comparison(
     c = _prepared(services, kind, result_id, methods).comparison
     out = c.summary()
     out["curves"] = c.curves(points=points)
-    out["result"] = c.result
+    out["result"] = public_result(c.result)
     viewer = services.viewer
     out["viewer"] = (
         {

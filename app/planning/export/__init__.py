@@ -28,6 +28,7 @@ from app.planning.export._formats import (
     csv_cell,
     full_arm,
     one_line,
+    public_result,
     public_spec,
 )
 from app.planning.export._motion import (
@@ -65,6 +66,7 @@ __all__ = [
     "one_line",
     "plan_methods",
     "plan_motion",
+    "public_result",
     "public_spec",
     "sample_count",
     "write_export",

@@ -150,6 +150,17 @@ def public_spec(spec: Any) -> dict[str, Any]:
     return out
 
 
+def public_result(result: Any) -> Any:
+    """A stored plan's or simulation's result as the API serves it: its ``motion`` block's
+    robot spec with file names only (the stored one keeps the places it rebuilds from)."""
+    if not isinstance(result, dict) or not isinstance(result.get("motion"), dict):
+        return result
+    motion = result["motion"]
+    if not isinstance(motion.get("robot_spec"), dict):
+        return result
+    return {**result, "motion": {**motion, "robot_spec": public_spec(motion["robot_spec"])}}
+
+
 def write_json(motion: PlanMotion, method: MethodMotion, samples: Samples) -> Iterator[bytes]:
     """The samples with the task, robot, method and metrics (one JSON object)."""
     conditions = dict(motion.conditions)
