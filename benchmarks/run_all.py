@@ -20,6 +20,7 @@ SCRIPTS = (
     ["bench_read.py"],
     ["bench_emg.py"],
     ["bench_analysis.py"],
+    ["bench_cohort.py"],
     ["bench_pose.py"],
     ["bench_simulation.py"],
     ["bench_api.py"],

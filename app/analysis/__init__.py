@@ -5,6 +5,17 @@ A plain library (numpy/scipy; the human arm model from ``app.planning``). ``anal
 work on plain arrays.
 """
 
+from app.analysis.cohort import (
+    CohortError,
+    CohortOptions,
+    CohortResult,
+    RecordingMeasures,
+    cohort_statistics,
+    compare_groups,
+    recording_measures,
+    write_cohort_csv,
+)
+from app.analysis.cohort_plots import write_cohort_plots
 from app.analysis.downsample import minmax_downsample
 from app.analysis.emg import (
     activation_order,
@@ -54,6 +65,9 @@ __all__ = [
     "AnalysisOverlays",
     "AnalysisResult",
     "ArmAngles",
+    "CohortError",
+    "CohortOptions",
+    "CohortResult",
     "Energetics",
     "HumanReplay",
     "Lift",
@@ -65,6 +79,7 @@ __all__ = [
     "PhaseEnergetics",
     "PhaseStats",
     "RecordingAnalysis",
+    "RecordingMeasures",
     "ReplayError",
     "activation_order",
     "analyze_files",
@@ -72,6 +87,8 @@ __all__ = [
     "angles_from_channels",
     "arm_angles",
     "build_template",
+    "cohort_statistics",
+    "compare_groups",
     "detect_emg_lifts",
     "detect_lifts",
     "detect_onsets",
@@ -91,6 +108,7 @@ __all__ = [
     "moving_rms",
     "normalize_amplitude",
     "peak_times",
+    "recording_measures",
     "replay_from_overlays",
     "replay_lift",
     "resample",
@@ -99,4 +117,6 @@ __all__ = [
     "tkeo",
     "two_link_points",
     "write_analysis_plots",
+    "write_cohort_csv",
+    "write_cohort_plots",
 ]
