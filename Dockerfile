@@ -1,10 +1,14 @@
 # One image for the BioPlan API server and for Dask scheduler/workers (docker/compose.yaml).
 #
 #   docker build -t bioplan .
-#   docker run --rm -p 127.0.0.1:8000:8000 -e BIOPLAN_HOST=0.0.0.0 \
+#   docker run --rm -p 127.0.0.1:8000:8000 -p 127.0.0.1:8080:8080 \
+#       -e BIOPLAN_HOST=0.0.0.0 -e BIOPLAN_VIEWER_HOST=0.0.0.0 \
 #       -e BIOPLAN_API_TOKEN=change-me -v bioplan-data:/data bioplan
 #
-# The server refuses to bind to 0.0.0.0 without BIOPLAN_API_TOKEN.
+# The server refuses to bind to 0.0.0.0 without BIOPLAN_API_TOKEN. Port 8000 is the API and the
+# dashboard, 8080 the 3-D viewer (BIOPLAN_VIEWER_PORT). Dependencies are installed at the versions
+# of requirements/lock.txt, and the image has the video environment (MediaPipe 0.10.21 with the
+# pins of requirements/pose.txt) in /opt/pose-env.
 #
 # The application is installed from the wheel built in the first stage, exactly as `pip install`
 # would install it anywhere: the dashboard's pages and the database migrations are inside the
@@ -35,10 +39,12 @@ RUN apt-get update \
     && mkdir -p /data \
     && chown bioplan /data
 
-# Dependencies first, from pyproject.toml alone (cached while only the code changes).
+# Dependencies first, from pyproject.toml and the lock file alone (cached while only the code
+# changes), each at the version requirements/lock.txt pins.
 COPY pyproject.toml /tmp/pyproject.toml
+COPY requirements/lock.txt requirements/pose.txt /tmp/requirements/
 RUN python -c "import tomllib; print('\n'.join(tomllib.load(open('/tmp/pyproject.toml', 'rb'))['project']['dependencies']))" > /tmp/requirements.txt \
-    && pip install -r /tmp/requirements.txt "psycopg[binary]>=3.2" \
+    && pip install -c /tmp/requirements/lock.txt -r /tmp/requirements.txt "psycopg[binary]>=3.2" \
     && rm /tmp/pyproject.toml /tmp/requirements.txt
 
 # The application: the wheel, nothing else from the build context.
@@ -47,12 +53,18 @@ RUN pip install --no-deps /wheels/*.whl \
     && rm -rf /wheels \
     && python -c "import app.main, app.jobs.tasks, distributed"
 
+# The video environment: MediaPipe 0.10.21 needs numpy<2, so it gets its own (venv + pip here,
+# pinned by requirements/pose.txt); `bioplan pose-env` checks that it imports.
+RUN PIP_CONSTRAINT=/tmp/requirements/pose.txt bioplan pose-env /opt/pose-env --verbose \
+    && rm -rf /tmp/requirements
+ENV BIOPLAN_POSE_PYTHON=/opt/pose-env/bin/python
+
 USER bioplan
 WORKDIR /data
 ENV BIOPLAN_DATA_DIR=/data \
     BIOPLAN_PORT=8000
 VOLUME ["/data"]
-EXPOSE 8000
+EXPOSE 8000 8080
 
 HEALTHCHECK --interval=30s --timeout=5s --start-period=30s --retries=3 \
     CMD python -c "import urllib.request, os; urllib.request.urlopen('http://127.0.0.1:' + os.environ.get('BIOPLAN_PORT', '8000') + '/api/health', timeout=4)"

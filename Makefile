@@ -1,8 +1,9 @@
 # BioPlan: two commands do all set-up.  `make run` and `make test` (see README.md).
 #
-# Each environment target below is one rule: a stamp file that is remade when pyproject.toml
-# changes. scripts/install.sh creates the virtual environment and installs into it with uv
-# (pip as the fallback), saying what it does.
+# Each environment target below is one rule: a stamp file that is remade when pyproject.toml or
+# the lock file changes. scripts/install.sh creates the virtual environment and installs into it
+# with uv (pip as the fallback), saying what it does, at the versions pinned in
+# requirements/lock.txt. `make lock` refreshes the pins (scripts/lock.sh says how).
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
@@ -11,33 +12,55 @@ TSTAMP := $(VENV)/.installed-test
 
 export PYTHON
 
-.PHONY: run test install install-test browser lint typecheck pytest bench clean pose-env
+.PHONY: run test install install-test browser lint typecheck pytest bench clean pose-env \
+	pose-env-or-warn lock
+
+LOCK      := requirements/lock.txt
+POSE_LOCK := requirements/pose.txt
 
 # Video to pose runs MediaPipe 0.10.21 in its own environment (it needs numpy<2; BioPlan needs
-# numpy 2). `bioplan pose-env` creates it; BioPlan finds it through BIOPLAN_POSE_PYTHON.
-POSE_ENV   := .venv-pose
+# numpy 2). `bioplan pose-env` creates it, with the uv scripts/uv.sh finds and the pins of
+# requirements/pose.txt; BioPlan finds it through BIOPLAN_POSE_PYTHON.
+POSE_ENV   ?= .venv-pose
 POSE_STAMP := $(POSE_ENV)/.installed
 export BIOPLAN_POSE_PYTHON ?= $(abspath $(POSE_ENV))/bin/python
 
 # ---- environments ---------------------------------------------------------------------------
 
-$(STAMP): pyproject.toml scripts/install.sh
+$(STAMP): pyproject.toml $(LOCK) scripts/install.sh
 	@scripts/install.sh $(VENV) '.'
 	@touch $@
 
-$(TSTAMP): $(STAMP) pyproject.toml
+$(TSTAMP): $(STAMP) pyproject.toml $(LOCK)
 	@scripts/install.sh $(VENV) '.[test]'
 	@touch $@
 
 install: $(STAMP)
 install-test: $(TSTAMP) $(POSE_STAMP)
 
-$(POSE_STAMP): $(STAMP)
+# Remade when its pins change (the main environment only has to exist: its bioplan makes it).
+$(POSE_STAMP): $(POSE_LOCK) | $(STAMP)
 	@echo "==> creating the pose environment $(POSE_ENV) (MediaPipe 0.10.21, for videos)"
-	@$(VENV)/bin/bioplan pose-env $(POSE_ENV)
+	@base="$$(command -v "$(PYTHON)" || echo "$(PYTHON)")"; \
+	  uvdir="$$(scripts/uv.sh)" || uvdir=""; \
+	  PATH="$${uvdir:+$$uvdir:}$$PATH" UV_CONSTRAINT="$(CURDIR)/$(POSE_LOCK)" \
+	  PIP_CONSTRAINT="$(CURDIR)/$(POSE_LOCK)" \
+	  $(VENV)/bin/bioplan pose-env $(POSE_ENV) --python "$$base"
 	@touch $@
 
 pose-env: $(POSE_STAMP)
+
+# `make run` goes on without the pose environment (e.g. on Python 3.13, for which MediaPipe
+# 0.10.21 has no wheel): the step says why it failed, and the dashboard and the API say what a
+# video needs. `make test` still requires it.
+pose-env-or-warn: $(STAMP)
+	@$(MAKE) --no-print-directory -o $(STAMP) pose-env || { \
+	  echo "==> continuing without the pose environment: everything but video works;" \
+	       "videos need it (see above; 'make pose-env PYTHON=python3.12' to retry)"; }
+
+# Refresh requirements/lock.txt and requirements/pose.txt (UPGRADE=1: newest allowed versions).
+lock:
+	@scripts/lock.sh
 
 # Browser tests drive Debian's Chromium (never a downloaded browser build).
 browser:
@@ -50,7 +73,7 @@ browser:
 # The dashboard on the embedded defaults (SQLite in ./data, local job runner), with a demo
 # recording session and a finished comparison already stored. Prints the URL once it answers;
 # BIOPLAN_PORT (or `.venv/bin/bioplan serve --port N --demo`) picks another port.
-run: $(STAMP) $(POSE_STAMP)
+run: $(STAMP) pose-env-or-warn
 	@$(VENV)/bin/bioplan serve --demo
 
 # ---- checks ---------------------------------------------------------------------------------
@@ -71,4 +94,4 @@ bench: $(TSTAMP) $(POSE_STAMP)
 	$(PY) benchmarks/run_all.py
 
 clean:
-	rm -rf $(VENV) $(POSE_ENV) .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(POSE_ENV) .tools .mypy_cache .pytest_cache .ruff_cache

@@ -26,10 +26,11 @@ from app import __version__
 from app.api.errors import install_error_handlers
 from app.api.main import api_router
 from app.api.middleware import install_middleware
+from app.api.offline_docs import install_offline_docs
 from app.config import Settings
 from app.jobs.runner import JobRunner
 from app.services import Services, start_services, stop_services
-from app.services.limits import REQUEST_FIELDS, JobLimits
+from app.services.limits import REQUEST_FIELDS, JobLimits, state_export_limit
 
 logger = logging.getLogger(__name__)
 
@@ -75,6 +76,7 @@ def _document_server(app: FastAPI, settings: Settings) -> None:
             if settings.token is None:
                 _writes_need_no_token(schema)
             _state_job_limits(schema, limits)
+            state_export_limit(schema, settings.max_export_samples)
             _forms_have_no_null(schema)
             app.openapi_schema = schema
         return app.openapi_schema
@@ -156,7 +158,10 @@ def create_app(settings: Settings | None = None, *, runner: JobRunner | None = N
             "Errors are `application/problem+json`."
         ),
         lifespan=lifespan,
+        docs_url=None,  # /docs and /redoc with their scripts served from the package
+        redoc_url=None,
     )
+    install_offline_docs(app)
     install_error_handlers(app)
     install_middleware(app, settings)
     app.include_router(api_router)

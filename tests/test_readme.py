@@ -12,20 +12,29 @@ before it (a new command cannot slip in untested)::
 
 The blocks run in one scratch folder laid out like a checkout: ``.venv`` is this environment,
 ``../shared/data`` the real recordings, and ``bioplan`` is on PATH (as after ``source
-.venv/bin/activate``). What they write stays in that folder.
+.venv/bin/activate``). ``bioplan samples`` copies the samples from ``../shared/data``
+(``BIOPLAN_SAMPLES_FROM``) where a newcomer's downloads them. What they write stays in that folder.
+
+This environment has the test extra too; the README promises the blocks run after ``make run``
+alone, so every package they import (or look up by distribution name) must be one that
+installing bioplan without extras brings (:func:`test_examples_need_nothing_from_the_test_extra`).
 """
 
 from __future__ import annotations
 
+import ast
 import os
 import re
 import subprocess
 import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError, packages_distributions, requires
 from pathlib import Path
 
 import pytest
+from packaging.requirements import Requirement
+from packaging.utils import canonicalize_name
 
 from tests.utils.data import REPO_ROOT, SHARED_DATA
 from tests.utils.server import Server
@@ -95,9 +104,68 @@ def test_every_command_block_says_how_it_is_tested() -> None:
 def test_what_the_examples_write_is_ignored_by_git() -> None:
     """Run from a checkout, the examples write into out/ (and the server into data/): git
     ignores both, so nothing they write gets committed by accident."""
-    for path in ("out/template.json", "out/figs/a.html", "out/report/index.html", "data/x.db"):
+    for path in (
+        "out/template.json",
+        "out/figs/a.html",
+        "out/report/index.html",
+        "data/x.db",
+        "samples/video_sports2d_demo/demo.mp4",
+    ):
         done = subprocess.run(["git", "check-ignore", "-q", path], cwd=REPO_ROOT)
         assert done.returncode == 0, f"{path} is not ignored by git"
+
+
+def _run_environment(root: str = "bioplan") -> set[str]:
+    """The distributions installing ``root`` without extras brings (what ``make run`` makes),
+    from the installed metadata: requirements followed transitively, markers evaluated here."""
+    seen: set[tuple[str, str]] = set()
+    todo = [(root, "")]
+    while todo:
+        name, extra = todo.pop()
+        if (canonicalize_name(name), extra) in seen:
+            continue
+        seen.add((canonicalize_name(name), extra))
+        try:
+            texts = requires(name) or []
+        except PackageNotFoundError:
+            continue
+        for text in texts:
+            req = Requirement(text)
+            if req.marker is None or req.marker.evaluate({"extra": extra}):
+                todo += [(req.name, ""), *((req.name, e) for e in req.extras)]
+    return {name for name, _ in seen}
+
+
+def _used_distributions(block: Block) -> set[str]:
+    """Distributions a block uses: its imports (Python blocks and ``python -c`` code) and the
+    names it looks up with ``importlib.metadata.distribution``."""
+    code = block.code
+    snippets = [code] if block.kind == "python" else re.findall(r'python -c "([^"]*)"', code)
+    modules: set[str] = set()
+    for snippet in snippets:
+        for node in ast.walk(ast.parse(snippet)):
+            if isinstance(node, ast.Import):
+                modules |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                modules.add(node.module.split(".")[0])
+    owners = packages_distributions()
+    used = {
+        canonicalize_name(dist)
+        for module in modules - set(sys.stdlib_module_names)
+        for dist in owners.get(module, [module])
+    }
+    looked_up = re.findall(r"""\b(?:d|distribution)\(\s*['"]([^'"]+)['"]""", code)
+    return used | {canonicalize_name(name) for name in looked_up}
+
+
+def test_examples_need_nothing_from_the_test_extra() -> None:
+    """`make run` installs bioplan without its test extra: an example that imports (or looks up)
+    a package only the test extra brings would fail there, though it passes here."""
+    run_env = _run_environment()
+    assert "numpy" in run_env and "pytest" not in run_env
+    missing = {b.id: sorted(_used_distributions(b) - run_env) for b in RUN}
+    missing = {k: v for k, v in missing.items() if v}
+    assert not missing, f"examples use packages `make run` does not install: {missing}"
 
 
 @pytest.fixture(scope="module")
@@ -132,6 +200,7 @@ def _env() -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("BIOPLAN_")}
     env["PATH"] = f"{Path(sys.prefix) / 'bin'}{os.pathsep}{env.get('PATH', '')}"
     env["BIOPLAN_SHARED_DATA"] = str(SHARED_DATA)
+    env["BIOPLAN_SAMPLES_FROM"] = str(SHARED_DATA)  # `bioplan samples` copies, checked
     return env
 
 

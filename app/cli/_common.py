@@ -5,13 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
 from app.errors import BioPlanError
-from app.names import METHODS, METRICS
+from app.names import MAX_DURATION, METHODS, METRICS
 from app.progress import Progress, ProgressFn
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -48,13 +49,35 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
+    def _parse_optional(self, arg_string: str) -> Any:
+        # A negative number list ("--durations -1,1", "--start-deg -10,20") is a value, not an
+        # option: argparse takes only a lone negative number as one. No option starts "-<digit>".
+        if _NEGATIVE.match(arg_string):
+            return None
+        return super()._parse_optional(arg_string)
+
+
+#: What a value starting with a minus sign looks like: "-1", "-1,1", "-.5 2", "-1e3".
+_NEGATIVE = re.compile(r"^-\.?\d")
+
+
+def write_out(path: str | Path, text: str, option: str = "--out") -> None:
+    """Write ``text`` to the file an option names; a CliError (one line) when it cannot be."""
+    try:
+        Path(path).write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise CliError(
+            f"{option} {path}: cannot write it ({exc.strerror or exc}): expected a file in an "
+            "existing, writable folder"
+        ) from None
+
 
 def emit(args: argparse.Namespace, payload: dict[str, Any], text: str) -> None:
     """Print JSON (``--json``) or text, and write the JSON to ``--out`` when asked."""
     blob = json.dumps(payload, indent=2, allow_nan=False)
     out = getattr(args, "out", None)
     if out:
-        Path(out).write_text(blob + "\n", encoding="utf-8")
+        write_out(out, blob + "\n")
     if getattr(args, "json", False):
         print(blob)
     else:
@@ -85,6 +108,19 @@ def positive(name: str, value: float) -> float:
     return value
 
 
+def duration(name: str, value: float) -> float:
+    """``value`` when it is a duration the API would plan too (> 0 s and at most
+    :data:`~app.names.MAX_DURATION`), else a CliError naming ``--name``."""
+    positive(name, value)
+    if value > MAX_DURATION:
+        raise CliError(f"--{name} must be at most {MAX_DURATION:g} s (as the API's), got {value:g}")
+    return value
+
+
+#: The help of ``--duration`` (and ``--durations``): the cap, as the API states it.
+DURATION_HELP = f"motion time [s], above 0 and at most {MAX_DURATION:g}"
+
+
 def floats(text: str, name: str) -> list[float]:
     """Comma- or space-separated numbers of option ``--name``."""
     try:
@@ -111,7 +147,7 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
         "compiles the URDF itself)",
     )
     add_onboarding_args(p)
-    p.add_argument("--duration", type=float, default=1.0, help="motion time [s]")
+    p.add_argument("--duration", type=float, default=1.0, help=DURATION_HELP)
     p.add_argument(
         "--payload",
         type=float,
@@ -345,5 +381,7 @@ def floors_line(floors: dict[str, Any]) -> str:
     return (
         f"floors (no method may be below): |ΔPE| {joules('abs_work')}, positive work "
         f"{joules('pos_work')}, peak power {floors['peak_power']:.4g} W, electrical "
-        f"{joules('electrical_energy')} (of which friction {joules('friction_energy')})"
+        f"{joules('electrical_energy')} (of which friction {joules('friction_energy')}); "
+        "the peak-power floor |ΔPE|/T is loose (the bound is the reference); tau_sq, "
+        "peak_torque, torque_change: no floor"
     )

@@ -10,15 +10,15 @@ from app.cli._common import (
     add_export_args,
     add_robot_args,
     attach_motion,
+    duration,
     emit,
     load_robot,
     load_template,
     metrics_table,
-    positive,
     progress_printer,
     task_from_args,
 )
-from app.names import METHODS, OBJECTIVES, PSO_DEFAULTS
+from app.names import METHODS, OBJECTIVES, PSO_DEFAULTS, STANDARD_METHODS
 from app.planning.jsonsafe import json_safe
 
 #: ``human_optimal``'s constraints (``app.planning.optimal.HUMAN_CONSTRAINTS``, without importing
@@ -33,7 +33,7 @@ def add_method_args(p: argparse.ArgumentParser, *, transcription: bool = True) -
     transcription's --allow-reversal and --intervals."""
     p.add_argument(
         "--method",
-        default=",".join(METHODS),
+        default=",".join(STANDARD_METHODS),
         help="comma-separated methods to plan (the quintic always runs: it is every saving's "
         "reference)",
     )
@@ -80,7 +80,7 @@ def add_pso_args(p: argparse.ArgumentParser) -> None:
 def cmd_plan(args: argparse.Namespace) -> int:
     from app.planning.planner import plan
 
-    positive("duration", args.duration)
+    duration("duration", args.duration)
     robot = load_robot(args)
     result = plan(
         robot,
@@ -173,7 +173,7 @@ def cmd_profiles(args: argparse.Namespace) -> int:
     from app.planning.comparison import compare_profiles
     from app.planning.planner import plan
 
-    positive("duration", args.duration)
+    duration("duration", args.duration)
     robot = load_robot(args)
     task = task_from_args(args, robot)
     result = compare_profiles(
@@ -239,7 +239,7 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--method",
-        default=",".join(METHODS),
+        default=",".join(STANDARD_METHODS),
         help="planning methods to list beside the profiles, comma-separated, or none",
     )
     p.add_argument(

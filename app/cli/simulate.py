@@ -6,10 +6,12 @@ import argparse
 from typing import Any
 
 from app.cli._common import (
+    DURATION_HELP,
     CliError,
     add_export_args,
     add_robot_args,
     attach_motion,
+    duration,
     emit,
     floats,
     load_robot,
@@ -19,14 +21,14 @@ from app.cli._common import (
     task_from_args,
 )
 from app.cli.plan import add_method_args, add_pso_args
-from app.names import METHODS, OBJECTIVES, PSO_DEFAULTS
+from app.names import OBJECTIVES, PSO_DEFAULTS, STANDARD_METHODS
 from app.planning.jsonsafe import json_safe
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     from app.simulation import simulate_comparison
 
-    positive("duration", args.duration)
+    duration("duration", args.duration)
     robot = load_robot(args)
     result = simulate_comparison(
         robot,
@@ -53,7 +55,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from app.planning.robots import load_robot as load
     from app.simulation import run_sweep
 
-    durations = [positive("durations", d) for d in floats(args.durations, "durations")]
+    durations = [duration("durations", d) for d in floats(args.durations, "durations")]
     payloads = floats(args.payloads, "payloads")
     if any(p < 0 for p in payloads):
         raise CliError("--payloads must not be negative")
@@ -93,12 +95,18 @@ def register(sub: Any) -> None:
     p = sub.add_parser("sweep", help="savings over a grid of durations and payloads")
     p.add_argument("--robot", default="curtain_wall_6dof", help="built-in robot name or URDF")
     p.add_argument("--mjcf", default=None, help="MJCF file matching a URDF given by path")
-    p.add_argument("--durations", default="0.5,0.75,1.0,1.5,2.0", help="comma-separated [s]")
+    p.add_argument(
+        "--durations",
+        default="0.5,0.75,1.0,1.5,2.0",
+        help=f"comma-separated motion times; each {DURATION_HELP.removeprefix('motion time ')}",
+    )
     p.add_argument("--payloads", default="0,4,8,12,20", help="comma-separated [kg]")
     p.add_argument(
         "--objectives", default="abs_work", help="comma-separated, of " + ", ".join(OBJECTIVES)
     )
-    p.add_argument("--method", default=",".join(METHODS), help="comma-separated methods per cell")
+    p.add_argument(
+        "--method", default=",".join(STANDARD_METHODS), help="comma-separated methods per cell"
+    )
     p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
     p.add_argument(
         "--check-seed",

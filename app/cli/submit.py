@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
+from app.cli._common import DURATION_HELP, EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, write_out
 from app.names import OBJECTIVES, PSO_DEFAULTS, TERMINAL_JOB_STATES
 
 
@@ -243,7 +243,7 @@ def submit(args: argparse.Namespace) -> int:
     if args.out:
         # Like `bioplan analyze --out`: the template; otherwise the result JSON.
         payload = out.get("template") if args.kind == "analyze" else result
-        Path(args.out).write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
+        write_out(args.out, json.dumps(payload, indent=2) + "\n")
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -274,7 +274,7 @@ def register(sub: Any) -> None:
 
     def task_args(q: argparse.ArgumentParser) -> None:
         q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
-        q.add_argument("--duration", type=float, default=1.0, help="motion time [s]")
+        q.add_argument("--duration", type=float, default=1.0, help=DURATION_HELP)
         q.add_argument("--payload", type=float, default=None, help="payload [kg]")
         q.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
         q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")

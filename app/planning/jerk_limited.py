@@ -8,6 +8,7 @@ ruckig's ``minimum_duration`` stretches the time-optimal profile to the task's d
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -55,13 +56,45 @@ def _calculate(robot: Robot, start: FloatArray, goal: FloatArray, duration: floa
     if duration is not None:
         inp.minimum_duration = float(duration)
     trajectory = ruckig.Trajectory(n)
-    result = ruckig.Ruckig(n).calculate(inp, trajectory)
+    try:
+        result = ruckig.Ruckig(n).calculate(inp, trajectory)
+    except (ValueError, RuntimeError) as exc:
+        # ruckig's Python enum lacks some of its C++ results (-101 comes back as "-101 is not a
+        # valid Result"), and invalid input raises: both are a refusal, never a bug here.
+        raise JerkLimitedError(_refusal(robot, _result_code(exc), duration)) from None
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-        raise JerkLimitedError(
-            f"ruckig cannot plan {robot.name}'s move ({result}): expected start and goal within "
-            "the limits and positive velocity, acceleration and jerk limits"
-        )
+        raise JerkLimitedError(_refusal(robot, int(result), duration))
     return trajectory
+
+
+#: ruckig's error results (ruckig/result.hpp), by code.
+_RUCKIG_ERRORS = {
+    -1: "an unclassified error",
+    -100: "invalid input",
+    -101: "a duration beyond its numerical limits",
+    -102: "positions outside the position limits",
+    -104: "a zero limit",
+    -110: "a failed execution-time calculation",
+    -111: "a failed synchronisation",
+}
+
+
+def _result_code(exc: Exception) -> int | None:
+    match = re.match(r"\s*(-?\d+) is not a valid", str(exc))
+    return int(match.group(1)) if match else None
+
+
+def _refusal(robot: Robot, code: int | None, duration: float | None) -> str:
+    what = _RUCKIG_ERRORS.get(code, f"result {code}") if code is not None else "invalid input"
+    if code == -101 and duration is not None:
+        return (
+            f"ruckig cannot plan {robot.name}'s move in {duration:g} s ({what}): expected a "
+            "shorter duration (seconds to minutes)"
+        )
+    return (
+        f"ruckig cannot plan {robot.name}'s move ({what}): expected start and goal within the "
+        "limits and positive velocity, acceleration and jerk limits"
+    )
 
 
 def jerk_limited(

@@ -40,7 +40,10 @@ def test_compose_has_app_scheduler_two_workers_and_postgres() -> None:
     concrete = {k: re.sub(r"\$\{[^}]*\}", "x", str(v)) for k, v in env.items()}
     s = Settings(**{k.removeprefix("BIOPLAN_").lower(): v for k, v in concrete.items()})
     assert s.host == "0.0.0.0" and s.token  # non-loopback only with a token
-    assert services["app"]["ports"] == ["127.0.0.1:8000:8000"]
+    # The API and the 3-D viewer, each on the host's loopback only; the viewer binds in the
+    # container where it can be reached (the token covers it as the API).
+    assert services["app"]["ports"] == ["127.0.0.1:8000:8000", "127.0.0.1:8080:8080"]
+    assert s.viewer_host == "0.0.0.0" and s.viewer_port == 8080
     assert services["app"]["command"] == ["bioplan", "serve"]
 
 
@@ -84,12 +87,16 @@ def test_the_image_installs_the_wheel_built_from_what_it_copies(tmp_path: Path) 
     from_docker = build_wheel(copy_tree(copied, tmp_path / "docker"), tmp_path / "d")
     from_repo = build_wheel(copy_tree(tracked, tmp_path / "repo"), tmp_path / "r")
     assert wheel_files(from_docker) == wheel_files(from_repo)
-    # The image takes nothing else from the build context but the dependency list.
+    # The image takes nothing else from the build context but the dependency list and its pins.
     image = stages["image"]
-    assert _copy_sources(image) == ["pyproject.toml"]
+    assert _copy_sources(image) == [
+        "pyproject.toml",
+        "requirements/lock.txt",
+        "requirements/pose.txt",
+    ]
     assert "COPY --from=wheel /wheels /wheels" in image
     assert any("pip install --no-deps /wheels/*.whl" in line for line in image)
-    for needed in ("psycopg", "USER bioplan", "EXPOSE 8000", 'CMD ["bioplan", "serve"]'):
+    for needed in ("psycopg", "USER bioplan", "EXPOSE 8000 8080", 'CMD ["bioplan", "serve"]'):
         assert any(needed in line for line in image), needed
     ignored = (REPO_ROOT / ".dockerignore").read_text().split()
     for name in (".venv", "data", ".git"):
