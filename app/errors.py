@@ -13,7 +13,9 @@ convention ("bad value -> ValueError") keeps working.
 
 from __future__ import annotations
 
-__all__ = ["BioPlanError", "one_line"]
+import re
+
+__all__ = ["BioPlanError", "one_line", "without_paths"]
 
 #: Longest message shown for one error [characters].
 MAX_MESSAGE = 1000
@@ -59,3 +61,16 @@ def storage_problem(exc: BaseException) -> str | None:
             return "read-only"
         seen = getattr(seen, "orig", None) or seen.__cause__ or seen.__context__
     return None
+
+
+#: An absolute path (POSIX ``/a/b``, ``~/a``, Windows ``C:\\a``): folders, then a last part.
+_PATH = re.compile(
+    r"(?<![\w.~\-/])(?:~|[A-Za-z]:)?[/\\](?:[^\s/\\:'\"<>|,;()]+[/\\])+([^\s/\\:'\"<>|,;()]*)"
+)
+
+
+def without_paths(text: object) -> str:
+    """``text`` with every absolute path cut to its last part (``/srv/bioplan/data/robots/
+    ab12/arm.urdf`` -> ``arm.urdf``): what an answer says about a file without the server's
+    folders (data directory, caches, temporary folders)."""
+    return _PATH.sub(lambda m: m.group(1) or "(a folder)", str(text))

@@ -35,7 +35,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db import crud
 from app.db.blobs import BlobStore
 from app.db.models import Analysis, JobRecord, utcnow
-from app.errors import BioPlanError, storage_problem
+from app.errors import BioPlanError, storage_problem, without_paths
 from app.jobs.runner import JobEvent, JobRunner
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
 from app.services import recordings
@@ -90,8 +90,8 @@ def job_to_dict(job: JobRecord) -> dict[str, Any]:
         "done": job.done or 0,
         "of": job.of or 1,
         "best": job.best,
-        "message": job.message,
-        "error": job.error,
+        "message": without_paths(job.message) if job.message else job.message,
+        "error": without_paths(job.error) if job.error else job.error,
         "attempts": job.attempts,
         "params": job.params,
         "label": job.label,

@@ -13,17 +13,15 @@ from __future__ import annotations
 import html
 import re
 
-__all__ = ["markdown_text", "without_paths"]
+from app.errors import without_paths
+
+__all__ = ["markdown_text", "without_paths"]  # without_paths: app.errors', kept here for the viewer
 
 #: ASCII punctuation Markdown can give a meaning to (CommonMark escapes any of it with a
 #: backslash), except ``&`` and ``;``, which the HTML entities use, and ``#`` (see ``_HASH``).
 _MARKDOWN = re.compile(r"([\\`*_{}\[\]()<>+\-.!|~=:\"'$%^,/?@])")
 #: ``#`` that is not the ``&#`` of an entity (``html.escape`` writes ``'`` as ``&#x27;``).
 _HASH = re.compile(r"(?<!&)#")
-#: An absolute path (POSIX ``/a/b``, ``~/a``, Windows ``C:\\a``): folders, then a last part.
-_PATH = re.compile(
-    r"(?<![\w.~\-/])(?:~|[A-Za-z]:)?[/\\](?:[^\s/\\:'\"<>|,;()]+[/\\])+([^\s/\\:'\"<>|,;()]*)"
-)
 #: Control characters and Unicode line breaks: a new line could start a new block.
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]+")
 
@@ -38,10 +36,3 @@ def markdown_text(text: object) -> str:
     """
     entities = html.escape(_CONTROL.sub(" ", str(text)), quote=True)
     return _HASH.sub(r"\\#", _MARKDOWN.sub(r"\\\1", entities))
-
-
-def without_paths(text: object) -> str:
-    """``text`` with every absolute path cut to its last part (``/srv/bioplan/data/robots/
-    ab12/arm.urdf`` -> ``arm.urdf``): what an answer says about a file without the server's
-    folders (data directory, caches, temporary folders)."""
-    return _PATH.sub(lambda m: m.group(1) or "(a folder)", str(text))

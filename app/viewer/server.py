@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import quote
 
-from app.viewer._text import markdown_text, without_paths
+from app.errors import without_paths
+from app.viewer._text import markdown_text
 from app.viewer.access import Grant, Refused, ViewerAccess
 from app.viewer.comparison import (
     LABELS,

@@ -51,3 +51,19 @@ def test_a_plan_of_an_uploaded_robot_names_no_server_folder(
     assert r.status_code == 200, r.text
     assert folder not in json.dumps(r.json())
     assert list(_server_paths(r.json())) == []
+
+
+def test_a_failed_jobs_error_names_files_not_their_folders() -> None:
+    """A job's error and message come from its task (a library's own text can name the file it
+    failed on, an ImportError its site-packages): the API shows the file name only."""
+    from app.db.models import JobRecord
+    from app.services.jobs import job_to_dict
+
+    job = JobRecord(
+        id=7, kind="plan", state="failed", progress=0.0, attempts=1, params={},
+        error="cannot load /srv/bioplan/data/robots/ab12/arm.urdf: no <robot> (rad/s, m/s^2)",
+        message="failed reading /usr/lib/python3/site-packages/casadi/libipopt.so",
+    )  # fmt: skip
+    shown = job_to_dict(job)
+    assert shown["error"] == "cannot load arm.urdf: no <robot> (rad/s, m/s^2)"
+    assert shown["message"] == "failed reading libipopt.so"

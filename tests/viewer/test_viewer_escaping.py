@@ -15,7 +15,8 @@ from typing import Any
 
 import pytest
 
-from app.viewer._text import markdown_text, without_paths
+from app.errors import without_paths
+from app.viewer._text import markdown_text
 from app.viewer.access import Grant
 from app.viewer.comparison import Comparison
 from app.viewer.scene import ComparisonScene, PreparedComparison

@@ -17,7 +17,7 @@ from app.api.schemas import Problem
 from app.db import crud
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
-from app.errors import BioPlanError
+from app.errors import BioPlanError, without_paths
 from app.names import METHODS
 from app.planning.export import public_result
 from app.planning.jsonsafe import json_safe
@@ -234,7 +234,6 @@ def trajectory_out(
         export_stream,
         motion_of_result,
     )
-    from app.viewer._text import without_paths
 
     row = get_result_row(session, kind, result_id)
     if row.result is None:

@@ -20,11 +20,10 @@ from fastapi.responses import FileResponse
 from app.api.deps import ServicesDep
 from app.api.errors import ApiError
 from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath
-from app.errors import BioPlanError
+from app.errors import BioPlanError, without_paths
 from app.names import METHODS
 from app.planning.export import public_result
 from app.services import ServiceError, Services
-from app.viewer._text import without_paths
 from app.viewer.comparison import NothingToCompare
 from app.viewer.export import report_html, scene_html
 from app.viewer.scene import PreparedComparison
