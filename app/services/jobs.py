@@ -286,6 +286,16 @@ class JobService:
         self._dispatch(job.id)
         return data
 
+    def check_room(self, jobs: int = 1) -> None:
+        """Refuse at once (QueueFullError) when ``jobs`` more would pass the queue bound: a
+        request that stores something and then queues its jobs asks first, then submits them
+        with ``bounded=False``, so a full queue never leaves half of it done."""
+        if self.max_queued is None or jobs <= 0:
+            return
+        with self.sessions() as session:
+            if crud.count_jobs(session=session, state="queued") + jobs > self.max_queued:
+                raise QueueFullError(self.max_queued)
+
     def cancel(self, job_id: int) -> dict[str, Any]:
         """Cancel a queued or running job.
 

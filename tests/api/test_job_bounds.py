@@ -6,6 +6,7 @@ also after a restart (the start-up clean-up keeps its file)."""
 
 from __future__ import annotations
 
+import math
 import sqlite3
 import time
 from collections.abc import Iterator
@@ -123,3 +124,30 @@ def test_a_stored_result_survives_a_restart(server: Server) -> None:
     server.stop()
     server.start()  # the start-up clean-up removes unreferenced files: this one is referenced
     assert server.get(f"/api/plans/{job_id}")["result"] == before
+
+
+def test_a_change_that_would_queue_past_the_bound_is_refused_whole(tmp_path: Path) -> None:
+    """A PATCH that stores a change and then queues its analysis asks for room first: with the
+    queue full it is a 429 and the recording keeps what it had (it was stored, then refused)."""
+    from tests.utils.api import make_client
+    from tests.utils.jobs import RecordingRunner
+
+    rows = "\n".join(f"{i / 1000:.3f},{math.sin(i / 7):.4f}" for i in range(2000))
+    emg = ("emg.csv", f"time,biceps\n{rows}\n".encode(), "text/csv")
+    with make_client(tmp_path, runner=RecordingRunner(), max_queued=1) as client:
+        up = client.post("/api/recordings", files={"files": emg}, data={"subject": "before"})
+        assert up.status_code == 201, up.text  # no video: no job
+        rec_id = up.json()["id"]
+        first = client.patch(f"/api/recordings/{rec_id}", json={"notes": "one"})
+        assert first.status_code == 200 and first.json()["analysis_job"]["state"] == "queued"
+        refused = client.patch(f"/api/recordings/{rec_id}", json={"subject": "after"})
+        assert refused.status_code == 429, refused.text
+        assert "BIOPLAN_MAX_QUEUED=1" in refused.json()["detail"]
+        shown = client.get(f"/api/recordings/{rec_id}").json()
+        assert (shown["subject"], shown["notes"]) == ("before", "one")
+        assert client.get("/api/jobs?limit=1").json()["total"] == 1
+        # Without an analysis the change needs no room and is stored.
+        quiet = client.patch(
+            f"/api/recordings/{rec_id}", json={"subject": "after", "analyse": False}
+        )
+        assert quiet.status_code == 200 and quiet.json()["subject"] == "after"

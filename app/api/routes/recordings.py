@@ -175,8 +175,10 @@ def upload_recording(
         (upload_name(f.filename, f"upload-{i + 1}", field="files"), f.file.read())
         for i, f in enumerate(files)
     ]
-    if any(is_video_upload(name, data) for name, data in uploads):
+    videos = sum(is_video_upload(name, data) for name, data in uploads)
+    if videos:
         _require_pose_environment(services)
+        services.jobs.check_room(videos)  # a full queue refuses before anything is stored
     with services.parse_slots:  # a bounded number parse at once; reads keep their threads
         rec = store_recording(
             session=session,
@@ -218,6 +220,7 @@ def _submit_pose(
             kind="pose",
             params={"recording_id": rec.id, "video_file_id": f.id},
             resource={"recording_id": rec.id, "video_file_id": f.id},
+            bounded=False,  # the request was admitted (check_room) before it stored anything
         )
         for f in videos
     ]
@@ -301,6 +304,8 @@ def patch_recording(
     stored bytes: muscle map, EMG rate...) and excluded channels; with ``analyse`` (default),
     queue an analysis with these settings (``analysis_job``). Earlier analyses are kept."""
     changes = body.model_dump(mode="json", exclude_unset=True, exclude={"analyse"})
+    if body.analyse:
+        services.jobs.check_room()  # a full queue refuses before the change is stored
     update_recording(
         session=session, blobs=services.blobs, recording_id=recording_id, changes=changes
     )
@@ -309,7 +314,10 @@ def patch_recording(
     if body.analyse:
         params = rerun_params(session, recording_id)
         job = services.jobs.submit(
-            kind="analysis", params=params, resource={"recording_id": recording_id}
+            kind="analysis",
+            params=params,
+            resource={"recording_id": recording_id},
+            bounded=False,  # admitted by check_room before the change was stored
         )
     return _detail(session, recording_id, analysis_job=job)
 
@@ -341,6 +349,7 @@ def restart_pose(
             job=job_to_dict(active[0]),
         )
     _require_pose_environment(services)
+    services.jobs.check_room(len(videos))
     return _detail(session, recording_id, pose_jobs=_submit_pose(services, rec, videos))
 
 
