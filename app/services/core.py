@@ -214,6 +214,7 @@ def stop_services(services: Services) -> None:
     services.broker.close_all()
     if services.parse_sandbox is not None:
         sandbox.release(services.parse_sandbox)
+    use_mesh_limits(None)  # the library's defaults again (services of one process come and go)
     if services.viewer is not None:
         services.viewer.stop()
         services.viewer = None

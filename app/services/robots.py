@@ -8,9 +8,12 @@ same way before they are stored, so a job never receives a model the planner can
 from __future__ import annotations
 
 import functools
+import os
 import threading
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sqlalchemy.orm import Session
 
@@ -27,6 +30,110 @@ from app.services.errors import (
     UnknownRobotError,
 )
 from app.services.sandbox import read_untrusted
+
+if TYPE_CHECKING:
+    from app.config import Settings
+    from app.planning.robots._package import MeshLimits
+
+_MB = 1024 * 1024
+#: The settings behind each ``MeshLimits`` cap, named in a refusal.
+_SETTING_OF = {
+    "max_bytes": "BIOPLAN_MAX_MESH_MB",
+    "max_triangles": "BIOPLAN_MAX_MESH_TRIANGLES",
+    "max_unpacked": "BIOPLAN_MAX_ROBOT_UNPACKED_MB",
+}
+
+
+class DataQuotaError(ParseLimitError):
+    """An upload that would take the data directory past its quota (413 naming
+    ``BIOPLAN_DATA_QUOTA_MB``): refused before anything of it is written."""
+
+    title = "Payload Too Large"
+
+
+@dataclass(frozen=True)
+class UploadLimits:
+    """What an uploaded robot may hold and where it is counted against the quota.
+
+    Attributes:
+        mesh: caps on each mesh and on a package's unpacked total.
+        data_dir: the data directory the quota is for (None: no quota).
+        quota_bytes: disk space the data directory may take in all [bytes].
+    """
+
+    mesh: MeshLimits = field(default_factory=lambda: _mesh_limits())
+    data_dir: Path | None = None
+    quota_bytes: int | None = None
+
+    @classmethod
+    def from_settings(cls, settings: Settings) -> UploadLimits:
+        return cls(
+            mesh=mesh_limits(settings),
+            data_dir=settings.data_dir,
+            quota_bytes=int(settings.data_quota_mb * _MB),
+        )
+
+
+def _mesh_limits() -> MeshLimits:
+    from app.planning.robots._package import MeshLimits
+
+    return MeshLimits()
+
+
+def mesh_limits(settings: Settings) -> MeshLimits:
+    """The mesh caps of ``settings`` (``BIOPLAN_MAX_MESH_MB``, ``BIOPLAN_MAX_MESH_TRIANGLES``,
+    ``BIOPLAN_MAX_ROBOT_UNPACKED_MB``)."""
+    from app.planning.robots._package import MeshLimits
+
+    return MeshLimits(
+        max_bytes=int(settings.max_mesh_mb * _MB),
+        max_triangles=settings.max_mesh_triangles,
+        max_unpacked=int(settings.max_robot_unpacked_mb * _MB),
+    )
+
+
+def _tree_bytes(folder: Path) -> int:
+    """Disk space the files under ``folder`` take [bytes] (allocated blocks: a sparse file
+    counts what it holds), without following links."""
+    total, pending = 0, [str(folder)]
+    while pending:
+        try:
+            entries = os.scandir(pending.pop())
+        except OSError:
+            continue  # gone meanwhile, or unreadable: not ours to count
+        with entries:
+            for entry in entries:
+                try:
+                    if entry.is_dir(follow_symlinks=False):
+                        pending.append(entry.path)
+                    else:
+                        total += entry.stat(follow_symlinks=False).st_blocks * 512
+                except OSError:
+                    continue
+    return total
+
+
+_usage_cache: dict[Path, tuple[float, int]] = {}
+_usage_lock = threading.Lock()
+
+
+def data_usage(folder: Path, *, max_age_s: float = 0.0) -> int:
+    """Disk space the data directory ``folder`` takes [bytes]; with ``max_age_s``, a figure
+    measured that recently for the same question may be reused (``/api/health`` is polled);
+    without, it is measured afresh (an upload's quota check)."""
+    key = Path(folder).resolve()
+    if max_age_s <= 0:
+        return _tree_bytes(key)
+    now = time.monotonic()
+    with _usage_lock:
+        cached = _usage_cache.get(key)
+    if cached is not None and now - cached[0] <= max_age_s:
+        return cached[1]
+    used = _tree_bytes(key)
+    with _usage_lock:
+        _usage_cache[key] = (now, used)
+    return used
+
 
 #: The uploaded robot's options kept with it (``app.jobs.tasks.robot_from_spec``).
 _OPTION_KEYS = (
@@ -101,6 +208,19 @@ def _field_of(message: str) -> str | None:
         if needle in message:
             return name
     return None
+
+
+def _load_error(main: str, exc: BioPlanError, sidecar: tuple[str, bytes] | None) -> ServiceError:
+    """The 422 of a model that cannot be loaded: a fault of the uploaded sidecar names the
+    sidecar's file (it is kept as ``robot.yaml``), anything else the model file."""
+    message = str(exc)
+    prefix = f"{tasks.UPLOAD_NAMES['sidecar']}: "
+    if sidecar is not None and message.startswith(prefix):
+        name = sidecar[0]
+        return ServiceError(f"{name}: {message[len(prefix) :]}", file=name, field="sidecar")
+    return ServiceError(
+        f"{main}: cannot load the robot model: {message}", file=main, field=_field_of(message)
+    )
 
 
 class RobotCatalog:
@@ -226,6 +346,7 @@ class RobotCatalog:
         package: tuple[str, bytes] | None = None,
         sidecar: tuple[str, bytes] | None = None,
         options: dict[str, Any] | None = None,
+        limits: UploadLimits | None = None,
     ) -> dict[str, Any]:
         """Store a robot model after checking that the planning package can load it.
 
@@ -237,11 +358,15 @@ class RobotCatalog:
             options: ``shoulder_joint``, ``elbow_joint`` (names), ``locks`` (name -> degrees,
                 or metres for prismatic joints), ``urdf_member``, ``mjcf_member``,
                 ``sidecar_member`` (files inside the package).
+            limits: caps on a package's meshes and unpacked size, and the data directory's
+                quota (default: the library's mesh caps, no quota).
 
         Raises:
             ConflictError: a robot of that name exists.
-            ServiceError: no model, or the model cannot be loaded: the message names the file
-                and the joint, ``field`` the request field.
+            ServiceError: no model, or the model cannot be loaded, or a package's mesh or
+                unpacked size past its cap: the message names the file (the member) and the
+                joint or the limit, ``field`` the request field.
+            DataQuotaError: storing it would take the data directory past its quota (413).
         """
         if name in self.builtin or crud.get_robot(session=session, name=name) is not None:
             raise ConflictError(f"a robot named {name!r} already exists", field="name")
@@ -260,15 +385,18 @@ class RobotCatalog:
             **{k: opts.get(k) for k in _OPTION_KEYS},
         }
         main = next(f for f in (urdf, mjcf, package) if f is not None)[0]
+        limits = limits if limits is not None else UploadLimits()
+        unpacked = 0 if package is None else self._check_package(package, limits)
+        singles = sum(len(f[1]) for f in (urdf, mjcf, sidecar) if f is not None)
+        stored = singles + (0 if package is None else len(package[1]))
+        self._check_quota(main, limits, stored + singles + unpacked)  # blobs + kept folder
         try:
             describe = functools.partial(tasks.describe_robot, folder=self.folder(spec))
             description = read_untrusted(describe, spec, what=main)
         except ParseLimitError:
             raise  # a 413 naming the limit, not a model the planner cannot load
         except BioPlanError as exc:
-            raise ServiceError(
-                f"{main}: cannot load the robot model: {exc}", file=main, field=_field_of(str(exc))
-            ) from None
+            raise _load_error(main, exc, sidecar) from None
         if package is not None:
             description["files"] = tasks.package_members(package[1])
         row = crud.create_robot(
@@ -284,6 +412,51 @@ class RobotCatalog:
             description=description,
         )
         return uploaded_robot(row)
+
+    @staticmethod
+    def _check_package(package: tuple[str, bytes], limits: UploadLimits) -> int:
+        """Check a package's meshes and unpacked total against ``limits`` (in the parse
+        sandbox: compressed members are read); what it unpacks to [bytes].
+
+        Raises:
+            ServiceError: a mesh or the total past a cap (422 naming the member, the cap and
+                its setting), or a zip that is not one.
+        """
+        from app.planning.robots._package import MeshLimitError, check_package_zip
+
+        name = package[0]
+        check = functools.partial(check_package_zip, name=name, limits=limits.mesh)
+        try:
+            return read_untrusted(check, package[1], what=name)
+        except MeshLimitError as exc:
+            raise ServiceError(
+                f"{exc} (the server's {_SETTING_OF.get(exc.limit, 'limit')})",
+                file=name,
+                field="package",
+            ) from None
+        except ParseLimitError:
+            raise
+        except BioPlanError as exc:
+            raise ServiceError(str(exc), file=name, field="package") from None
+
+    @staticmethod
+    def _check_quota(main: str, limits: UploadLimits, needed: int) -> None:
+        """Refuse an upload of ``needed`` bytes (its stored files and its kept folder, a
+        package unpacked) that the data directory's quota cannot hold.
+
+        Raises:
+            DataQuotaError: 413 naming the quota.
+        """
+        if limits.data_dir is None or limits.quota_bytes is None:
+            return
+        used = data_usage(limits.data_dir)
+        if used + needed > limits.quota_bytes:
+            raise DataQuotaError(
+                f"{main}: storing this robot needs {needed / _MB:.1f} MB (its files unpacked) "
+                f"and the data directory already holds {used / _MB:.1f} MB of its "
+                f"{limits.quota_bytes / _MB:.0f} MB quota (BIOPLAN_DATA_QUOTA_MB)",
+                file=main,
+            )
 
     @staticmethod
     def _package_members(

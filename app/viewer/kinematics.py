@@ -9,6 +9,7 @@ as arrays, keeps the playback loop down to assigning precomputed poses; yourdfpy
 from __future__ import annotations
 
 import io
+import logging
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -21,6 +22,7 @@ from numpy.typing import NDArray
 from app.errors import BioPlanError
 
 FloatArray = NDArray[np.float64]
+logger = logging.getLogger(__name__)
 
 #: Joint types that move with their coordinate; anything else is held at its origin.
 _REVOLUTE = ("revolute", "continuous")
@@ -58,6 +60,22 @@ class UrdfJoint:
 _XML_DECLARATION = re.compile(r"^\s*<\?xml[^>]*\?>")
 
 
+#: Caps on a mesh the viewer loads (``use_mesh_limits``; None: the library's defaults).
+_mesh_limits: Any = None
+
+
+def use_mesh_limits(limits: Any) -> None:
+    """Check every mesh against ``limits`` (an ``app.planning.robots.MeshLimits``, the
+    server's ``BIOPLAN_MAX_MESH_MB``/``BIOPLAN_MAX_MESH_TRIANGLES``) before loading it; None
+    restores the library's defaults."""
+    global _mesh_limits
+    _mesh_limits = limits
+
+
+def _missing(fname: str) -> str:
+    return f"/nonexistent/bioplan-missing-mesh/{fname}"
+
+
 def _mesh_handler(
     base_dir: Path | None, package_dirs: Sequence[Path], allowed_roots: Sequence[Path] | None
 ) -> Any:
@@ -65,14 +83,22 @@ def _mesh_handler(
 
     A mesh that cannot be found (or lies outside ``allowed_roots``) resolves to a path that
     does not exist; yourdfpy then skips that mesh and the rest of the robot is still drawn.
+    So does a mesh past the mesh limits (``use_mesh_limits``), with a warning: it is never
+    parsed in this process (a stored 300 MB STL took 45 s and 3 GB to draw).
     """
-    from app.planning.robots import resolve_mesh
+    from app.planning.robots._package import MeshLimits, check_mesh, resolve_mesh
 
     def handler(fname: str) -> str:
         found = resolve_mesh(
             fname, base_dir=base_dir, package_dirs=package_dirs, allowed_roots=allowed_roots
         )
-        return str(found) if found is not None else f"/nonexistent/bioplan-missing-mesh/{fname}"
+        if found is None:
+            return _missing(fname)
+        problem = check_mesh(found, _mesh_limits or MeshLimits())
+        if problem is not None:
+            logger.warning("mesh not drawn: %s", problem)
+            return _missing(fname)
+        return str(found)
 
     return handler
 

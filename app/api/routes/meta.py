@@ -5,7 +5,6 @@ from __future__ import annotations
 import platform
 import shutil
 import time
-from pathlib import Path
 from typing import Any
 
 from fastapi import APIRouter
@@ -14,7 +13,9 @@ from sqlalchemy import text
 from app import __version__, names
 from app.api.deps import ServicesDep
 from app.api.schemas import Health, Meta, Version, ViewerInfo
+from app.config import Settings
 from app.db.session import current_revision
+from app.services.robots import data_usage
 
 router = APIRouter(prefix="/api", tags=["service"])
 
@@ -29,7 +30,7 @@ def health(services: ServicesDep) -> dict[str, Any]:
     except Exception as exc:  # report, do not fail: this endpoint must answer
         database = f"unreachable: {type(exc).__name__}"
     info = services.jobs.runner.info()
-    disk = _disk(services.settings.data_dir, services.settings.min_free_mb)
+    disk = _disk(services.settings)
     healthy = database == "ok" and disk is not None and disk["ok"]
     return {
         "status": "ok" if healthy else "degraded",
@@ -43,13 +44,25 @@ def health(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-def _disk(folder: Path, min_free_mb: float) -> dict[str, Any] | None:
+#: Seconds a measure of the data directory's size is reused (health is polled).
+USAGE_MAX_AGE_S = 10.0
+
+
+def _disk(settings: Settings) -> dict[str, Any] | None:
     try:
-        usage = shutil.disk_usage(folder)
+        usage = shutil.disk_usage(settings.data_dir)
     except OSError:
         return None
     free_mb, total_mb = usage.free / 1e6, usage.total / 1e6
-    return {"free_mb": free_mb, "total_mb": total_mb, "ok": free_mb >= min_free_mb}
+    used_mb = data_usage(settings.data_dir, max_age_s=USAGE_MAX_AGE_S) / (1024 * 1024)
+    quota_mb = settings.data_quota_mb
+    return {
+        "free_mb": free_mb,
+        "total_mb": total_mb,
+        "used_mb": used_mb,
+        "quota_mb": quota_mb,
+        "ok": free_mb >= settings.min_free_mb and used_mb < quota_mb,
+    }
 
 
 @router.get("/version", response_model=Version)

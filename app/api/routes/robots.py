@@ -10,7 +10,7 @@ from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, upload_name
 from app.api.schemas import ROBOT_NAME, RobotInfo
-from app.services.robots import parse_locks
+from app.services.robots import UploadLimits, parse_locks
 
 router = APIRouter(prefix="/api/robots", tags=["robots"], responses=PROBLEM_RESPONSES)
 
@@ -126,6 +126,7 @@ def upload_robot(
                 "mjcf_member": mjcf_member,
                 "sidecar_member": sidecar_member,
             },
+            limits=UploadLimits.from_settings(services.settings),
         )
 
 

@@ -3,20 +3,49 @@
 The format is documented in ``docs/robots.md``. Values a person types are in display units:
 lock values in degrees (metres for prismatic joints), everything else SI. Every error names the
 file and the field (``motors.elbow_joint.gear_ratio``) and what was expected.
+
+A sidecar is read with limits (``MAX_SIDECAR_BYTES``, ``MAX_DEPTH``, ``MAX_ALIASES``,
+``MAX_NODES``, ``MAX_DIGITS``): a 362-byte file of nested anchors ("billion laughs") held a
+parse slot for 23-52 s while an error message spelled it out, a 5,000-digit integer and a
+10,000-deep nesting were server errors. Messages quote a value only when it is short, never a
+whole parsed structure.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from app.errors import one_line
 from app.planning.energy import MotorModel
 from app.planning.robots._types import RobotError
 
-__all__ = ["MOTOR_FIELDS", "Sidecar", "SidecarPayload", "read_sidecar"]
+__all__ = [
+    "MAX_ALIASES",
+    "MAX_DEPTH",
+    "MAX_DIGITS",
+    "MAX_NODES",
+    "MAX_SIDECAR_BYTES",
+    "MOTOR_FIELDS",
+    "Sidecar",
+    "SidecarPayload",
+    "read_sidecar",
+]
+
+#: Largest sidecar file [bytes]: one lists a few dozen joints in a few kilobytes.
+MAX_SIDECAR_BYTES = 256 * 1024
+#: Deepest nesting of mappings and lists (a sidecar needs four: ``motors.joint.field``).
+MAX_DEPTH = 20
+#: Most aliases (``*name``) in one sidecar (anchors may share a motor block between joints).
+MAX_ALIASES = 200
+#: Most values the document holds with every alias spelled out.
+MAX_NODES = 20_000
+#: Longest number literal [characters] (Python refuses to read integers past 4,300 digits).
+MAX_DIGITS = 100
 
 #: Motor fields: name -> (unit, lower bound, bound included, required).
 MOTOR_FIELDS: dict[str, tuple[str, float, bool, bool]] = {
@@ -28,7 +57,9 @@ MOTOR_FIELDS: dict[str, tuple[str, float, bool, bool]] = {
     "coulomb_friction": ("Nm", 0.0, True, False),
     "regen_efficiency": ("-", 0.0, True, False),
 }
-_TOP = ("robot", "shoulder_joint", "elbow_joint", "locks", "payload", "motors", "velocity_limits")
+_TOP: tuple[str, ...] = ("robot", "shoulder_joint", "elbow_joint", "locks", "payload", "motors")
+#: Speed overrides, and identified parameters (``bioplan identify``; see ``_identified.py``).
+_TOP += ("velocity_limits", "links", "friction")
 _PAYLOAD = ("mass", "body", "com", "size")
 
 
@@ -54,6 +85,8 @@ class Sidecar:
         payload: payload fields.
         motors: joint -> motor model (empty: motors not modelled).
         velocity_limits: joint -> speed limit [rad/s or m/s] overriding the model file's.
+        links: link -> identified ``LinkInertial`` replacing the URDF's inertial.
+        friction: joint -> identified ``JointFriction`` (viscous, Coulomb, torque offset).
     """
 
     path: Path
@@ -64,6 +97,8 @@ class Sidecar:
     payload: SidecarPayload = field(default_factory=SidecarPayload)
     motors: Mapping[str, MotorModel] = field(default_factory=dict)
     velocity_limits: Mapping[str, float] = field(default_factory=dict)
+    links: Mapping[str, Any] = field(default_factory=dict)
+    friction: Mapping[str, Any] = field(default_factory=dict)
 
 
 class _Fields:
@@ -73,7 +108,9 @@ class _Fields:
         self.file = file
 
     def fail(self, where: str, got: Any, expected: str) -> RobotError:
-        return RobotError(f"{self.file}: {where} is {got!r}: expected {expected}")
+        return RobotError(
+            f"{self.file}: {one_line(where, 120)} is {_shown(got)}: expected {expected}"
+        )
 
     def mapping(self, where: str, value: Any) -> dict[str, Any]:
         if value is None:
@@ -114,7 +151,8 @@ class _Fields:
         if extra:
             prefix = f"{where}." if where else ""
             raise RobotError(
-                f"{self.file}: unknown field {prefix}{extra[0]}: expected one of {', '.join(known)}"
+                f"{self.file}: unknown field {one_line(prefix + extra[0], 120)}: expected one of "
+                f"{', '.join(known)}"
             )
 
 
@@ -126,7 +164,7 @@ def _motor(fields: _Fields, joint: str, data: Any) -> MotorModel:
     for name, (_, lower, inclusive, required) in MOTOR_FIELDS.items():
         if name not in values:
             if required:
-                raise RobotError(f"{fields.file}: {where} lacks {name}: expected it")
+                raise RobotError(f"{fields.file}: {one_line(where, 120)} lacks {name}: expected it")
             continue
         kwargs[name] = fields.number(
             f"{where}.{name}", values[name], lower=lower, strict=not inclusive
@@ -166,26 +204,12 @@ def read_sidecar(path: str | Path) -> Sidecar:
 
     Raises:
         RobotError: unreadable file, not YAML, an unknown field, or a value out of range (e.g.
-            a gear ratio below 1), naming the file and the field.
+            a gear ratio below 1), naming the file and the field; a file past the limits
+            (size, nesting, aliases, values, digits), naming the limit.
     """
-    import yaml
-
     file_path = Path(path)
     file = file_path.name
-    try:
-        text = file_path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise RobotError(
-            f"{file}: no such file ({file_path}): expected a sidecar YAML file"
-        ) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RobotError(f"{file}: cannot be read ({exc}): expected a UTF-8 YAML file") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f" at line {mark.line + 1}" if mark is not None else ""
-        raise RobotError(f"{file}: not valid YAML{line}: expected a sidecar mapping") from None
+    data = _load_yaml(file_path)
     fields = _Fields(file)
     top = fields.mapping("the document", data)
     fields.unknown("", top, _TOP)
@@ -201,6 +225,9 @@ def read_sidecar(path: str | Path) -> Sidecar:
         name: _motor(fields, name, value)
         for name, value in fields.mapping("motors", top.get("motors")).items()
     }
+    from app.planning.robots._identified import read_identified
+
+    links, friction = read_identified(fields, top)
     return Sidecar(
         path=file_path.resolve(),
         robot=fields.text("robot", top.get("robot")),
@@ -210,4 +237,141 @@ def read_sidecar(path: str | Path) -> Sidecar:
         payload=_payload(fields, top.get("payload")),
         motors=motors,
         velocity_limits=speeds,
+        links=links,
+        friction=friction,
     )
+
+
+def _shown(value: Any) -> str:
+    """A value for a message: short scalars as written, anything else described, never spelled
+    out (an aliased structure can expand to gigabytes; a huge integer cannot be printed)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+        return f"an integer of about {int(value.bit_length() * 0.30103) + 1} digits"
+    if value is None or isinstance(value, bool | int | float):
+        return repr(value)
+    if isinstance(value, str):
+        return one_line(repr(value), 60)
+    if isinstance(value, list):
+        if len(value) <= 4 and all(isinstance(v, int | float) for v in value):
+            return "[" + ", ".join(_shown(v) for v in value) + "]"
+        return f"a list of {len(value)} items"
+    if isinstance(value, dict):
+        return f"a mapping of {len(value)} entries"
+    return f"a value of type {type(value).__name__}"
+
+
+class _TooLarge(Exception):
+    """A sidecar past one of the reading limits (the message says which)."""
+
+
+@functools.cache
+def _limited_loader() -> Any:
+    """PyYAML's safe loader with the limits: nesting depth and aliases counted as nodes are
+    composed, number literals refused past ``MAX_DIGITS`` before Python converts them."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):  # type: ignore[misc]
+        depth = 0
+        aliases = 0
+
+        def compose_node(self, parent: Any, index: Any) -> Any:
+            if self.check_event(yaml.AliasEvent):
+                self.aliases += 1
+                if self.aliases > MAX_ALIASES:
+                    raise _TooLarge(f"more than {MAX_ALIASES} aliases (*name): expected fewer")
+                return super().compose_node(parent, index)
+            self.depth += 1
+            try:
+                if self.depth > MAX_DEPTH:
+                    raise _TooLarge(
+                        f"lists or mappings nested more than {MAX_DEPTH} deep: expected the "
+                        "shallow mapping of docs/robots.md"
+                    )
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
+    def number(loader: Any, node: Any) -> Any:
+        if len(node.value) > MAX_DIGITS:
+            line = node.start_mark.line + 1
+            raise _TooLarge(
+                f"a number of {len(node.value)} characters at line {line}: expected at most "
+                f"{MAX_DIGITS}"
+            )
+        if node.tag.endswith(":int"):
+            return loader.construct_yaml_int(node)
+        return loader.construct_yaml_float(node)
+
+    Loader.add_constructor("tag:yaml.org,2002:int", number)
+    Loader.add_constructor("tag:yaml.org,2002:float", number)
+    return Loader
+
+
+def _expanded(node: Any) -> int:
+    """Values the composed document holds with every alias spelled out (each shared node
+    counted once per use, computed once per node); a node inside itself is refused."""
+    import yaml
+
+    sizes: dict[int, int] = {}
+    active: set[int] = set()
+
+    def size(item: Any) -> int:
+        key = id(item)
+        if key in sizes:
+            return sizes[key]
+        if key in active:
+            raise _TooLarge("an alias inside the value it names: expected no recursive structure")
+        active.add(key)
+        total = 1
+        if isinstance(item, yaml.SequenceNode):
+            total += sum(size(child) for child in item.value)
+        elif isinstance(item, yaml.MappingNode):
+            total += sum(size(k) + size(v) for k, v in item.value)
+        active.discard(key)
+        sizes[key] = min(total, MAX_NODES + 1)
+        return sizes[key]
+
+    try:
+        return size(node)
+    except RecursionError:
+        raise _TooLarge("aliases nested inside aliases too deep: expected fewer") from None
+
+
+def _load_yaml(path: Path) -> Any:
+    """The YAML document of a sidecar file, read within the limits.
+
+    Raises:
+        RobotError: a missing, unreadable, too large or invalid file, naming it (and the limit).
+    """
+    import yaml
+
+    file = path.name
+    try:
+        with open(path, "rb") as handle:
+            raw = handle.read(MAX_SIDECAR_BYTES + 1)
+        text = raw.decode("utf-8")
+    except FileNotFoundError:
+        raise RobotError(f"{file}: no such file ({path}): expected a sidecar YAML file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RobotError(f"{file}: cannot be read ({exc}): expected a UTF-8 YAML file") from None
+    if len(raw) > MAX_SIDECAR_BYTES:
+        raise RobotError(
+            f"{file}: larger than {MAX_SIDECAR_BYTES} bytes: expected a sidecar of a few kilobytes"
+        )
+    loader = _limited_loader()(text)
+    try:
+        node = loader.get_single_node()
+        if node is not None and _expanded(node) > MAX_NODES:
+            raise _TooLarge(
+                f"more than {MAX_NODES} values with its aliases spelled out: expected a few "
+                "dozen joints' settings"
+            )
+        return None if node is None else loader.construct_document(node)
+    except _TooLarge as exc:
+        raise RobotError(f"{file}: {exc}") from None
+    except (yaml.YAMLError, RecursionError, ValueError) as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f" at line {mark.line + 1}" if mark is not None else ""
+        raise RobotError(f"{file}: not valid YAML{line}: expected a sidecar mapping") from None
+    finally:
+        loader.dispose()
