@@ -29,7 +29,7 @@ from app.services.errors import (
 from app.services.jobs import KIND_PATHS, JobService, job_summary, job_to_dict
 from app.services.overlays import RecordingOverlays
 from app.services.recordings import parse_upload, store_recording
-from app.services.robots import RobotCatalog
+from app.services.robots import RobotCatalog, check_data_quota
 
 __all__ = [
     "ALL_JOBS",
@@ -49,6 +49,7 @@ __all__ = [
     "Services",
     "Subscription",
     "UnknownRobotError",
+    "check_data_quota",
     "job_summary",
     "job_to_dict",
     "load_robot_spec",

@@ -113,6 +113,32 @@ def _tree_bytes(folder: Path) -> int:
     return total
 
 
+def check_data_quota(
+    data_dir: Path | None,
+    quota_bytes: int | None,
+    file: str,
+    needed: int,
+    *,
+    what: str = "this upload",
+) -> None:
+    """Refuse an upload of ``needed`` bytes that the data directory's quota cannot hold,
+    before anything of it is written (robots and recordings alike).
+
+    Raises:
+        DataQuotaError: 413 naming ``file`` and ``BIOPLAN_DATA_QUOTA_MB``.
+    """
+    if data_dir is None or quota_bytes is None:
+        return
+    used = data_usage(data_dir)
+    if used + needed > quota_bytes:
+        raise DataQuotaError(
+            f"{file}: storing {what} needs {needed / _MB:.1f} MB and the data directory "
+            f"already holds {used / _MB:.1f} MB of its {quota_bytes / _MB:.0f} MB quota "
+            "(BIOPLAN_DATA_QUOTA_MB)",
+            file=file,
+        )
+
+
 _usage_cache: dict[Path, tuple[float, int]] = {}
 _usage_lock = threading.Lock()
 
@@ -441,22 +467,15 @@ class RobotCatalog:
 
     @staticmethod
     def _check_quota(main: str, limits: UploadLimits, needed: int) -> None:
-        """Refuse an upload of ``needed`` bytes (its stored files and its kept folder, a
-        package unpacked) that the data directory's quota cannot hold.
-
-        Raises:
-            DataQuotaError: 413 naming the quota.
-        """
-        if limits.data_dir is None or limits.quota_bytes is None:
-            return
-        used = data_usage(limits.data_dir)
-        if used + needed > limits.quota_bytes:
-            raise DataQuotaError(
-                f"{main}: storing this robot needs {needed / _MB:.1f} MB (its files unpacked) "
-                f"and the data directory already holds {used / _MB:.1f} MB of its "
-                f"{limits.quota_bytes / _MB:.0f} MB quota (BIOPLAN_DATA_QUOTA_MB)",
-                file=main,
-            )
+        """Refuse a robot of ``needed`` bytes (its stored files and its kept folder, a
+        package unpacked) that the data directory's quota cannot hold (DataQuotaError)."""
+        check_data_quota(
+            limits.data_dir,
+            limits.quota_bytes,
+            main,
+            needed,
+            what="this robot (its files unpacked)",
+        )
 
     @staticmethod
     def _package_members(

@@ -151,3 +151,20 @@ def test_a_change_that_would_queue_past_the_bound_is_refused_whole(tmp_path: Pat
             f"/api/recordings/{rec_id}", json={"subject": "after", "analyse": False}
         )
         assert quiet.status_code == 200 and quiet.json()["subject"] == "after"
+
+
+def test_a_recording_past_the_data_quota_is_refused_and_nothing_stored(tmp_path: Path) -> None:
+    """Issue 23 item 8: the quota holds for every upload, recordings as well as robots."""
+    from tests.utils.api import make_client
+
+    rows = "\n".join(f"{i / 1000:.4f},{math.sin(i / 7):.6f}" for i in range(90000))
+    emg = ("big.csv", f"time,biceps\n{rows}\n".encode(), "text/csv")  # about 1.6 MB
+    with make_client(tmp_path, data_quota_mb=1.0) as client:
+        r = client.post("/api/recordings", files={"files": emg})
+        assert r.status_code == 413, r.text
+        problem = r.json()
+        assert problem["file"] == "big.csv" and "BIOPLAN_DATA_QUOTA_MB" in problem["detail"]
+        assert client.get("/api/recordings").json()["total"] == 0
+        assert not any(p.is_file() for p in (tmp_path / "data" / "blobs").rglob("*"))
+        small = ("small.csv", b"time,biceps\n" + rows[:2000].encode() + b"\n", "text/csv")
+        assert client.post("/api/recordings", files={"files": small}).status_code == 201

@@ -46,7 +46,13 @@ from app.db.arrays import decode_array
 from app.db.models import RecordingFile, RecordingSession
 from app.errors import BioPlanError
 from app.recordings.video import find_pose_python
-from app.services import ConflictError, Services, job_to_dict, store_recording
+from app.services import (
+    ConflictError,
+    Services,
+    check_data_quota,
+    job_to_dict,
+    store_recording,
+)
 from app.services.recording_views import recording_detail
 from app.services.recordings import (
     get_recording as get_stored,
@@ -175,6 +181,14 @@ def upload_recording(
         (upload_name(f.filename, f"upload-{i + 1}", field="files"), f.file.read())
         for i, f in enumerate(files)
     ]
+    settings = services.settings
+    check_data_quota(
+        settings.data_dir,
+        int(settings.data_quota_mb * 1024 * 1024),
+        uploads[0][0] if uploads else "files",
+        sum(len(data) for _, data in uploads),
+        what=f"{len(uploads)} file(s)",
+    )
     videos = sum(is_video_upload(name, data) for name, data in uploads)
     if videos:
         _require_pose_environment(services)
