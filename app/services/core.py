@@ -7,9 +7,11 @@ running. ``Services.start_viewer`` starts the 3-D viewer on them. ``stop_service
 
 from __future__ import annotations
 
+import functools
 import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,6 +28,7 @@ from app.services import sandbox
 from app.services.broker import JobBroker, StreamLimits
 from app.services.cache import ResponseCache
 from app.services.comparisons import ComparisonLoader
+from app.services.errors import ParseLimitError
 from app.services.human_replay import HumanReplayLoader
 from app.services.jobs import JobService
 from app.services.limits import JobLimits
@@ -123,6 +126,24 @@ class Services:
         return {"enabled": True, "url": v.url, "host": v.host, "port": v.port}
 
 
+def read_meshes(limits: Any, fn: Callable[..., list[Any]], *args: Any) -> list[Any]:
+    """A robot's meshes parsed in the upload sandbox (memory and time limited), each mesh
+    checked against ``limits`` (the server's mesh caps) first; a mesh set past the sandbox's
+    limits is drawn without meshes (a warning in the log), never parsed in this process."""
+    try:
+        return sandbox.read_untrusted(_meshes_within, limits, fn, args, what="the robot's meshes")
+    except ParseLimitError as exc:
+        logger.warning("robot drawn without meshes: %s", exc)
+        return []
+
+
+def _meshes_within(limits: Any, fn: Callable[..., list[Any]], args: tuple[Any, ...]) -> list[Any]:
+    """``fn(*args)`` in the child, with the server's mesh caps (the child was forked before
+    the server set them)."""
+    use_mesh_limits(limits)
+    return fn(*args)
+
+
 def start_services(settings: Settings, *, runner: JobRunner | None = None) -> Services:
     """Migrate, open the database and the file store, start and recover jobs.
 
@@ -195,7 +216,9 @@ def _start(settings: Settings, runner: JobRunner | None, data_lock: DataDirLock)
         robots=robots,
         overlays=RecordingOverlays(sessions),
         comparisons=PreparedCache(
-            ComparisonLoader(sessions, robots), human=HumanReplayLoader(sessions)
+            ComparisonLoader(sessions, robots),
+            human=HumanReplayLoader(sessions),
+            mesh_reader=functools.partial(read_meshes, mesh_limits(settings)),
         ),
         data_lock=data_lock,
         parse_slots=threading.BoundedSemaphore(settings.max_parallel_parses),

@@ -40,6 +40,8 @@ from app.viewer.human import HumanFigure, PreparedHuman
 from app.viewer.kinematics import UrdfChain, load_urdf, matrices_to_wxyz
 
 FloatArray = NDArray[np.float64]
+#: Runs ``fn(*args)`` where untrusted mesh files may be parsed: ``(fn, *args) -> result``.
+MeshReader = Callable[..., Any]
 Layout = Literal["ghost", "side_by_side"]
 LAYOUTS: tuple[Layout, ...] = ("ghost", "side_by_side")
 
@@ -86,6 +88,8 @@ class PreparedComparison:
         package_dirs: folders holding ``package://`` packages (see ``Robot.package_dirs``).
         allowed_roots: when given, meshes outside these folders are not read (uploads).
         locks: locked joints drawn at their values (``Robot.locks``; default: at zero).
+        mesh_reader: ``(fn, *args) -> fn(*args)`` run where untrusted files may be parsed
+            (the service's limited child process); default: in this process.
 
     Attributes:
         link_paths: link -> names from the root link down to it.
@@ -105,17 +109,17 @@ class PreparedComparison:
         package_dirs: Sequence[Path] = (),
         allowed_roots: Sequence[Path] | None = None,
         locks: Mapping[str, float] | None = None,
+        mesh_reader: MeshReader | None = None,
     ) -> None:
         self.comparison = comparison
-        urdf = load_urdf(
-            urdf_path if urdf_path is not None else comparison.urdf,
-            meshes=True,
-            package_dirs=package_dirs,
-            allowed_roots=allowed_roots,
-        )
+        source: str | Path = urdf_path if urdf_path is not None else comparison.urdf
+        urdf = load_urdf(source, package_dirs=package_dirs, allowed_roots=allowed_roots)
         self.chain = UrdfChain(urdf)
         self.link_paths = {link: self.chain.link_path(link) for link in self.chain.links}
-        self.meshes = _link_meshes(urdf)
+        # Meshes are files of the robot's owner: parsed where ``mesh_reader`` says (the
+        # service's memory- and time-limited child process), never in the server itself.
+        read = mesh_reader or (lambda fn, *args: fn(*args))
+        self.meshes = read(load_link_meshes, source, tuple(package_dirs), allowed_roots)
         names = tuple(comparison.joint_names)
         held = dict(locks or {})
         # Joints that actually turn in either trajectory (J1 of a planar curl does not).
@@ -328,6 +332,17 @@ def trace_tube(
         [np.stack([a, b, a + sides], -1), np.stack([b, b + sides, a + sides], -1)], axis=2
     ).reshape(-1, 3)
     return vertices.astype(np.float32), faces.astype(np.uint32)
+
+
+def load_link_meshes(
+    source: str | Path,
+    package_dirs: Sequence[Path] = (),
+    allowed_roots: Sequence[Path] | None = None,
+) -> list[LinkMesh]:
+    """The visual meshes of the URDF at ``source`` (a path or its text) in their link frames:
+    a top-level function, so a limited child process can run it and send the arrays back."""
+    urdf = load_urdf(source, meshes=True, package_dirs=package_dirs, allowed_roots=allowed_roots)
+    return _link_meshes(urdf)
 
 
 def _link_meshes(urdf: Any) -> list[LinkMesh]:
@@ -652,6 +667,7 @@ class PreparedCache:
         size: comparisons kept in memory.
         human: ``comparison -> comparison`` with the recorded human attached (or a note why
             there is none); the service's ``HumanReplayLoader``.
+        mesh_reader: where the robot's meshes are parsed (see :class:`PreparedComparison`).
     """
 
     def __init__(
@@ -660,10 +676,12 @@ class PreparedCache:
         *,
         size: int = 8,
         human: Callable[[Comparison], Comparison] | None = None,
+        mesh_reader: MeshReader | None = None,
     ) -> None:
         self.loader = loader
         self.size = size
         self.human = human
+        self.mesh_reader = mesh_reader
         self._items: OrderedDict[tuple[str, int, Any], PreparedComparison] = OrderedDict()
         self._lock = threading.Lock()
 
@@ -691,6 +709,7 @@ class PreparedCache:
             package_dirs=comparison.package_dirs,
             allowed_roots=comparison.allowed_roots,
             locks=comparison.locks,
+            mesh_reader=self.mesh_reader,
         )
         with self._lock:
             self._items[key] = prepared
