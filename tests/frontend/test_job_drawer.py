@@ -72,3 +72,78 @@ def test_a_finished_job_links_to_its_result(live_server: Server, page: Any) -> N
     assert page.url.endswith(f"#/compare/plan/{job['id']}")
     page.click("#job-drawer-close")
     assert page.locator("#job-drawer[hidden]").count() == 1
+
+
+# ---- issue 29 item 2: a researcher's findings in a real browser -----------------------------
+
+SWEEP = {
+    "robot": "human_arm_2dof",
+    "payloads": [0.0],
+    "objectives": ["abs_work"],
+    "methods": ["quintic", "paper"],
+    "particles": 6,
+    "iterations": 4,
+}
+
+
+def _finished(server: Server, job_id: int) -> None:
+    wait_for(
+        lambda: server.get(f"/api/jobs/{job_id}")["state"] == "succeeded", 300, f"job {job_id}"
+    )
+
+
+def test_a_sweeps_heat_maps_open_from_the_drawer(live_server: Server, page: Any) -> None:
+    """The drawer's "Heat maps →" opened the newest comparison (another robot's, without heat
+    maps), and only a robot's newest sweep could be viewed: each sweep now has its URL."""
+    older = live_server.post("/api/sweeps", json={**SWEEP, "durations": [1.0]}).json()
+    newer = live_server.post("/api/sweeps", json={**SWEEP, "durations": [1.5]}).json()
+    _finished(live_server, older["id"])
+    _finished(live_server, newer["id"])
+    plan = live_server.post("/api/plans", json={**TINY, "robot": "curtain_wall_6dof"}).json()
+    _finished(live_server, plan["id"])  # the newest comparison is another robot's
+    page.goto(f"{live_server.url}/#/recordings")
+    page.wait_for_selector("#upload-form")
+    if page.locator("#job-drawer[hidden]").count():
+        page.click("#jobs-button")
+    wait_for(lambda: _state(page, older["id"]) == "succeeded", 60, "the sweep in the drawer")
+    page.click(f"{_item(older['id'])} a.job-open")
+    page.wait_for_selector("#sweep-card", timeout=120_000)
+    assert f"Sweep #{older['id']}:" in page.inner_text("#sweep-card")  # not the newer one
+    assert page.url.endswith(f"#/compare?sweep={older['id']}")
+    z = "document.getElementById('sweep-plot')?.data?.[0]?.z"
+    wait_for(lambda: page.evaluate(z), 60, "the heat map")
+    table = live_server.get(f"/api/sweeps/{older['id']}")["result"]["tables"]["abs_work"]
+    assert page.evaluate(z) == table["abs_work"]["change_pct"]  # that sweep's cells
+    assert page.evaluate("document.getElementById('sweep-plot').data[0].y") == ["1 s"]
+
+
+def test_the_drawer_shows_labels_and_closes_with_escape(live_server: Server, page: Any) -> None:
+    page.goto(f"{live_server.url}/#/recordings")
+    page.wait_for_selector("#upload-form")
+    if page.locator("#job-drawer[hidden]").count():
+        page.click("#jobs-button")
+    job = live_server.post("/api/plans", json={**TINY, "label": "heavy and slow"}).json()
+    wait_for(lambda: _state(page, job["id"]) is not None, 60, "the job in the drawer")
+    assert "heavy and slow" in page.inner_text(_item(job["id"]))
+    page.keyboard.press("Escape")
+    page.wait_for_selector("#job-drawer[hidden]", state="attached", timeout=10_000)
+    assert page.get_attribute("#jobs-button", "aria-expanded") == "false"
+
+
+def test_a_running_plan_is_followed_from_the_drawer(live_server: Server, page: Any) -> None:
+    """A running plan in the drawer links to its progress and convergence on the Plan page."""
+    page.goto(f"{live_server.url}/#/recordings")
+    page.wait_for_selector("#upload-form")
+    if page.locator("#job-drawer[hidden]").count():
+        page.click("#jobs-button")
+    job = live_server.post("/api/plans", json=LONG).json()
+    wait_for(lambda: _state(page, job["id"]) == "running", 120, "the job running")
+    page.click(f"{_item(job['id'])} a.job-follow")
+    wait_for(lambda: f"#{job['id']}" in page.inner_text("#job-card"), 60, "its progress panel")
+    assert page.locator("#convergence-plot").count() == 1
+    # Cancelled from there (its PSO may also stop early, when the swarm stops improving).
+    page.keyboard.press("Escape")  # the drawer covers the panel's Cancel on a narrow window
+    page.wait_for_selector("#job-drawer[hidden]", state="attached", timeout=10_000)
+    if live_server.get(f"/api/jobs/{job['id']}")["state"] == "running":
+        page.click("#cancel-job", timeout=30_000)
+    wait_for(lambda: page.is_hidden("#cancel-job"), 60, "the job's end shown")

@@ -188,3 +188,108 @@ def test_templates_are_named_by_their_recording(live_server: Server, page: Any) 
     gone = [o for o in options if o.startswith(f"analysis #{job['id']} ")]
     assert gone and "a deleted recording" in gone[0], options
     assert not any("#null" in o for o in options)
+
+
+# ---- issue 29 item 2: a researcher's findings in a real browser -----------------------------
+
+LONG_PLAN = {"particles": "400", "iterations": "2000"}
+
+
+def _convergence_points(page: Any) -> int:
+    return int(
+        page.evaluate(
+            "() => { const d = document.getElementById('convergence-plot')?.data || [];"
+            " return d.reduce((n, t) => n + t.x.length, 0); }"
+        )
+    )
+
+
+def test_the_form_and_the_running_plan_survive_leaving_and_reload(
+    live_server: Server, page: Any
+) -> None:
+    """Leaving or reloading the Plan page emptied its progress panel and reset the form; the
+    running job could be followed only in the drawer, without its convergence curve."""
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#methods-fieldset")
+    page.select_option("#robot", "curtain_wall_6dof")
+    page.select_option("#kind", "plan")
+    for method in ("human_optimal", "jerk_limited", "bound"):
+        page.uncheck(f'#methods-fieldset input[data-method="{method}"]')
+    page.fill("#duration", "1.5")
+    page.fill("#plan-label", "kept across pages")
+    page.fill("#particles", LONG_PLAN["particles"])
+    page.fill("#iterations", LONG_PLAN["iterations"])
+    page.click("#submit-plan")
+    page.wait_for_selector("#job-card h2:has-text('#'), #plan-form .banner.error", timeout=60_000)
+    assert page.locator("#plan-form .banner.error").count() == 0, page.inner_text("#plan-form")
+    job_id = int(page.inner_text("#job-card h2").split("#")[1])
+    wait_for(lambda: _convergence_points(page) >= 2, 180, "the convergence curve growing")
+
+    def kept() -> None:
+        page.wait_for_selector("#plan-form")
+        assert page.input_value("#robot") == "curtain_wall_6dof"
+        assert page.input_value("#kind") == "plan"
+        assert page.input_value("#duration") == "1.5"
+        assert page.input_value("#plan-label") == "kept across pages"
+        assert page.input_value("#iterations") == LONG_PLAN["iterations"]
+        assert not page.is_checked('#methods-fieldset input[data-method="bound"]')
+        wait_for(lambda: f"#{job_id}" in page.inner_text("#job-card"), 60, "the job re-attached")
+        wait_for(lambda: _convergence_points(page) >= 2, 60, "the curve kept")
+
+    page.click('.tabs a[data-page="recordings"]')
+    page.wait_for_selector("#upload-form")
+    page.click('.tabs a[data-page="plan"]')
+    kept()
+    page.reload()
+    kept()
+    # Cancelled from the re-attached panel (its PSO may also stop early on its own).
+    if live_server.get(f"/api/jobs/{job_id}")["state"] == "running":
+        page.click("#cancel-job", timeout=30_000)
+    wait_for(lambda: page.is_hidden("#cancel-job"), 60, "the job's end shown")
+    assert live_server.get(f"/api/jobs/{job_id}")["state"] in {"cancelled", "succeeded"}
+    screenshot(page, "plan-reattached")
+
+
+def test_an_analysis_without_lifts_is_not_offered_as_a_template(
+    live_server: Server, page: Any
+) -> None:
+    """A wrong-rate analysis (0 or 1 spurious lift) was offered as a template, described like
+    the right one."""
+    from tests.frontend.test_browser import post_files
+    from tests.utils.data import shared_file
+
+    nt = shared_file("noraxon_curls_biceps_brachioradialis/NT-01.mat")
+    status, rec = post_files(live_server, [(nt.name, nt.read_bytes())])
+    assert status == 201, rec
+    job = live_server.post("/api/analyses", json={"recording_id": rec["id"]}).json()
+    wait_for(
+        lambda: live_server.get(f"/api/jobs/{job['id']}")["state"] == "succeeded", 180, "analysis"
+    )
+    summary = live_server.get(f"/api/analyses/{job['id']}")["summary"]
+    assert summary["files"][0]["rate_check"], summary  # run at the stored 20 kHz
+    page.goto(f"{live_server.url}/#/plan")
+    page.wait_for_selector("#template")
+    values = page.eval_on_selector_all("#template option", "os => os.map(o => o.value)")
+    assert str(job["id"]) not in values
+    assert "wrong-looking EMG rate" in page.inner_text("#template-hidden")
+    # Asked for by a link, it is there, saying what it is.
+    page.goto(f"{live_server.url}/#/plan?analysis={job['id']}")
+    page.wait_for_selector(f'#template option[value="{job["id"]}"]', state="attached")
+    text = page.inner_text(f'#template option[value="{job["id"]}"]')
+    assert "wrong-looking EMG rate" in text and "not a template" in text, text
+    others = page.eval_on_selector_all(
+        "#template option[data-lifts]", "os => os.map(o => o.textContent)"
+    )
+    assert all("lift" in o for o in others), others
+
+
+def test_a_robot_name_with_a_space_is_refused_in_words(live_server: Server, page: Any) -> None:
+    """A name with a space got the server's regular expression as its message."""
+    _open_upload(page, live_server)
+    page.set_input_files("#robot-model", str(robot_file(UR5)))
+    page.fill("#robot-name", "my robot")
+    page.click("#robot-upload")
+    wait_for(lambda: "Name" in page.inner_text("#robot-upload-status"), 60, "the refusal")
+    text = page.inner_text("#robot-upload-status")
+    assert "no spaces" in text and "my_robot" in text, text
+    assert "pattern" not in text and "^[" not in text, text

@@ -10,7 +10,8 @@ const routes = [
   { re: /^#\/recordings\/(\d+)$/, page: "recordings", load: () => import("./recording.js") },
   { re: /^#\/recordings\/?$/, page: "recordings", load: () => import("./recordings.js") },
   { re: /^#\/plan\/?(?:\?(.*))?$/, page: "plan", load: () => import("./plan.js") },
-  { re: /^#\/compare(?:\/(plan|simulation)\/(\d+))?\/?(?:\?methods=([a-z_]+,[a-z_]+))?$/, page: "compare", load: () => import("./compare.js") },
+  // Query: ?methods=a,b (the pair shown), ?sweep=ID (that sweep's heat maps).
+  { re: /^#\/?compare(?:\/(plan|simulation)\/(\d+))?\/?(?:\?(.*))?$/, page: "compare", load: () => import("./compare.js") },
 ];
 
 const main = document.getElementById("app");
@@ -54,13 +55,15 @@ async function route() {
   main.focus({ preventScroll: true });
 }
 
+let active = 0; // jobs the drawer sees queued or running (its stream is live; health is polled)
 async function status() {
   const dot = document.getElementById("status-dot");
   const text = document.getElementById("status-text");
   try {
     const [health, viewer] = await Promise.all([api("/api/health"), api("/api/viewer")]);
     dot.className = `dot ${health.status === "ok" ? "ok" : "bad"}`;
-    const jobs = health.running ? `${health.running} running` : "idle";
+    const busy = [health.running ? `${health.running} running` : "", health.queued ? `${health.queued} queued` : ""].filter(Boolean);
+    const jobs = busy.length ? busy.join(", ") : active ? `${active} job(s) active` : "idle";
     text.textContent = `${health.executor} executor, ${jobs} · viewer ${viewer.enabled ? `:${viewer.port}` : "off"}`;
   } catch (err) {
     dot.className = "dot bad";
@@ -84,3 +87,7 @@ if (!location.hash) history.replaceState(null, "", "#/recordings");
 route();
 status();
 setInterval(status, 15000);
+document.addEventListener("bioplan:jobs", (e) => {
+  active = e.detail.active;
+  status();
+});

@@ -31,6 +31,42 @@ export function addProgressPoint(curves, job) {
   return true;
 }
 
+/** The form (and the job it followed) kept for this tab: leaving or reloading the page keeps them. */
+const FORM_KEY = "bioplan.plan.form";
+/** Methods planned only when asked for (DESIGN.md: the unrestricted bound): unchecked at first. */
+const ON_REQUEST = new Set(["bound_unrestricted"]);
+const JOB_KEY = "bioplan.plan.job";
+
+function readStore(key) {
+  try {
+    return JSON.parse(sessionStorage.getItem(key) || "null");
+  } catch {
+    return null;
+  }
+}
+
+function writeStore(key, value) {
+  try {
+    sessionStorage.setItem(key, JSON.stringify(value));
+  } catch {
+    /* storage full or off: the page still works, it only forgets */
+  }
+}
+
+/** A template's line in the list: its recording, angle and how many lifts it rests on. */
+function templateText(a, of) {
+  const t = a.template || {};
+  const summary = a.summary || {};
+  const lifts = summary.n_lifts ?? t.n_lifts ?? 0;
+  const peak = t.peak_velocity_angle_deg ? `${fmt(t.peak_velocity_angle_deg, 3)}°` : "?";
+  const found = `${lifts} lift${lifts === 1 ? "" : "s"} found`;
+  const rate = (summary.files || []).map((f) => f.rate_check).find(Boolean);
+  if (rate) return `analysis #${a.id} of ${of}: run at a wrong-looking EMG rate (${fmt(rate.stored_rate_hz)} Hz stored, ${fmt(rate.suggested_rate_hz)} Hz likely): ${found}, not a template of this person`;
+  if (!lifts) return `analysis #${a.id} of ${of}: no lift found, so only the paper's default ${peak}`;
+  const source = summary.is_paper_default ? "none with kinematics: the paper's default" : summary.template_source || `${t.n_lifts} with kinematics`;
+  return `analysis #${a.id} of ${of}: peak ${peak}, ${found}, ${source}`;
+}
+
 export async function render(main, [query]) {
   const params = new URLSearchParams(query || "");
   const stops = [];
@@ -55,19 +91,27 @@ export async function render(main, [query]) {
   const duration = h("input", { id: "duration", type: "number", min: "0.05", max: "600", step: "0.05", value: "1.0", required: true });
   const payload = h("input", { id: "payload", type: "number", min: "0", max: "10000", step: "0.1" });
   const objective = h("select", { id: "objective" }, names.metrics.map((m) => h("option", { value: m.name }, `${m.name}: ${m.label} ${m.formula} [${m.unit}]`)));
+  // An analysis that found no lift, or ran at an EMG rate that looked wrong, is no template of
+  // this person: not offered, unless a link asks for it (then it says what it is).
+  const usable = (a) => {
+    const summary = a.summary || {};
+    const lifts = summary.n_lifts ?? (a.template || {}).n_lifts ?? 0;
+    return lifts > 0 && !(summary.files || []).some((f) => f.rate_check);
+  };
+  const offered = analyses.items.filter((a) => usable(a) || params.get("analysis") === String(a.id));
+  const hiddenCount = analyses.items.length - offered.length;
   const template = h("select", { id: "template" },
     h("option", { value: "" }, "paper defaults (velocity peak in the middle of phase B)"),
-    analyses.items.map((a) => {
-      const t = a.template || {};
-      const peak = t.peak_velocity_angle_deg ? `${fmt(t.peak_velocity_angle_deg, 3)}°` : "?";
-      const summary = a.summary || {};
+    offered.map((a) => {
       const of = a.recording_id === null ? "a deleted recording" : recordingNames.get(a.recording_id) || `recording #${a.recording_id}`;
-      const source = summary.is_paper_default ? "the paper's default (no lifts with kinematics)" : summary.template_source || `${t.n_lifts ?? 0} lifts`;
-      return h("option", { value: String(a.id), selected: params.get("analysis") === String(a.id) }, `analysis #${a.id} of ${of}: peak ${peak}, ${source}`);
+      return h("option", { value: String(a.id), selected: params.get("analysis") === String(a.id), dataset: { lifts: String((a.summary || {}).n_lifts ?? 0) } }, templateText(a, of));
     }),
   );
+  const templateNote = hiddenCount
+    ? h("div", { class: "small muted", id: "template-hidden" }, `${hiddenCount} analys${hiddenCount === 1 ? "is" : "es"} that found no lift or ran at a wrong-looking EMG rate ${hiddenCount === 1 ? "is" : "are"} not offered.`)
+    : null;
   const methodBoxes = names.methods.map((m) => h("label", { class: "check", title: m.description },
-    h("input", { type: "checkbox", value: m.name, checked: true, disabled: m.name === "quintic", dataset: { method: m.name } }),
+    h("input", { type: "checkbox", value: m.name, checked: !ON_REQUEST.has(m.name), disabled: m.name === "quintic", dataset: { method: m.name } }),
     h("span", { class: "swatch", style: `background:${m.colour}` }), m.label));
   const humanConstraint = h("select", { id: "human-constraint" },
     h("option", { value: "peak" }, "peak: the elbow is fastest where it passes the template's angle"),
@@ -145,7 +189,7 @@ export async function render(main, [query]) {
       h("div", {}, h("label", { for: "duration" }, "Duration ", h("span", { class: "hint" }, "[s]")), duration),
       h("div", {}, h("label", { for: "payload" }, "Payload ", h("span", { class: "hint" }, "[kg]")), payload),
       h("div", { class: "wide" }, h("label", { for: "objective" }, "Objective (what PSO minimises)"), objective),
-      h("div", { class: "wide" }, h("label", { for: "template" }, "Human template"), template),
+      h("div", { class: "wide" }, h("label", { for: "template" }, "Human template"), template, templateNote),
       h("div", { class: "wide" }, h("label", { for: "peak-angle" }, "Elbow velocity-peak angle ", h("span", { class: "hint" }, "[deg], overrides the template")), peak),
     ),
     h("details", {},
@@ -176,7 +220,10 @@ export async function render(main, [query]) {
     h("h2", {}, "Progress"),
     h("p", { class: "muted" }, "Submit a plan: its progress, the optimiser's convergence and the result appear here."),
   );
-  function startMonitor(job) {
+  /** Follow `job` here: its progress, the convergence curve (`curves` kept from before a
+   * reload or a visit elsewhere, then grown from its events) and its result. */
+  function startMonitor(job, kept = null) {
+    writeStore(JOB_KEY, { id: job.id, curves: kept || {} });
     const bar = h("div", {});
     const prog = h("div", { class: "progress", id: "job-progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": "0" }, bar);
     const state = h("span", { id: "job-state" }, tag(job.state));
@@ -188,7 +235,7 @@ export async function render(main, [query]) {
       h("div", { class: "row" }, h("h2", { style: "margin:0" }, `${job.kind === "simulation" ? "Simulation" : "Plan"} #${job.id}`), state, h("span", { style: "margin-left:auto" }, cancel)),
       prog, message, plotDiv, result,
     );
-    let curves = {};
+    let curves = kept || {};
     const objectiveName = job.params.objective;
     const drawCurve = () => {
       const stages = Object.keys(curves);
@@ -213,7 +260,10 @@ export async function render(main, [query]) {
       prog.dataset.stage = j.stage;
       clear(state).append(tag(j.state));
       message.textContent = j.error || j.message;
-      if (addProgressPoint(curves, j)) drawCurve();
+      if (addProgressPoint(curves, j)) {
+        drawCurve();
+        writeStore(JOB_KEY, { id: job.id, curves });
+      }
     });
     stops.push(follow.stop);
     follow.done.then(async (final) => {
@@ -278,5 +328,53 @@ export async function render(main, [query]) {
     return { robot: b.robot, objectives: [b.objective], methods: b.methods, particles: b.particles, iterations: b.iterations, seed: b.seed };
   }, stops);
   main.append(h("div", { class: "grid-2" }, h("div", {}, form, addRobot), h("div", {}, monitor, sweep)));
+  restoreForm();
+  form.addEventListener("input", saveForm);
+  form.addEventListener("change", saveForm);
+  await reattach();
   return () => stops.forEach((f) => f());
+
+  /** The form's values, the methods chosen and the task's angles, for this tab. */
+  function saveForm() {
+    const values = {};
+    for (const el of form.querySelectorAll("input[id], select[id]")) values[el.id] = el.value;
+    const methods = methodBoxes.map((l) => l.querySelector("input")).filter((x) => x.checked).map((x) => x.value);
+    const joints = [...jointsBody.querySelectorAll("input")].map((x) => x.value);
+    writeStore(FORM_KEY, { values, methods, joints });
+  }
+
+  /** The form as it was left (a link's robot or template wins over the kept one). */
+  function restoreForm() {
+    const saved = readStore(FORM_KEY);
+    if (!saved || !saved.values) return;
+    const v = saved.values;
+    if (!params.get("robot") && robots.some((r) => r.name === v.robot)) robot.value = v.robot;
+    showRobot();
+    for (const [key, value] of Object.entries(v)) {
+      if (key === "robot" || (key === "template" && params.get("analysis"))) continue;
+      const el = form.querySelector(`#${CSS.escape(key)}`);
+      if (!el || (el.tagName === "SELECT" && ![...el.options].some((o) => o.value === value && !o.disabled))) continue;
+      el.value = value;
+    }
+    const boxes = methodBoxes.map((l) => l.querySelector("input"));
+    if (Array.isArray(saved.methods)) boxes.forEach((x) => (x.checked = x.disabled || saved.methods.includes(x.value)));
+    const inputs = [...jointsBody.querySelectorAll("input")];
+    if (Array.isArray(saved.joints) && saved.joints.length === inputs.length && robot.value === v.robot) {
+      inputs.forEach((x, i) => (x.value = saved.joints[i]));
+    }
+  }
+
+  /** The plan this tab followed (or ?job=ID): its progress panel again, with its curve. */
+  async function reattach() {
+    const kept = readStore(JOB_KEY);
+    const wanted = Number(params.get("job")) || (kept && kept.id);
+    if (!wanted) return;
+    try {
+      const job = await api(`/api/jobs/${wanted}`);
+      if (job.kind !== "plan" && job.kind !== "simulation") return;
+      startMonitor(job, kept && kept.id === job.id ? kept.curves : null);
+    } catch {
+      if (kept && kept.id === wanted) sessionStorage.removeItem(JOB_KEY); // deleted meanwhile
+    }
+  }
 }

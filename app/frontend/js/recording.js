@@ -77,16 +77,45 @@ function extent(...series) {
   return lo <= hi ? [lo, hi] : null;
 }
 
+/** The channels' ids, file by file: a change that reads the files again replaces them. */
+function channelKey(rec) {
+  return rec.files.map((f) => `${f.id}:${f.channels.map((c) => c.id).join(",")}`).join(";");
+}
+
+/**
+ * The page. A change that reads the files again (the EMG rate's fix, the channels' mapping, a
+ * video's landmarks stored) gives the channels new ids: the page is then drawn again in place
+ * from the new recording, following the job that re-analyses it.
+ */
 export async function render(main, [idText]) {
   const id = Number(idText);
-  const state = { window: [null, null], analysis: null, emgChannels: [], stop: [] };
-  let rec;
-  try {
-    rec = await api(`/api/recordings/${id}`);
-  } catch (err) {
-    main.append(banner("error", messageOf(err)), h("a", { href: "#/recordings" }, "← All recordings"));
-    return;
+  const stops = [];
+  let shown = 0;
+  async function show(rec = null, follow = null, notice = null) {
+    const mine = ++shown;
+    stops.splice(0).forEach((f) => f());
+    const y = window.scrollY;
+    let fresh = rec;
+    if (!fresh) {
+      try {
+        fresh = await api(`/api/recordings/${id}`);
+      } catch (err) {
+        clear(main).append(banner("error", messageOf(err)), h("a", { href: "#/recordings" }, "← All recordings"));
+        return;
+      }
+    }
+    if (mine !== shown) return;
+    clear(main);
+    // Drawn again after a change: where the user was stays in view.
+    await recordingPage(main, fresh, { stops, follow, notice, refresh: show, restore: rec ? y : 0 });
   }
+  await show();
+  return () => stops.forEach((f) => f());
+}
+
+async function recordingPage(main, rec, ctx) {
+  const id = rec.id;
+  const state = { window: [null, null], analysis: null, emgChannels: [], stop: ctx.stops };
   const channels = rec.files.flatMap((f) => f.channels.map((c) => ({ ...c, file: f.original_name })));
   const allEmg = channels.filter((c) => c.kind === "emg");
   // Shown at first: the channels mapped to the method's four sites (or the first six).
@@ -129,8 +158,10 @@ export async function render(main, [idText]) {
     ),
   );
   main.append(filesCard);
-  // A change that re-analyses hands its job here: the page follows it and redraws.
-  const onJob = (job) => runAnalysis(job);
+  // A change that re-analyses hands its job here: the page follows it and redraws. A change
+  // that read the files again (`changed`: the recording as it is now) redraws the whole page.
+  const onJob = (job, changed = null, notice = null) =>
+    changed && channelKey(changed) !== channelKey(rec) ? ctx.refresh(changed, job, notice) : runAnalysis(job);
   main.append(...[
     checksCard(rec, onJob), framesCard(rec), channelsCard(rec, onJob),
     optionsCard(rec, { phase_bounds_deg: names.phase_bounds_deg }, onJob),
@@ -219,14 +250,21 @@ export async function render(main, [idText]) {
       return top - (1 + sepAfter(i)) / total;
     }, 1);
     lay.height += 60 * (new Set(files).size - 1) * (ownClocks ? 1 : 0);
-    const envByChannel = new Map((analysis ? analysis.emg : []).map((e) => [e.channel, e]));
+    const envs = analysis ? analysis.emg : [];
+    // Files of one session often share channel names: a panel takes its own file's envelope.
+    const envOf = (ch) => {
+      const named = envs.filter((e) => e.channel === ch.name);
+      const mine = named.find((e) => e.file === ch.file);
+      // Analyses that name files otherwise (or not at all): a name that is unique still fits.
+      return mine || (named.length === 1 && !envs.some((e) => e.file === ch.file) ? named[0] : undefined);
+    };
     raw.channels.forEach((ch, i) => {
       const axis = i === 0 ? "" : String(i + 1);
       const axes = { xaxis: `x${axis}`, yaxis: `y${axis}` };
       const info = state.emgChannels.find((c) => c.id === ch.channel_id) || {};
       const scale = emgScale(ch.unit);
       const s = ch.series[0];
-      const env = envByChannel.get(ch.name);
+      const env = envOf(ch);
       const label = info.site || (env ? env.muscle : ch.name);
       const color = muscleColor(label, i);
       const rawY = s.y.map((v) => (v === null ? null : v * scale.k));
@@ -289,7 +327,7 @@ export async function render(main, [idText]) {
     const paperDefault = isPaperDefault(T);
     clear(templateFacts).append(
       fact("template from", paperDefault ? "the paper's default (no lifts with kinematics from this person)" : `this person's lifts: ${T.source}`),
-      fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}°${paperDefault ? " (paper)" : ` ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`}`),
+      fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}°${paperDefault ? " (paper)" : T.n_lifts === 1 ? " (from one lift: no spread)" : ` ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`}`),
       fact("lifts", `${lifts.length} found, ${paperDefault ? 0 : T.n_lifts} with kinematics`),
       fact("peak at", T.peak_velocity_time_fraction === null ? "–" : `${Math.round(100 * T.peak_velocity_time_fraction)} % of the lift`),
       fact("activation order", orderText(T.activation_order)),
@@ -329,11 +367,16 @@ export async function render(main, [idText]) {
 
   function drawLifts(analysis) {
     clear(liftsBox);
+    liftsBox.dataset.analysis = String(analysis.analysis_id);
     // Every warning is shown, and first: with a wrong EMG rate "No lift found" alone misleads.
-    if (analysis.warnings.length) {
+    // The rate's own warning is said once, with its fix, in the data checks above.
+    const rc = rec.rate_check;
+    const rateNote = rc ? `The EMG rate of ${rc.file} looks wrong: see “Data checks” above for its one-click fix.` : null;
+    const notes = [...new Set(analysis.warnings.map((w) => (rc && w.includes(rc.reason) ? rateNote : w)))];
+    if (notes.length) {
       liftsBox.append(h("div", { class: "banner warn", id: "analysis-warnings", role: "status" },
-        h("strong", {}, `${analysis.warnings.length} note(s) from the analysis`),
-        h("ul", { class: "small" }, analysis.warnings.map((w) => h("li", {}, w)))));
+        h("strong", {}, `${notes.length} note(s) from the analysis`),
+        h("ul", { class: "small" }, notes.map((w) => h("li", {}, w)))));
     }
     if (!analysis.lifts.length) {
       liftsBox.append(h("p", { class: "muted", id: "no-lifts" }, "No lift found."));
@@ -343,13 +386,18 @@ export async function render(main, [idText]) {
       const p = lift.phases.find((x) => x.name === name && x.part !== "eccentric");
       return p ? fmt(p.end_s - p.start_s, 3) : "–";
     };
+    // A session of several files: one running number, and the file (with its own lift number).
+    const files = new Set(analysis.lifts.map((l) => l.file).filter(Boolean));
+    const many = files.size > 1;
+    const head = ["#", ...(many ? ["file"] : []), "start [s]", "top [s]", "end [s]", "A [s]", "B [s]", "C [s]", "v-peak [deg]", "onset order"];
     liftsBox.append(
       h("div", { class: "table-wrap" },
         h("table", { id: "lifts-table" },
-          h("thead", {}, h("tr", {}, ["#", "start [s]", "top [s]", "end [s]", "A [s]", "B [s]", "C [s]", "v-peak [deg]", "onset order"].map((c, i) => h("th", { class: i > 0 && i < 8 ? "num" : "" }, c)))),
-          h("tbody", {}, analysis.lifts.map((l) =>
-            h("tr", {},
-              h("td", {}, `${l.index}`, h("div", { class: "small muted" }, l.source)),
+          h("thead", {}, h("tr", {}, head.map((c) => h("th", { class: c.includes("[") ? "num" : "" }, c)))),
+          h("tbody", {}, analysis.lifts.map((l, k) =>
+            h("tr", { dataset: { file: l.file || "" } },
+              h("td", {}, `${many ? k + 1 : l.index}`, h("div", { class: "small muted" }, l.source)),
+              many ? h("td", { class: "mono small" }, l.file, h("div", { class: "small muted" }, `lift ${l.index} of this file`)) : null,
               h("td", { class: "num" }, fmt(l.start_s)),
               h("td", { class: "num" }, fmt(l.top_s)),
               h("td", { class: "num" }, fmt(l.end_s)),
@@ -407,6 +455,7 @@ export async function render(main, [idText]) {
       return;
     }
     analysisState = "waiting";
+    if (job && job.id === following) return; // followed already (handed over by a change)
     clear(analysisNote).append(h("p", { class: "muted small" }, job
       ? `Analysis job #${job.id} is ${job.state}: envelopes, onsets, angles and lifts appear when it ends.`
       : "This recording has not been analysed yet: starting the analysis job…"));
@@ -432,7 +481,9 @@ export async function render(main, [idText]) {
   }
 
   /** Submit an analysis job (or follow `existing`), with its progress; then load its overlays. */
+  let following = null;
   async function runAnalysis(existing = null) {
+    if (existing) following = existing.id;
     analyseButton.disabled = true;
     clear(analysisStatus);
     const bar = h("div", {});
@@ -448,7 +499,13 @@ export async function render(main, [idText]) {
       const final = await follow.done;
       if (final.state === "succeeded") {
         bar.parentElement.classList.add("done");
-        text.append(" · ", h("a", { href: `#/plan?analysis=${final.id}` }, "plan with this template"));
+        // A video's landmarks stored (a pose job) add channels: the page is drawn again.
+        const now = await api(`/api/recordings/${id}`);
+        if (channelKey(now) !== channelKey(rec)) {
+          ctx.refresh(now);
+          return;
+        }
+        if (final.kind !== "pose") text.append(" · ", h("a", { href: `#/plan?analysis=${final.id}` }, "plan with this template"));
         analysisState = "unknown";
         await load({ initial: true });
       } else {
@@ -467,16 +524,18 @@ export async function render(main, [idText]) {
   api(`/api/analyses${qs({ state: "succeeded", recording_id: id, limit: 50 })}`).then((page) => {
     const mine = page.items;
     if (mine.length) {
-      analysisStatus.append(h("p", { class: "small muted" }, "Finished analyses: ", mine.map((a, i) => [i ? ", " : "", h("a", { href: `#/plan?analysis=${a.id}` }, `#${a.id}`)]), " (use as planning template)"));
+      analysisStatus.append(h("p", { class: "small muted" }, "Finished analyses: ", mine.map((a, i) => [i ? ", " : "", h("a", { href: `#/plan?analysis=${a.id}` }, `#${a.id}`), (a.summary || {}).n_lifts === 0 ? h("span", { class: "muted" }, " (no lift found)") : null]), " (use as planning template)"));
     }
   }).catch(() => {});
 
+  if (ctx.notice) analysisStatus.before(banner("info", ctx.notice));
+  if (ctx.restore) window.scrollTo(0, ctx.restore);
   await plotly();
+  if (ctx.follow) runAnalysis(ctx.follow);
   try {
     await load({ initial: true });
   } catch (err) {
     main.append(banner("error", messageOf(err)));
   }
-  return () => state.stop.forEach((f) => f());
 }
 

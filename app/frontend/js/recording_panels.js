@@ -30,6 +30,21 @@ function statusLine(id) {
   };
 }
 
+/**
+ * The rate check in the page's words (the reader's own sentence names the CLI's option): what
+ * was measured, what it would be at the suggested rate. The button next to it applies it.
+ */
+export function rateCheckText(rc) {
+  const at = rc.median_frequency_hz * rc.suggested_rate_hz / rc.stored_rate_hz;
+  return `Its EMG's spectral median is ${fmt(rc.median_frequency_hz, 3)} Hz, while surface EMG is typically 50–150 Hz; at ${fmt(rc.suggested_rate_hz)} Hz it would be ${fmt(at, 3)} Hz. `;
+}
+
+/** The readers' warnings without the rate check's (shown once, with its fix). */
+export function otherWarnings(rec) {
+  const rc = rec.rate_check;
+  return (rec.warnings || []).filter((w) => !(rc && w.includes(rc.reason)));
+}
+
 /** The rate warning with its fix, and every reader warning (shown, not folded away). */
 export function checksCard(rec, onJob) {
   const parts = [];
@@ -43,7 +58,7 @@ export function checksCard(rec, onJob) {
       try {
         const out = await api(rc.rerun.url, { method: rc.rerun.method, body: rc.rerun.json });
         status.ok(`EMG rate set to ${fmt(rc.suggested_rate_hz)} Hz.`);
-        if (out && out.analysis_job) onJob(out.analysis_job);
+        if (out && out.analysis_job) onJob(out.analysis_job, out, `EMG rate set to ${fmt(rc.suggested_rate_hz)} Hz: the files were read again and are being re-analysed.`);
       } catch (err) {
         fix.disabled = false;
         status.fail(err);
@@ -51,12 +66,13 @@ export function checksCard(rec, onJob) {
     });
     parts.push(h("div", { class: "banner warn", id: "rate-warning", role: "status" },
       h("strong", {}, `${rc.file}: the stored EMG rate (${fmt(rc.stored_rate_hz)} Hz) looks wrong. `),
-      `${rc.reason} Suggested: ${fmt(rc.suggested_rate_hz)} Hz (channels ${rc.channels.join(", ")}). `,
+      rateCheckText(rc), `Suggested: ${fmt(rc.suggested_rate_hz)} Hz (channels ${rc.channels.join(", ")}). `,
       fix, status.el));
   }
-  if (rec.warnings && rec.warnings.length) {
+  const warnings = otherWarnings(rec);
+  if (warnings.length) {
     parts.push(h("div", { id: "reader-warnings" }, h("strong", { class: "small" }, "What the readers noted"),
-      h("ul", { class: "small" }, rec.warnings.map((w) => h("li", {}, w)))));
+      h("ul", { class: "small" }, warnings.map((w) => h("li", {}, w)))));
   }
   return parts.length ? h("section", { class: "card", id: "checks-card" }, h("h2", {}, "Data checks"), parts) : null;
 }
@@ -87,8 +103,9 @@ export function channelsCard(rec, onJob) {
     status.busy("Reading the files again with the new mapping…");
     try {
       const out = await api(`/api/recordings/${rec.id}`, { method: "PATCH", body });
-      status.ok(`Saved: ${exclude.length} channel(s) excluded${Object.keys(map).length ? `, ${Object.keys(map).length} remapped` : ""}.`);
-      if (out.analysis_job) onJob(out.analysis_job);
+      const saved = `Saved: ${exclude.length} channel(s) excluded${Object.keys(map).length ? `, ${Object.keys(map).length} remapped` : ""}.`;
+      status.ok(saved);
+      if (out.analysis_job) onJob(out.analysis_job, out, saved);
     } catch (err) {
       status.fail(err);
     } finally {

@@ -1,7 +1,8 @@
 // Recordings: drag-and-drop upload of a session (one or more files) and the list.
 
 import { api, followJob, qs, upload } from "./api.js";
-import { banner, bytes, clear, debounce, fmt, h, inFormWords, messageOf, when } from "./ui.js";
+import { otherWarnings, rateCheckText } from "./recording_panels.js";
+import { banner, bytes, clear, debounce, fmt, h, inFormWords, messageOf, namesInFormWords, when } from "./ui.js";
 
 const SITES = ["deltoid", "triceps", "biceps", "forearm"];
 /** The API's form fields in the words of this form. */
@@ -10,6 +11,9 @@ const FIELD_WORDS = {
   muscle_map: "Muscle mapping", rate: "Sampling rate", emg_rate: "EMG rate", image_size: "Image size",
   frame_rate: "Frame rate", format: "Format",
 };
+
+/** The landmark presets of app.analysis.pose.LANDMARK_PRESETS (a test keeps the two equal). */
+const LANDMARK_PRESETS = ["plugin_gait", "opencap", "pose2sim", "plugin_gait_right", "plugin_gait_left", "opencap_right", "opencap_left", "pose2sim_right", "pose2sim_left"];
 
 const GUIDE_KEY = "bioplan.guide.hidden";
 
@@ -45,7 +49,7 @@ export function render(main) {
     "div",
     { class: "drop", id: "drop", tabindex: "0", role: "button", "aria-controls": "file-input" },
     h("strong", {}, "Drop recording files here"),
-    h("div", { class: "small" }, "or click to choose · CSV, Noraxon, Delsys, Vicon, Qualisys, C3D, EDF/BDF, MAT, MediaPipe, OpenSim, videos (mp4, mov, avi)"),
+    h("div", { class: "small" }, "or click to choose · CSV, Noraxon, Delsys, Vicon, Qualisys, C3D, EDF/BDF, MAT, MediaPipe, OpenSim, XDF, videos (mp4, mov, avi)"),
   );
   const list = h("ul", { class: "files", id: "upload-files" });
   const topError = h("div", { id: "upload-error" });
@@ -60,6 +64,10 @@ export function render(main) {
   const emgRate = h("input", { id: "emg-rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
   const frameRate = h("input", { id: "frame-rate", type: "number", min: "0", step: "any", placeholder: "video landmarks" });
   const imageSize = h("input", { id: "image-size", pattern: "\\d+x\\d+", placeholder: "e.g. 1280x720" });
+  const landmarkPreset = h("select", { id: "landmark-preset" },
+    h("option", { value: "", selected: true }, "automatic (MediaPipe, Plug-in Gait LSHO/LELB/LWRA+LWRB...)"),
+    LANDMARK_PRESETS.map((p) => h("option", { value: p }, p)));
+  const landmarkMap = h("input", { id: "landmark-map", maxlength: "1000", placeholder: "or shoulder=RSHO,elbow=RELB,wrist=RWRA" });
   const sessionMode = h("select", { id: "session" },
     h("option", { value: "separate", selected: true }, "separate trials (each file on its own clock)"),
     h("option", { value: "together" }, "recorded together (one clock, e.g. EMG and the video of the same lifts)"));
@@ -141,27 +149,28 @@ export function render(main) {
 
   /** The next upload starts from empty fields: nothing of this session carries over. */
   function resetFields() {
-    [label, subject, task, load, notes, rate, emgRate, frameRate, imageSize].forEach((el) => (el.value = ""));
+    [label, subject, task, load, notes, rate, emgRate, frameRate, imageSize, landmarkPreset, landmarkMap].forEach((el) => (el.value = ""));
     sessionMode.value = "separate";
     clear(maps);
   }
 
   /** What the server says of a stored session: the rate check with its one-click fix, the
    * readers' warnings, the pose jobs of videos (then the analysis), or the analysis job. */
-  function showStored(rec) {
+  function showStored(rec, landmarks) {
     const note = banner("info", `Stored as recording #${rec.id}. `);
     note.id = "upload-stored";
     note.append(h("a", { href: `#/recordings/${rec.id}` }, "Open it"));
     topError.append(note);
     if (rec.rate_check) topError.append(rateCheck(rec));
-    if (rec.warnings && rec.warnings.length) {
-      topError.append(h("div", { class: "banner warn", id: "upload-warnings" }, h("strong", {}, "The readers noted:"), h("ul", { class: "small" }, rec.warnings.map((w) => h("li", {}, w)))));
+    const warnings = otherWarnings(rec); // the rate check's is said once, with its fix
+    if (warnings.length) {
+      topError.append(h("div", { class: "banner warn", id: "upload-warnings" }, h("strong", {}, "The readers noted:"), h("ul", { class: "small" }, warnings.map((w) => h("li", {}, w)))));
     }
     if (rec.pose_jobs && rec.pose_jobs.length) {
       rec.pose_jobs.forEach((job) => topError.append(poseProgress(rec, job)));
       return; // the server analyses the recording once the landmarks are stored
     }
-    api("/api/analyses", { method: "POST", body: { recording_id: rec.id } })
+    api("/api/analyses", { method: "POST", body: landmarks ? { recording_id: rec.id, landmarks } : { recording_id: rec.id } })
       .then((job) => note.append(` · analysis job #${job.id} started`))
       .catch((err) => topError.append(banner("warn", `The analysis could not be started: ${messageOf(err)}`)));
   }
@@ -182,7 +191,7 @@ export function render(main) {
     });
     return h("div", { class: "banner warn", id: "upload-rate-warning", role: "status" },
       h("strong", {}, `${rc.file}: the stored EMG rate (${fmt(rc.stored_rate_hz)} Hz) looks wrong. `),
-      `${rc.reason} Suggested: ${fmt(rc.suggested_rate_hz)} Hz. `, fix, status);
+      rateCheckText(rc), `Suggested: ${fmt(rc.suggested_rate_hz)} Hz. `, fix, status);
   }
 
   /** A video's pose extraction: frames done of total, then a link to check the skeletons. */
@@ -192,7 +201,9 @@ export function render(main) {
     const box = h("div", { class: "pose-job", dataset: { job: String(job.id) } }, text, h("div", { class: "progress" }, bar));
     const follow = followJob(job, (j) => {
       bar.style.width = `${Math.round(100 * j.progress)}%`;
-      text.textContent = `pose job #${j.id}: ${j.state}${j.of ? `, ${j.done} of ${j.of} frames` : ""}${j.error ? `: ${j.error}` : ""}`;
+      // Frames are counted once the worker reads them (before that, the job reports 0 of 1).
+      const frames = j.stage === "pose" && j.of > 1 ? `, ${j.done.toLocaleString("en-US")} of ${j.of.toLocaleString("en-US")} frames` : j.state === "running" ? ", starting" : "";
+      text.textContent = `pose job #${j.id}: ${j.state}${frames}${j.error ? `: ${j.error}` : ""}`;
     });
     stops.push(follow.stop);
     follow.done.then((final) => {
@@ -213,6 +224,7 @@ export function render(main) {
     sent.forEach((f) => form.append("files", f.file, f.file.name));
     const fields = { session: sessionMode.value, label: label.value, subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, rate: rate.value, emg_rate: emgRate.value, frame_rate: frameRate.value, image_size: imageSize.value, muscle_map: muscleMap() };
     for (const [k, v] of Object.entries(fields)) if (v !== null && String(v).trim() !== "") form.append(k, String(v).trim());
+    const landmarks = landmarkMap.value.trim() || landmarkPreset.value; // an analysis option
     progress.hidden = false;
     progress.className = "progress";
     bar.style.width = "0%";
@@ -229,7 +241,7 @@ export function render(main) {
         files.splice(files.indexOf(f), 1);
       });
       resetFields();
-      showStored(rec);
+      showStored(rec, landmarks);
       refresh();
     } catch (err) {
       progress.classList.add("failed");
@@ -240,7 +252,7 @@ export function render(main) {
       const culprits = named.map((n) => [files.find((f) => f.file.name === n.file), n.detail]).filter(([f]) => f);
       if (culprits.length) {
         // Each message next to its file; the others were not stored either.
-        culprits.forEach(([f, detail]) => f.status.append(h("div", { class: "file-error", role: "alert" }, detail)));
+        culprits.forEach(([f, detail]) => f.status.append(h("div", { class: "file-error", role: "alert" }, namesInFormWords(detail, FIELD_WORDS))));
         const bad = new Set(culprits.map(([f]) => f));
         sent.filter((f) => !bad.has(f)).forEach((f) => f.status.append(h("div", { class: "meta" }, "not stored: a session is stored whole or not at all")));
         const which = culprits.map(([f]) => f.file.name).join(", ");
@@ -271,15 +283,17 @@ export function render(main) {
       h("div", { class: "wide" }, h("label", { for: "session" }, "The files were"), sessionMode),
     ),
     h("details", {},
-      h("summary", {}, "Muscle mapping, rates, video size"),
+      h("summary", {}, "Muscle mapping, rates, video size, arm markers"),
       h("p", { class: "small muted" }, "Map channel labels to the four EMG sites when the file's names are not recognised; override a sampling rate the file states wrongly; give the frame rate and image size of pose landmarks exported without them."),
       maps,
       h("button", { type: "button", class: "small", style: "margin-top:6px", onclick: () => addMap() }, "+ mapping"),
       h("div", { class: "fields" },
-        h("div", {}, h("label", { for: "rate" }, "Sampling rate ", h("span", { class: "hint" }, "[Hz]")), rate),
-        h("div", {}, h("label", { for: "emg-rate" }, "EMG rate ", h("span", { class: "hint" }, "[Hz]")), emgRate),
+        h("div", {}, h("label", { for: "rate" }, "Sampling rate ", h("span", { class: "hint" }, "[Hz], of files that state none")), rate),
+        h("div", {}, h("label", { for: "emg-rate" }, "EMG rate ", h("span", { class: "hint" }, "[Hz], replaces the EMG rate a file states")), emgRate),
         h("div", {}, h("label", { for: "frame-rate" }, "Frame rate ", h("span", { class: "hint" }, "[fps]")), frameRate),
         h("div", {}, h("label", { for: "image-size" }, "Image size ", h("span", { class: "hint" }, "[px]")), imageSize),
+        h("div", {}, h("label", { for: "landmark-preset" }, "Arm markers ", h("span", { class: "hint" }, "which are shoulder, elbow, wrist")), landmarkPreset),
+        h("div", {}, h("label", { for: "landmark-map" }, "Marker mapping ", h("span", { class: "hint" }, "role=NAME, overrides the preset")), landmarkMap),
       ),
     ),
     h("div", { class: "row", style: "margin-top:14px" }, submit, h("span", { class: "small muted" }, "All files of a session are stored together.")),
@@ -320,7 +334,9 @@ export function render(main) {
       const page = await api(`/api/recordings${qs({ q: search.value.trim(), limit: 100 })}`);
       clear(listError);
       clear(tbody);
-      total.textContent = `${page.total} in all`;
+      const q = search.value.trim();
+      const n = `${page.total} recording${page.total === 1 ? "" : "s"}`;
+      total.textContent = q ? `${n} match${page.total === 1 ? "es" : ""} “${q}”` : `${n} in all`;
       if (!page.items.length) {
         tbody.append(h("tr", {}, h("td", { colspan: "7", class: "muted" }, search.value ? "No recording matches." : "No recordings yet: drop files on the left.")));
       }

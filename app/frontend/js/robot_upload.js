@@ -35,7 +35,7 @@ function modelField(file) {
 
 /** The card; ``onAdded(robot)`` is called with the stored robot (``RobotInfo``). */
 export function robotUploadCard(onAdded) {
-  const name = h("input", { id: "robot-name", type: "text", required: true, pattern: "[A-Za-z0-9_\\-]{1,64}", placeholder: "e.g. my_ur5", "aria-label": "Robot name" });
+  const name = h("input", { id: "robot-name", type: "text", required: true, pattern: "[A-Za-z0-9_.\\-]{1,100}", title: "letters, digits, _, . and - (no spaces)", placeholder: "e.g. my_ur5", "aria-label": "Robot name" });
   const model = h("input", { id: "robot-model", type: "file", accept: ".urdf,.xml,.mjcf,.zip", "aria-label": "Model file" });
   const mjcf = h("input", { id: "robot-mjcf", type: "file", accept: ".xml,.mjcf", "aria-label": "MJCF for simulation (optional)" });
   const sidecar = h("input", { id: "robot-sidecar", type: "file", accept: ".yaml,.yml", "aria-label": "Motor sidecar (optional)" });
@@ -97,6 +97,8 @@ export function robotUploadCard(onAdded) {
     status.className = "small";
     const file = model.files[0];
     if (!name.value.trim()) return fail("Name: give the robot a name (letters, digits, _ and -).");
+    // Said in words here: the server's refusal quotes its pattern (a regular expression).
+    if (!/^[A-Za-z0-9_.-]{1,100}$/.test(name.value.trim())) return fail(`Name: “${name.value.trim()}” may hold only letters, digits, _, . and - (no spaces), at most 100 characters; e.g. ${name.value.trim().replace(/[^A-Za-z0-9_.-]+/g, "_").slice(0, 100)}.`);
     if (!file || !modelField(file)) return fail(`${FIELD_WORDS.urdf}: choose a .urdf, an MJCF .xml or a .zip of the robot's folder.`);
     const body = new FormData();
     body.append("name", name.value.trim());

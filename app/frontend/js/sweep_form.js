@@ -1,9 +1,9 @@
 // "Sweep a grid" on the Plan page: every method planned and simulated in each cell of a
 // duration x payload grid (POST /api/sweeps, `bioplan sweep`), with progress per cell. The
 // robot, objective, methods and swarm come from the plan form above; the heat maps per method
-// are shown on the Compare page beside a comparison of the same robot.
+// are shown on the Compare page (#/compare?sweep=ID), beside a comparison of the same robot.
 
-import { api, followJob, qs } from "./api.js";
+import { api, followJob } from "./api.js";
 import { banner, clear, h, inFormWords, tag } from "./ui.js";
 
 /** The sweep request's fields in the words of the forms they come from. */
@@ -20,15 +20,6 @@ export function numberList(text, what) {
   if (bad !== undefined) throw new Error(`${what}: "${bad}" is not a number (give numbers separated by commas)`);
   if (!values.length) throw new Error(`${what}: give at least one value`);
   return values;
-}
-
-/** The newest finished comparison of `robot` (where its heat maps are shown), or null. */
-async function comparisonOf(robot) {
-  for (const kind of ["simulations", "plans"]) {
-    const page = await api(`/api/${kind}${qs({ robot, state: "succeeded", limit: 1 })}`);
-    if (page.items.length) return `#/compare/${kind.slice(0, -1)}/${page.items[0].id}`;
-  }
-  return null;
 }
 
 /**
@@ -62,10 +53,8 @@ export function sweepFormCard(form, stops) {
         return;
       }
       prog.classList.add("done");
-      const where = await comparisonOf(final.params.robot).catch(() => null);
-      status.append(where
-        ? h("a", { class: "button", id: "open-sweep", href: where }, "Heat maps per method on Compare →")
-        : h("p", { class: "small muted" }, "Done. Its heat maps appear on the Compare page beside a plan or simulation of this robot."));
+      // That sweep's heat maps, beside a comparison of its robot.
+      status.append(h("a", { class: "button", id: "open-sweep", href: `#/compare?sweep=${final.id}` }, "Heat maps per method on Compare →"));
     });
   }
 

@@ -78,6 +78,15 @@ export function inFormWords(err, words) {
   return label && !text.startsWith(label) ? `${label}: ${text.replace(new RegExp(`^${field}:\\s*`), "")}` : text;
 }
 
+/** A message that names request fields (`frame_rate`) in a form's words (“Frame rate”). */
+export function namesInFormWords(text, words) {
+  let out = String(text);
+  for (const [field, label] of Object.entries(words)) {
+    if (field.includes("_")) out = out.replace(new RegExp(`(?:the )?\\b${field}\\b(?: option)?`, "g"), `the “${label}” field`);
+  }
+  return out;
+}
+
 export function debounce(fn, ms) {
   let t = null;
   return (...args) => {
