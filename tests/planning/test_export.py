@@ -256,3 +256,16 @@ def test_each_rate_changes_the_sample_count(human: Any) -> None:
         for rate in (50.0, 100.0, 1000.0)
     }
     assert counts == {50.0: 51, 100.0: 101, 1000.0: 1001}
+
+
+def test_numbers_are_written_short_and_read_back_exactly(human: Any) -> None:
+    """Issue 29: times printed as 0.0030000000000000001 (17 digits whatever the number);
+    each number is now the shortest text that reads back as the same float."""
+    robot, result, motion = human
+    text = export_bytes(motion, "csv", method="quintic", rate=1000.0, robot=robot).decode()
+    rows = list(csv.reader(io.StringIO(text)))[1:]
+    times = [row[0] for row in rows]
+    assert times[:4] == ["0.0", "0.001", "0.002", "0.003"]
+    for row in rows[:50]:
+        for cell in row:
+            assert cell == repr(float(cell))  # shortest round-trip text

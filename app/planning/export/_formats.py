@@ -91,11 +91,11 @@ def _blocks(count: int) -> Iterator[slice]:
 
 
 def _table(table: FloatArray, delimiter: str) -> Iterator[bytes]:
-    """Rows of numbers (17 significant digits), a chunk of rows at a time."""
+    """Rows of numbers, each the shortest text that reads back as the same float (``0.003``,
+    never ``0.0030000000000000001``), a chunk of rows at a time."""
     for block in _blocks(table.shape[0]):
-        buffer = io.StringIO()
-        np.savetxt(buffer, table[block], fmt="%.17g", delimiter=delimiter)
-        yield buffer.getvalue().encode()
+        rows = table[block].tolist()
+        yield "".join(delimiter.join(map(repr, row)) + "\n" for row in rows).encode()
 
 
 def _g(x: float) -> str:
