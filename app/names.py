@@ -124,7 +124,19 @@ METHODS: dict[str, MethodInfo] = {
             "optimal control with the template's constraints",
             "#9c36b5",
         ),
-        MethodInfo("bound", "physical bound", "optimal control, limits only", "#2b8a3e"),
+        MethodInfo(
+            "bound",
+            "physical bound",
+            "optimal control under the task's rules (limits, rest to rest, monotone and held "
+            "joints)",
+            "#2b8a3e",
+        ),
+        MethodInfo(
+            "bound_unrestricted",
+            "unrestricted bound",
+            "optimal control, limits only (reversal allowed); on request",
+            "#74b816",
+        ),
         MethodInfo(
             "jerk_limited",
             "industrial jerk-limited",
@@ -133,6 +145,11 @@ METHODS: dict[str, MethodInfo] = {
         ),
     )
 }
+
+#: Methods planned only on request, never by default: the bound with reversal allowed.
+ON_REQUEST_METHODS: tuple[str, ...] = ("bound_unrestricted",)
+#: Every method but those on request: what "all methods" plans by default (CLI, API, demo).
+STANDARD_METHODS: tuple[str, ...] = tuple(m for m in METHODS if m not in ON_REQUEST_METHODS)
 
 #: ``human_optimal``'s human-likeness constraints (``app.planning.optimal.HUMAN_CONSTRAINTS``):
 #: the elbow fastest at the template's angle, the A/B/C phase shares, or none.
@@ -186,6 +203,8 @@ EMG_DEFAULTS = EmgDefaults()
 #: Longest video turned into pose by default [s] (``bioplan analyze --max-video-seconds``,
 #: ``BIOPLAN_MAX_VIDEO_SECONDS``).
 MAX_VIDEO_SECONDS = 600.0
+#: Longest motion planned [s]: the API's and the CLI's cap on ``duration`` and ``durations``.
+MAX_DURATION = 600.0
 #: Frames of a video returned with the detected skeleton drawn, for the user to check the fit.
 SKELETON_FRAMES = 4
 #: How files uploaded together relate: separate trials (each on its own clock, the default) or

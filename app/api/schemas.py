@@ -26,12 +26,14 @@ from pydantic import (
 from app.names import (
     HUMAN_CONSTRAINTS,
     JOB_STATES,
+    MAX_DURATION,
     METHODS,
     MUSCLE_COLOURS,
     OBJECTIVES,
     OPTIMAL_INTERVALS,
     PHASE_BOUNDS_DEG,
     PSO_DEFAULTS,
+    STANDARD_METHODS,
     MethodInfo,
     MetricInfo,
     PhaseInfo,
@@ -159,7 +161,15 @@ class Page(BaseModel, Generic[T]):
 class Disk(BaseModel):
     free_mb: float = Field(description="free space where the data directory is [MB]")
     total_mb: float
-    ok: bool = Field(description="free_mb is at least BIOPLAN_MIN_FREE_MB")
+    used_mb: float | None = Field(
+        default=None, description="space the data directory takes [MB] (against quota_mb)"
+    )
+    quota_mb: float | None = Field(
+        default=None, description="BIOPLAN_DATA_QUOTA_MB: uploads past it are refused (413)"
+    )
+    ok: bool = Field(
+        description="free_mb is at least BIOPLAN_MIN_FREE_MB and used_mb below quota_mb"
+    )
 
 
 class Health(BaseModel):
@@ -474,6 +484,23 @@ class AnalysisRequest(_Request):
     side: Literal["auto", "left", "right"] = Field(
         default="auto", description="which arm of pose data (auto: the better visible one)"
     )
+    landmarks: str | None = Field(
+        default=None,
+        max_length=1000,
+        description="which markers are the shoulder, elbow and wrist: a preset (plugin_gait_right,"
+        " plugin_gait_left, opencap_right, opencap_left, pose2sim_right, pose2sim_left, or"
+        " without _right/_left) or 'shoulder=RSHO,elbow=RELB,wrist=RWRA'; default: automatic",
+    )
+
+    @field_validator("landmarks")
+    @classmethod
+    def _landmarks(cls, v: str | None) -> str | None:
+        from app.analysis.pose import landmark_spec
+
+        if v is None or not v.strip():
+            return None
+        landmark_spec(v)  # a ValueError naming the presets
+        return v.strip()
 
     @field_validator("phase_bounds_deg")
     @classmethod
@@ -528,7 +555,7 @@ class _RobotTask(_Request):
         pattern=ROBOT_NAME,
         description="built-in or uploaded robot name",
     )
-    duration: float = Field(default=1.0, gt=0, le=600, description="motion time [s]")
+    duration: float = Field(default=1.0, gt=0, le=MAX_DURATION, description="motion time [s]")
     payload: float | None = Field(
         default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
     )
@@ -553,7 +580,7 @@ class _RobotTask(_Request):
     )
     # ---- planning methods (issue 10) --------------------------------------------------------
     methods: Distinct[MethodName] = Field(
-        default=list(METHODS),
+        default=list(STANDARD_METHODS),
         min_length=1,
         max_length=len(METHODS),
         description="methods to plan, as `bioplan plan --method` (default: all five, like the "
@@ -590,7 +617,7 @@ class SweepRequest(_Request):
 
     robot: str = Field(default="curtain_wall_6dof", pattern=ROBOT_NAME)
     # The ranges are in the schema, so a client (or a fuzzer) knows 0 s is no duration.
-    durations: Distinct[Annotated[float, Field(gt=0, le=600)]] = Field(
+    durations: Distinct[Annotated[float, Field(gt=0, le=MAX_DURATION)]] = Field(
         default=[0.5, 0.75, 1.0, 1.5, 2.0], min_length=1, max_length=50, description="[s]"
     )
     payloads: Distinct[Annotated[float, Field(ge=0, le=10000)]] = Field(
@@ -609,7 +636,7 @@ class SweepRequest(_Request):
     )
     # ---- methods and convergence check (issue 10) -------------------------------------------
     methods: Distinct[MethodName] = Field(
-        default=list(METHODS),
+        default=list(STANDARD_METHODS),
         min_length=1,
         max_length=len(METHODS),
         description="methods per cell, as `bioplan sweep --method` (default: all five)",
@@ -630,7 +657,7 @@ class ProfilesRequest(_Request):
     robot: str = Field(
         default="curtain_wall_6dof", pattern=ROBOT_NAME, description="built-in or uploaded robot"
     )
-    duration: float = Field(default=1.0, gt=0, le=600, description="motion time [s]")
+    duration: float = Field(default=1.0, gt=0, le=MAX_DURATION, description="motion time [s]")
     payload: float | None = Field(
         default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
     )
@@ -647,7 +674,7 @@ class ProfilesRequest(_Request):
         default=100, ge=8, le=400, description="intervals of the minimum-torque-change solve"
     )
     methods: Distinct[MethodName] = Field(
-        default=list(METHODS),
+        default=list(STANDARD_METHODS),
         max_length=len(METHODS),
         description="planning methods listed beside the profiles ([] = none; default: all)",
     )

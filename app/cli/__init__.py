@@ -13,14 +13,29 @@ import sys
 from collections.abc import Callable
 
 from app import __version__
-from app.cli import analyze, demo, export, plan, serve, simulate, submit
+from app.cli import (
+    analyze,
+    cohort,
+    demo,
+    export,
+    identify,
+    plan,
+    samples,
+    serve,
+    simulate,
+    submit,
+    validate,
+)
 from app.cli._common import EXIT_BAD_INPUT, Parser
 from app.errors import BioPlanError, one_line
 
 __all__ = ["build_parser", "main"]
 
 #: Command groups, in the order ``bioplan --help`` lists them.
-_COMMANDS = (plan, analyze, simulate, export, demo, serve, submit)
+_COMMANDS = (
+    *(plan, analyze, cohort, simulate, export, demo, samples, serve, submit),
+    *(validate, identify),
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError, floats, positive, progress_printer
+from app.cli._common import CliError, floats, positive, progress_printer, write_out
 from app.names import MAX_VIDEO_SECONDS
 from app.planning.jsonsafe import json_safe
 
@@ -160,7 +160,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         paths = write_analysis_plots(result, Path(args.plot))
         payload["plots"] = [str(p) for p in paths]
     if args.out:
-        Path(args.out).write_text(result.template.to_json() + "\n", encoding="utf-8")
+        write_out(args.out, result.template.to_json() + "\n")
     if args.json:
         print(json.dumps(payload, indent=2, allow_nan=False))
         return 0

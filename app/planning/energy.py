@@ -131,9 +131,32 @@ class EnergyMetrics:
         return out
 
 
+#: Metrics with no physical floor: ``Floors.to_dict`` names them with the value None.
+NO_FLOOR: tuple[str, ...] = ("tau_sq", "peak_torque", "torque_change")
+
+#: Each metric's floor said plainly, for results, the CLI and the page ("no floor" where none
+#: exists; the peak-power floor is loose, so the optimal-control bound is its reference).
+FLOOR_NOTES: dict[str, str] = {
+    "abs_work": "|ΔPE|: tight (a lift takes it, a lowering must absorb it)",
+    "pos_work": "max(ΔPE, 0): tight",
+    "electrical_energy": "ΔPE + the friction work no motion avoids (η times it when negative)",
+    "peak_power": (
+        "|ΔPE|/T: loose (no rest-to-rest motion holds its mean power from start to end); "
+        "the bound is the reference"
+    ),
+    "tau_sq": "no floor",
+    "peak_torque": "no floor",
+    "torque_change": "no floor",
+}
+
+
 @dataclass(frozen=True)
 class Floors:
-    """Physical lower bounds of the metrics of a rest-to-rest motion (tight for every task).
+    """Physical lower bounds of the metrics of a rest-to-rest motion.
+
+    The work floors are tight; the peak-power floor |ΔPE|/T is loose (the optimal-control bound
+    is the reference there); ``tau_sq``, ``peak_torque`` and ``torque_change`` have no floor
+    (:data:`NO_FLOOR`, None in :meth:`to_dict`).
 
     Attributes:
         delta_potential: ΔPE = PE(goal) − PE(start) [J], signed (negative when lowering).
@@ -156,8 +179,11 @@ class Floors:
     friction_energy: float = 0.0
     electrical_energy: float = 0.0
 
-    def to_dict(self) -> dict[str, float]:
-        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+    def to_dict(self) -> dict[str, float | None]:
+        """Every floor [SI]; the metrics of :data:`NO_FLOOR` with None ("no floor")."""
+        out: dict[str, float | None] = {f.name: float(getattr(self, f.name)) for f in fields(self)}
+        out.update(dict.fromkeys(NO_FLOOR))
+        return out
 
 
 #: max over x of |x| (1 − tanh(|x| / ε)) / ε: how far the smooth Coulomb law's work can fall

@@ -28,7 +28,15 @@ from app.errors import BioPlanError
 from app.names import HUMAN_CURL_SPAN_DEG
 from app.planning.human_template import HumanTemplate, joint_on_stroke
 
-__all__ = ["DEFAULT_SHARE_SPREAD", "MIN_SHARE_SPREAD", "PhaseShares", "phase_shares"]
+__all__ = [
+    "DEFAULT_SHARE_SPREAD",
+    "MIN_SHARE_SPREAD",
+    "PhaseShares",
+    "elbow_speed_on_stroke",
+    "human_likeness_distance",
+    "phase_shares",
+    "template_speed_on_stroke",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -153,3 +161,89 @@ def phase_bound_angles(template: HumanTemplate, q0: float, q1: float) -> tuple[f
                 "pass every phase bound for --human-constraint phases"
             )
     return angles
+
+
+# ----------------------------------------------------------------------------------------------
+# Human-likeness score
+# ----------------------------------------------------------------------------------------------
+
+#: Points of the stroke-fraction grid on which speed profiles are compared.
+LIKENESS_POINTS = 101
+
+
+def _min_jerk_on_fraction(fraction: FloatArray, peak: float) -> FloatArray:
+    """The minimum-jerk speed profile (normalised, peak 1) against the fraction of its stroke,
+    its peak moved from mid-stroke to ``peak`` by a piecewise-linear warp of the fraction."""
+    tau = np.linspace(0.0, 1.0, 2001)
+    pos = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    speed = 16 * tau**2 * (1 - tau) ** 2  # 30 τ²(1−τ)² over its peak 30/16
+    warped = np.where(
+        fraction <= peak, 0.5 * fraction / peak, 0.5 + 0.5 * (fraction - peak) / (1 - peak)
+    )
+    return np.asarray(np.interp(warped, pos, speed), dtype=np.float64)
+
+
+def template_speed_on_stroke(
+    template: HumanTemplate, q0: float, q1: float, *, peak_angle: float | None = None
+) -> tuple[FloatArray, str]:
+    """The template's elbow speed (normalised, peak 1) on the stroke-fraction grid, and its source.
+
+    From the template's recorded mean velocity profile (``normalized_time``, ``velocity_mean``),
+    integrated to the fraction of the stroke covered; without one (the paper's defaults), the
+    minimum-jerk bell with its peak where the template puts it on the stroke q0 -> q1 [rad]
+    (or at ``peak_angle`` [rad], the plan's override of the template's angle).
+    """
+    grid = np.linspace(0.0, 1.0, LIKENESS_POINTS)
+    if template.normalized_time and template.velocity_mean:
+        t = np.asarray(template.normalized_time, dtype=np.float64)
+        v = np.maximum(np.asarray(template.velocity_mean, dtype=np.float64), 0.0)
+        covered = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+        if covered[-1] > 0 and v.max() > 0:
+            fraction = covered / covered[-1]
+            keep = np.concatenate([[True], np.diff(fraction) > 0])
+            speed = np.interp(grid, fraction[keep], v[keep] / v.max())
+            return speed, f"the template's mean velocity profile ({template.source})"
+    at = template.peak_joint_angle(q0, q1) if peak_angle is None else peak_angle
+    peak = (at - q0) / (q1 - q0)
+    peak = float(np.clip(peak, 0.05, 0.95))
+    return _min_jerk_on_fraction(grid, peak), (
+        f"minimum-jerk bell peaking at the template's angle, {100 * peak:.0f} % of the stroke "
+        "(the template holds no recorded profile)"
+    )
+
+
+def elbow_speed_on_stroke(q: FloatArray, qd: FloatArray, q0: float, q1: float) -> FloatArray:
+    """An elbow motion's speed (normalised, peak 1) on the stroke-fraction grid.
+
+    Args:
+        q, qd: (T,) elbow angle [rad] and velocity [rad/s] over time.
+        q0, q1: the stroke's start and end [rad].
+    """
+    fraction = np.maximum.accumulate(np.clip((q - q0) / (q1 - q0), 0.0, 1.0))
+    speed = np.abs(qd)
+    top = float(speed.max())
+    if top <= 0:
+        return np.zeros(LIKENESS_POINTS)
+    keep = np.concatenate([[True], np.diff(fraction) > 0])
+    grid = np.linspace(0.0, 1.0, LIKENESS_POINTS)
+    return np.asarray(np.interp(grid, fraction[keep], speed[keep] / top), dtype=np.float64)
+
+
+def human_likeness_distance(
+    q: FloatArray, qd: FloatArray, q0: float, q1: float, reference: FloatArray
+) -> float:
+    """The human-likeness score: how far an elbow motion's speed profile is from the template's.
+
+    Both profiles are the elbow speed divided by its peak, against the fraction of the elbow's
+    stroke covered (0 at the start angle, 1 at the goal), on :data:`LIKENESS_POINTS` points;
+    the score is the root-mean-square difference of the two, in [0, 1]: 0 = the template's
+    shape, about 0.1 = a minimum-jerk bell against one peaking 20 % of the stroke earlier.
+    Where the elbow moves back (reversal allowed), the first pass over each fraction counts.
+
+    Args:
+        q, qd: (T,) elbow angle [rad] and velocity [rad/s] over time.
+        q0, q1: the stroke's start and end [rad].
+        reference: (LIKENESS_POINTS,) the template's profile (:func:`template_speed_on_stroke`).
+    """
+    speed = elbow_speed_on_stroke(q, qd, q0, q1)
+    return float(np.sqrt(np.mean((speed - reference) ** 2)))

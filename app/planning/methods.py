@@ -1,13 +1,18 @@
-"""The planning methods side by side: quintic, paper, human_optimal, bound, jerk_limited.
+"""The planning methods side by side: quintic, paper, human_optimal, bound, bound_unrestricted,
+jerk_limited.
 
 Each method makes one trajectory of the same task and duration; every trajectory is evaluated
 the same way (:func:`app.planning.evaluation.evaluate_trajectory`) on the same report grid.
+The bounds are certified below every method under their rules (:func:`run_bound`), so a share of
+the achievable saving is never above 100 % (:func:`share_of_achievable_pct`; docs/planning.md).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,11 +27,14 @@ from app.planning.evaluation import (
     evaluate_trajectory,
 )
 from app.planning.human_constraints import PhaseShares, phase_bound_angles, phase_shares
-from app.planning.human_template import HumanTemplate
+from app.planning.human_template import HumanTemplate, flexion_on_stroke, joint_on_stroke
 from app.planning.jerk_limited import jerk_limited
 from app.planning.optimal import (
     HUMAN_CONSTRAINTS,
+    PEAK_BAND_DEG,
+    PEAK_CONCAVE_DEG,
     HumanSpec,
+    SolverError,
     human_spec_peak,
     human_spec_phases,
     solve_optimal,
@@ -39,16 +47,27 @@ from app.progress import ProgressFn, report
 
 __all__ = [
     "ALL_METHODS",
+    "BOUND_TOLERANCE",
     "DEFAULT_METHODS",
+    "BoundRules",
+    "BoundViolation",
     "MethodResult",
+    "beats_bound",
+    "bound_rules",
     "check_methods",
     "human_spec",
     "objective_value",
+    "refine_to_convergence",
+    "rule_breach",
+    "run_bound",
     "run_jerk_limited",
     "run_optimal",
     "run_paper",
     "share_of_achievable_pct",
+    "simulated_share_of_achievable_pct",
 ]
+
+logger = logging.getLogger("bioplan.planning")
 
 #: Every method, in the order results list them (``app.names.METHODS``).
 ALL_METHODS: tuple[str, ...] = tuple(names.METHODS)
@@ -116,13 +135,70 @@ def objective_value(robot: Robot, ev: EvaluatedTrajectory, objective: str) -> fl
 MIN_ACHIEVABLE_FRACTION = 0.01
 
 
-def share_of_achievable_pct(quintic: float, method: float, bound: float) -> float:
-    """100 (quintic − method) / (quintic − bound) [%]; NaN when the bound saves less than
-    :data:`MIN_ACHIEVABLE_FRACTION` of the quintic's value."""
+#: A method may be below the bound by this fraction of the bound's value and still count as on
+#: it (share 100 %): the report grid's trapezoid and peak sampling differ between trajectories by
+#: about 1e-6 of the value, and the bound's smoothing term (``optimal.REGULARIZATION``) may hold
+#: it up to 1e-5 above its optimum on objectives with many optima [-].
+BOUND_TOLERANCE = 1e-5
+#: Warm starts of the bound: the best this many methods' trajectories under its rules.
+BOUND_STARTS = 2
+#: The bound is refined from a method that still beats it up to this many times the intervals.
+BOUND_MAX_REFINEMENT = 4
+
+
+class BoundViolation(RuntimeError):
+    """A method beats the bound on its objective by more than :data:`BOUND_TOLERANCE`: the bound
+    is not one (a bug, or a method outside the bound's rules); never reported as a share."""
+
+
+def beats_bound(
+    method: float, bound: float, tolerance: float = BOUND_TOLERANCE, *, scale: float = 0.0
+) -> bool:
+    """Whether ``method`` is below ``bound`` by more than ``tolerance`` of the larger of the
+    bound's value and ``scale`` (the task's size of the objective, e.g. the quintic's value:
+    a bound of 0 J, a lowering that regenerates nothing, has no relative round-off)."""
+    return method < bound - tolerance * max(abs(bound), abs(scale), 1e-12)
+
+
+def share_of_achievable_pct(
+    quintic: float, method: float, bound: float, *, tolerance: float = BOUND_TOLERANCE
+) -> float:
+    """100 (quintic − method) / (quintic − bound) [%], never above 100.
+
+    NaN when the bound saves less than :data:`MIN_ACHIEVABLE_FRACTION` of the quintic's value.
+    A method on the bound within ``tolerance`` of its value scores 100.
+
+    Raises:
+        BoundViolation: the method beats the bound by more than ``tolerance``.
+    """
     gap = quintic - bound
     if not (math.isfinite(gap) and gap > MIN_ACHIEVABLE_FRACTION * abs(quintic)):
         return math.nan
+    if beats_bound(method, bound, tolerance, scale=quintic):
+        raise BoundViolation(
+            f"a method ({method:.9g}) beats the bound ({bound:.9g}) by more than "
+            f"{tolerance:g} of its value: the bound does not bound"
+        )
+    if method <= bound:  # on the bound, within the tolerance
+        return 100.0
     return 100.0 * (quintic - method) / gap
+
+
+#: A simulated method may beat the simulated bound by this fraction of its value and still
+#: count as on it: the tracking simulation moves each plan's metrics by up to about 0.1 %
+#: (computed torque, 1 ms steps), so a method planned within that of the bound can cross it [-].
+SIMULATED_BOUND_TOLERANCE = 2e-3
+
+
+def simulated_share_of_achievable_pct(quintic: float, method: float, bound: float) -> float:
+    """:func:`share_of_achievable_pct` of simulated values, with the simulation's tolerance
+    :data:`SIMULATED_BOUND_TOLERANCE`; NaN (with a logged error) instead of a share above 100 %
+    when a simulated method beats the simulated bound by more than that."""
+    try:
+        return share_of_achievable_pct(quintic, method, bound, tolerance=SIMULATED_BOUND_TOLERANCE)
+    except BoundViolation as exc:
+        logger.error("simulated share not given: %s", exc)
+        return math.nan
 
 
 def run_paper(
@@ -189,6 +265,27 @@ def run_paper(
     return MethodResult("paper", evaluated, solver), result, float(tk[0, 1])
 
 
+def _peak_spec(elbow: int, task: PlanTask, q_via: float) -> HumanSpec:
+    """The ``peak`` constraint with its side angles :data:`PEAK_BAND_DEG` and
+    :data:`PEAK_CONCAVE_DEG` of flexion from the peak (an angle is left out when it would not
+    lie strictly inside the stroke)."""
+    q0, q1 = float(task.start[elbow]), float(task.goal[elbow])
+    peak_deg = float(flexion_on_stroke(np.array([q_via]), q0, q1)[0])
+    lo, hi = sorted((q0, q1))
+    margin = 1e-3 * (hi - lo)
+
+    def side(offset: float) -> float | None:
+        angle = joint_on_stroke(peak_deg + offset, q0, q1)
+        return angle if lo + margin < angle < hi - margin else None
+
+    return human_spec_peak(
+        elbow,
+        q_via,
+        near=(side(-PEAK_BAND_DEG), side(PEAK_BAND_DEG)),
+        wide=(side(-PEAK_CONCAVE_DEG), side(PEAK_CONCAVE_DEG)),
+    )
+
+
 def human_spec(
     kind: str, robot: Robot, task: PlanTask, template: HumanTemplate, q_via: float
 ) -> tuple[HumanSpec, PhaseShares | None]:
@@ -199,7 +296,7 @@ def human_spec(
         )
     elbow = robot.elbow_joint
     if kind == "peak":
-        return human_spec_peak(elbow, q_via), None
+        return _peak_spec(elbow, task, q_via), None
     if kind == "none":
         return HumanSpec("none", elbow), None
     q0, q1 = float(task.start[elbow]), float(task.goal[elbow])
@@ -238,6 +335,265 @@ def run_optimal(
     )
     solver = {"kind": "ipopt", **solution.solver.to_dict()}
     return MethodResult(name, evaluate_trajectory(robot, solution.trajectory, task), solver)
+
+
+#: Mesh refinement stops when the objective changes by less than this fraction [-] ...
+CONVERGENCE_TOLERANCE = 1e-3
+#: ... or at this many intervals.
+MAX_CONVERGENCE_INTERVALS = 320
+
+
+def refine_to_convergence(
+    robot: Robot,
+    task: PlanTask,
+    result: MethodResult,
+    *,
+    duration: float,
+    objective: str,
+    spec: HumanSpec,
+    no_reversal: bool,
+    report_samples: int,
+    keep_lowest: bool,
+) -> MethodResult:
+    """An optimal-control result refined on meshes of 2N, 4N, ... intervals, each warm-started
+    from the last, until its objective (on the report grid) changes by less than
+    :data:`CONVERGENCE_TOLERANCE` (or :data:`MAX_CONVERGENCE_INTERVALS`, or a failed solve).
+
+    The result's ``solver`` gains ``convergence``: ``sequence`` (every mesh's intervals and
+    objective), ``relative_change`` (the last step's, the error estimate of the coarser
+    mesh), ``converged``, ``final_intervals`` and ``tolerance``. ``keep_lowest`` (bounds):
+    the meshes are nested (a cubic on an interval is cubic on its halves), so a finer optimum is
+    never above a coarser one; should IPOPT return one that is, the lower is kept.
+    """
+    solver = dict(result.solver or {})
+    n = int(solver.get("n_intervals", 0))
+    value = objective_value(robot, result.evaluated, objective)
+    sequence: list[dict[str, Any]] = [{"n_intervals": n, "objective": value}]
+    best, best_value, change, converged = result, value, math.nan, False
+    current = result
+    while n > 0 and 2 * n <= MAX_CONVERGENCE_INTERVALS:
+        n *= 2
+        try:
+            finer = run_optimal(
+                robot, task, name=result.name, duration=duration, objective=objective,
+                spec=spec, warm=current, n_intervals=n, no_reversal=no_reversal,
+                report_samples=report_samples,
+            )  # fmt: skip
+        except SolverError as exc:
+            sequence.append({"n_intervals": n, "error": str(exc)})
+            break
+        new = objective_value(robot, finer.evaluated, objective)
+        sequence.append({"n_intervals": n, "objective": new})
+        change = abs(new - value) / max(abs(value), abs(new), 1e-12)
+        current, value = finer, new
+        if not keep_lowest or new <= best_value:
+            best, best_value = finer, new
+        if change < CONVERGENCE_TOLERANCE:
+            converged = True
+            break
+    out = dict(best.solver or {})
+    for key in ("multistart", "starts", "rules", "certificate"):
+        if key in solver:
+            out[key] = solver[key]
+    out["convergence"] = {
+        "sequence": sequence,
+        "relative_change": change,
+        "converged": converged,
+        "final_intervals": int((best.solver or {}).get("n_intervals", n)),
+        "tolerance": CONVERGENCE_TOLERANCE,
+    }
+    return MethodResult(result.name, best.evaluated, out)
+
+
+@dataclass(frozen=True)
+class BoundRules:
+    """What a bound obeys (stated in its result).
+
+    Attributes:
+        limits: the limits it keeps (joint position, velocity, torque).
+        rest_to_rest: zero velocity and acceleration at both ends.
+        monotone_joints: joints that never move against their stroke (none when reversal is
+            allowed).
+        held_joints: joints whose start equals their goal and that stay put (none when reversal
+            is allowed: they may move and come back).
+    """
+
+    limits: tuple[str, ...]
+    rest_to_rest: bool
+    monotone_joints: tuple[str, ...]
+    held_joints: tuple[str, ...]
+
+    @property
+    def reversal_allowed(self) -> bool:
+        return not (self.monotone_joints or self.held_joints)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "limits": list(self.limits),
+            "rest_to_rest": self.rest_to_rest,
+            "monotone_joints": list(self.monotone_joints),
+            "held_joints": list(self.held_joints),
+            "reversal_allowed": self.reversal_allowed,
+        }
+
+
+def bound_rules(joint_names: Sequence[str], task: PlanTask, no_reversal: bool) -> BoundRules:
+    """The rules of the task's ``bound`` (``no_reversal``) or of ``bound_unrestricted``."""
+    moving = np.abs(task.goal - task.start) > 0
+    names_ = list(joint_names)
+    return BoundRules(
+        limits=("joint position", "joint velocity", "joint torque"),
+        rest_to_rest=True,
+        monotone_joints=tuple(n for n, m in zip(names_, moving, strict=True) if m and no_reversal),
+        held_joints=tuple(n for n, m in zip(names_, moving, strict=True) if not m and no_reversal),
+    )
+
+
+#: Slack of the rule check on a sampled trajectory: joint speed against the stroke [rad/s] and
+#: motion of a held joint [rad].
+_RULE_SLACK = 1e-6
+
+
+def rule_breach(
+    robot: Robot, task: PlanTask, ev: EvaluatedTrajectory, rules: BoundRules
+) -> str | None:
+    """Why a trajectory lies outside a bound's rules (its feasible set), or None."""
+    if ev.violations:
+        return "violates limits: " + ev.violations[0]
+    tr, names_ = ev.trajectory, list(robot.joint_names)
+    direction = np.sign(task.goal - task.start)
+    for j, name in enumerate(names_):
+        if name in rules.held_joints and np.max(np.abs(tr.q[:, j] - task.start[j])) > _RULE_SLACK:
+            return f"moves the held joint {name}"
+        if name in rules.monotone_joints and np.min(direction[j] * tr.qd[:, j]) < -_RULE_SLACK:
+            return f"moves joint {name} against its stroke"
+    return None
+
+
+def run_bound(
+    robot: Robot,
+    task: PlanTask,
+    *,
+    name: str,
+    duration: float,
+    objective: str,
+    candidates: Mapping[str, MethodResult],
+    n_intervals: int,
+    no_reversal: bool,
+    report_samples: int,
+    stricter: str | None = None,
+) -> MethodResult:
+    """A bound no method under its rules beats on the objective, with its certificate.
+
+    Solved from the :data:`BOUND_STARTS` best of ``candidates`` (the other methods'
+    trajectories under the bound's rules) as warm starts; if one of them still beats the best
+    solution by more than :data:`BOUND_TOLERANCE`, the bound is re-solved from that method's
+    trajectory on finer meshes (N, 2N, ... up to :data:`BOUND_MAX_REFINEMENT` N). The result's
+    ``solver`` holds ``multistart`` (how many starts), ``starts`` (every solve: warm start,
+    intervals, objective), ``rules`` and ``certificate``: ``checked`` (the methods compared),
+    ``outside_rules`` (the methods the bound does not apply to, and why), ``beaten_by`` (the
+    methods still below it; empty unless something is wrong, which the plan flags as an error)
+    and ``tolerance``.
+
+    ``stricter`` names a candidate that is itself the optimum under stricter rules (the task's
+    bound, for ``bound_unrestricted``): it is the only warm start, and its trajectory, a
+    feasible point of this problem, is the bound's incumbent when no solve improves on it
+    (``certificate.incumbent``; the optimum under fewer rules is at most the stricter one's).
+
+    Raises:
+        SolverError: every start failed, or the problem is infeasible.
+    """
+    rules = bound_rules(robot.joint_names, task, no_reversal)
+    values = {n: objective_value(robot, m.evaluated, objective) for n, m in candidates.items()}
+    outside = {
+        n: why
+        for n, m in candidates.items()
+        if (why := rule_breach(robot, task, m.evaluated, rules))
+    }
+    eligible = sorted((n for n in candidates if n not in outside), key=values.__getitem__)
+    size = max((abs(v) for v in values.values()), default=0.0)
+    if stricter is not None and stricter in eligible:
+        starts: list[str | None] = [stricter]
+    else:
+        starts = list(eligible[:BOUND_STARTS]) or [None]
+    solves: list[dict[str, Any]] = []
+    best: list[tuple[float, MethodResult]] = []
+    errors: list[SolverError] = []
+
+    def attempt(warm: str | None, n: int) -> bool:
+        try:
+            res = run_optimal(
+                robot, task, name=name, duration=duration, objective=objective,
+                spec=HumanSpec("none", robot.elbow_joint),
+                warm=None if warm is None else candidates[warm], n_intervals=n,
+                no_reversal=no_reversal, report_samples=report_samples,
+            )  # fmt: skip
+        except SolverError as exc:
+            if exc.infeasible:
+                raise
+            errors.append(exc)
+            solves.append({"warm_start": warm or "quintic", "n_intervals": n, "error": str(exc)})
+            return False
+        value = objective_value(robot, res.evaluated, objective)
+        solves.append(
+            {
+                "warm_start": warm or "quintic",
+                "n_intervals": n,
+                "objective": value,
+                "iterations": (res.solver or {}).get("iterations"),
+            }
+        )
+        if not best or value < best[0][0]:
+            best[:] = [(value, res)]
+        return True
+
+    for warm in starts:
+        attempt(warm, n_intervals)
+    # With a stricter optimum among the candidates, every other candidate is above it (its own
+    # certificate), and it is this bound's incumbent below: nothing to refine.
+    refine = [] if stricter is not None and starts == [stricter] else eligible
+    for other in refine:
+        n = n_intervals if other not in starts else 2 * n_intervals
+        while (
+            best
+            and beats_bound(values[other], best[0][0], scale=size)
+            and n <= (BOUND_MAX_REFINEMENT * n_intervals)
+        ):
+            if not attempt(other, n):
+                break  # a finer mesh will not converge from there either
+            n *= 2
+    incumbent = None
+    if (
+        stricter is not None
+        and stricter in eligible
+        and (not best or beats_bound(values[stricter], best[0][0], scale=size))
+    ):
+        incumbent = stricter
+        best[:] = [(values[stricter], candidates[stricter])]
+    if not best:
+        raise errors[-1]
+    value, result = best[0]
+    if incumbent is not None:
+        traj = dataclasses.replace(result.evaluated.trajectory, name=name)
+        result = MethodResult(
+            name,
+            dataclasses.replace(result.evaluated, trajectory=traj),
+            {**(result.solver or {}), "warm_start": incumbent},
+        )
+    solver = dict(result.solver or {})
+    solver.update(
+        multistart=len(starts),
+        starts=solves,
+        rules=rules.to_dict(),
+        certificate={
+            "checked": eligible,
+            "outside_rules": outside,
+            "beaten_by": [o for o in eligible if beats_bound(values[o], value, scale=size)],
+            "tolerance": BOUND_TOLERANCE,
+            "incumbent": incumbent,
+        },
+    )
+    return MethodResult(name, result.evaluated, solver)
 
 
 def run_jerk_limited(

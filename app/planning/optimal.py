@@ -23,11 +23,15 @@ Direct transcription solved by IPOPT (CasADi, exact Hessians on SX graphs):
   law of the energy module, copper losses R i², regeneration η); and ``torque_change``
   ∫ Σ τ̇² dt (the minimum-torque-change model) with τ̇ the exact chain-rule derivative.
 * **Human-likeness** (``human_constraint``): ``"peak"`` splits the motion where the elbow passes
-  the template's angle (a free time) and bounds the elbow's speed everywhere by its speed there,
-  so the elbow is fastest where the template says (its acceleration is then zero there, as in
-  the paper's via point); ``"phases"`` splits it where the elbow passes the A/B and B/C bounds and
-  keeps each phase's share of the duration inside the template's spread; ``"none"`` is the
-  physical bound under the same limits.
+  the template's angle and :data:`PEAK_BAND_DEG` and :data:`PEAK_CONCAVE_DEG` of flexion either
+  side of it (free times) for one clear, bell-topped speed peak there: the elbow's acceleration is
+  >= 0 at every node before the peak and <= 0 after it (so the speed rises, then falls, and the
+  acceleration is zero at the peak, as at the paper's via point), its speed at the
+  :data:`PEAK_BAND_DEG` angles is at most ``1 - PEAK_DROP`` of the peak's (within 1 % of the peak
+  over at most 8 deg of flexion), and its jerk is <= 0 between the :data:`PEAK_CONCAVE_DEG`
+  angles (a concave top, not a spike on a plateau); ``"phases"`` splits it where the elbow
+  passes the A/B and B/C bounds and keeps each phase's share of the duration inside the
+  template's spread; ``"none"`` is the physical bound under the same limits.
 
 A solve whose IPOPT status is not ``Solve_Succeeded`` raises :class:`SolverError`; it is never
 returned as a result.
@@ -100,6 +104,15 @@ _NOT_UNIQUE = ("abs_work", "pos_work", "peak_power", "peak_torque", "electrical_
 _COUNT_STEP = 4
 #: Fewest intervals any segment of a split motion gets.
 _MIN_SEGMENT_INTERVALS = 4
+#: The ``peak`` constraint's strict peak: at this many degrees of (human-equivalent) flexion on
+#: either side of the template angle the elbow is at most ``1 - PEAK_DROP`` of its peak speed;
+#: with the speed rising before the peak and falling after it, the flexion range over which the
+#: speed stays within 1 % of its peak is then at most 2 x 4 = 8 deg [deg], [-].
+PEAK_BAND_DEG = 4.0
+PEAK_DROP = 0.01
+#: ... and within this many degrees of flexion of it the elbow's acceleration only falls (the
+#: speed is concave there, the top of a bell) [deg].
+PEAK_CONCAVE_DEG = 20.0
 
 
 class SolverError(BioPlanError):
@@ -212,6 +225,32 @@ class HumanSpec:
     elbow: int
     angles: tuple[float, ...] = ()
     share_bounds: tuple[tuple[float, float], ...] = ()
+    peak_index: int = 0
+    peak_drop: float = 0.0
+    drop_at: tuple[int, ...] = ()
+    concave: tuple[int, int] = (0, 0)
+
+    def rules(self) -> str:
+        """The human-likeness rule in one line (for results)."""
+        if self.kind == "none":
+            return "none"
+        if self.kind == "phases":
+            return "each A/B/C phase's share of the duration within the template's spread"
+        text = (
+            "one elbow-speed peak where the elbow passes the template angle: elbow "
+            "acceleration >= 0 before it, <= 0 after it"
+        )
+        if self.drop_at:
+            text += (
+                f"; at most {100 * (1 - self.peak_drop):g} % of the peak speed "
+                f"{PEAK_BAND_DEG:g} deg of flexion from it"
+            )
+        if self.concave[1] > self.concave[0]:
+            text += (
+                f"; speed concave (elbow jerk <= 0) within {PEAK_CONCAVE_DEG:g} deg of flexion "
+                "of it"
+            )
+        return text
 
 
 # ----------------------------------------------------------------------------------------------
@@ -539,7 +578,6 @@ def _bernstein_limits(problem: _Problem, grid: _Grid, cons: _Constraints) -> Non
 
 def _human_constraints(problem: _Problem, grid: _Grid, cons: _Constraints, dvar: Any) -> None:
     """Events at the segment joins; the elbow's speed peak or the phase shares."""
-    import casadi as ca
 
     human = problem.human
     if human.kind == "none":
@@ -551,11 +589,21 @@ def _human_constraints(problem: _Problem, grid: _Grid, cons: _Constraints, dvar:
     for node, angle in zip(joins, human.angles, strict=True):
         cons.add(grid.q[e, node] / scale, angle / scale, angle / scale)
     if human.kind == "peak":
-        v_peak = direction * grid.qd[e, joins[0]]
-        speeds = direction * ca.horzcat(
-            grid.qd[e, :], grid.qd[e, :-1] + grid.qdd[e, :-1] * grid.h / 2
-        )
-        cons.add((speeds - v_peak) * T / scale, -np.inf, 0.0)
+        # One peak: the elbow accelerates up to the peak node and decelerates after it (q̈ is
+        # linear between nodes, so its sign at the nodes holds everywhere: the speed rises, then
+        # falls); at the side angles it is at most (1 − drop) of the peak speed.
+        peak = joins[human.peak_index]
+        v_peak = direction * grid.qd[e, peak]
+        acc = direction * grid.qdd[e, :] * T**2 / scale
+        cons.add(acc[: peak + 1], 0.0, np.inf)
+        cons.add(acc[peak:], -np.inf, 0.0)
+        for i in human.drop_at:
+            side = direction * grid.qd[e, joins[i]] - (1.0 - human.peak_drop) * v_peak
+            cons.add(side * T / scale, -np.inf, 0.0)
+        first, last = (joins[i] for i in human.concave)
+        if last > first:
+            jerk = direction * (grid.qdd[e, first + 1 : last + 1] - grid.qdd[e, first:last])
+            cons.add(jerk * T**2 / scale, -np.inf, 0.0)
     else:
         for s, (lo, hi) in enumerate(human.share_bounds):
             cons.add(dvar[s], lo, hi)
@@ -705,13 +753,15 @@ def _segment_counts(human: HumanSpec, n_intervals: int, shares: FloatArray) -> t
     if human.kind == "none":
         return (n_intervals,)
     step = _COUNT_STEP if n_intervals >= 4 * _COUNT_STEP * shares.size else 1
-    raw = np.maximum(np.round(shares * n_intervals / step) * step, _MIN_SEGMENT_INTERVALS)
+    # The peak's short segments (a few degrees each) may get fewer intervals on a coarse mesh.
+    least = max(1, min(_MIN_SEGMENT_INTERVALS, n_intervals // shares.size - 1))
+    raw = np.maximum(np.round(shares * n_intervals / step) * step, least)
     raw = raw.astype(int)
     raw[int(np.argmax(raw))] += n_intervals - int(raw.sum())
-    if raw.min() < _MIN_SEGMENT_INTERVALS:
+    if raw.min() < least:
         raise BioPlanError(
             f"{n_intervals} intervals cannot be split into {raw.size} segments of at least "
-            f"{_MIN_SEGMENT_INTERVALS}: expected more intervals"
+            f"{least}: expected more intervals"
         )
     return tuple(int(c) for c in raw)
 
@@ -992,9 +1042,36 @@ def _failure_message(status: str, problem: _Problem, infeasible: bool, hint: str
     return f"IPOPT did not converge for {what} ({status}): no result is reported"
 
 
-def human_spec_peak(elbow: int, peak_angle: float) -> HumanSpec:
-    """The ``peak`` constraint: fastest where the elbow passes ``peak_angle`` [rad]."""
-    return HumanSpec(kind="peak", elbow=elbow, angles=(float(peak_angle),))
+def human_spec_peak(
+    elbow: int,
+    peak_angle: float,
+    *,
+    near: tuple[float | None, float | None] = (None, None),
+    wide: tuple[float | None, float | None] = (None, None),
+    drop: float = PEAK_DROP,
+) -> HumanSpec:
+    """The ``peak`` constraint: one elbow-speed peak where the elbow passes ``peak_angle`` [rad].
+
+    The elbow accelerates until it passes ``peak_angle`` and decelerates after it. Where it
+    passes the ``near`` angles [rad] (before, after the peak on the stroke; None = none) its
+    speed is at most ``1 - drop`` of the peak speed; between the ``wide`` angles (before, after)
+    its acceleration only falls (constant jerk <= 0 along the stroke): the speed is concave
+    around the peak, a bell's top, not a spike on a plateau.
+    """
+    order = (wide[0], near[0], float(peak_angle), near[1], wide[1])
+    kept = [i for i, a in enumerate(order) if a is not None]
+    angles = tuple(float(order[i]) for i in kept)  # type: ignore[arg-type]
+    index = {slot: k for k, slot in enumerate(kept)}
+    drop_at = tuple(index[slot] for slot in (1, 3) if slot in index)
+    return HumanSpec(
+        kind="peak",
+        elbow=elbow,
+        angles=angles,
+        peak_index=index[2],
+        peak_drop=float(drop) if drop_at else 0.0,
+        drop_at=drop_at,
+        concave=(index.get(0, index[2]), index.get(4, index[2])),
+    )
 
 
 def human_spec_phases(

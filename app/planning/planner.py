@@ -6,7 +6,9 @@
 * ``human_optimal``: optimal control (:mod:`app.planning.optimal`) with the template's
   constraint (``human_constraint``: the elbow's speed peak at the template's angle, or the A/B/C
   phase shares), warm-started from the paper's plan.
-* ``bound``: the same optimal control with the limits only, the physical bound of the objective.
+* ``bound``: the same optimal control under the task's rules only (limits, rest to rest,
+  monotone and held joints), solved from the best other methods and improved until none beats it.
+* ``bound_unrestricted`` (on request): limits only, reversal allowed; never above ``bound``.
 * ``jerk_limited``: what a robot controller runs, a ruckig time-synchronised jerk-limited move.
 
 Every method is evaluated on the same fine grid (``report_samples``) with Pinocchio, reported with
@@ -25,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.planning.energy import (
+    FLOOR_NOTES,
     OBJECTIVES,
     Floors,
     cumulative_energy,
@@ -42,16 +45,25 @@ from app.planning.evaluation import (
     task_floors_of,
     validate_task,
 )
-from app.planning.human_constraints import PhaseShares
+from app.planning.human_constraints import (
+    PhaseShares,
+    human_likeness_distance,
+    template_speed_on_stroke,
+)
 from app.planning.human_template import HumanTemplate, flexion_on_stroke, joint_on_stroke
 from app.planning.jsonsafe import json_safe
 from app.planning.methods import (
     ALL_METHODS,
     DEFAULT_METHODS,
+    BoundViolation,
     MethodResult,
+    beats_bound,
+    bound_rules,
     check_methods,
     human_spec,
     objective_value,
+    refine_to_convergence,
+    run_bound,
     run_jerk_limited,
     run_optimal,
     run_paper,
@@ -113,6 +125,7 @@ class PlanResult:
     no_reversal: bool = True
     phase_shares: PhaseShares | None = None
     joint_names: tuple[str, ...] = field(default=())
+    human_rule: str = ""
 
     @property
     def improvement_pct(self) -> dict[str, Any]:
@@ -123,12 +136,37 @@ class PlanResult:
 
     @property
     def share_of_achievable_pct(self) -> dict[str, float]:
-        """Per method, 100 (quintic − method) / (quintic − bound) on the objective [%]."""
+        """Per method, 100 (quintic − method) / (quintic − bound) on the objective [%], never
+        above 100: NaN for ``bound_unrestricted`` (outside the task's rules, it may go below the
+        task's bound) and for a method that beats the bound by more than round-off (an error,
+        named in ``warnings``)."""
         values = self.objective_values
         if "bound" not in values:
             return {}
         q, b = values["quintic"], values["bound"]
-        return {name: share_of_achievable_pct(q, v, b) for name, v in values.items()}
+        out: dict[str, float] = {}
+        for name, v in values.items():
+            try:
+                out[name] = (
+                    math.nan if name == "bound_unrestricted" else share_of_achievable_pct(q, v, b)
+                )
+            except BoundViolation:
+                out[name] = math.nan
+        return out
+
+    @property
+    def human_likeness(self) -> dict[str, float]:
+        """Per method, the human-likeness distance of its elbow speed profile to the template's
+        (:func:`app.planning.human_constraints.human_likeness_distance`; 0 = the same shape)."""
+        e = self.elbow_joint
+        q0, q1 = float(self.task.start[e]), float(self.task.goal[e])
+        reference, _ = self._likeness_template()
+        return {
+            name: human_likeness_distance(
+                m.trajectory.q[:, e], m.trajectory.qd[:, e], q0, q1, reference
+            )
+            for name, m in self.methods.items()
+        }
 
     def method(self, name: str) -> MethodResult:
         """One method's result by name."""
@@ -141,14 +179,28 @@ class PlanResult:
 
     def _methods_dict(self) -> dict[str, Any]:
         shares = self.share_of_achievable_pct
+        likeness = self.human_likeness
         out: dict[str, Any] = {}
         for name, m in self.methods.items():
             d = m.to_dict()
             d["objective_value"] = self.objective_values.get(name)
             d["improvement_pct"] = improvement_pct(self.standard.metrics, m.evaluated.metrics)
             d["share_of_achievable_pct"] = shares.get(name)
+            d["human_likeness"] = likeness[name]
+            d["rules"] = self._rules(name, m)
             out[name] = d
         return out
+
+    def _rules(self, name: str, m: MethodResult) -> dict[str, Any] | None:
+        """What an optimal-control method obeys (None for the others)."""
+        if m.solver and "rules" in m.solver:
+            return dict(m.solver["rules"])
+        if name != "human_optimal":
+            return None
+        return {
+            **bound_rules(self.joint_names, self.task, self.no_reversal).to_dict(),
+            "human": self.human_rule,
+        }
 
     def _optimizer_dict(self) -> dict[str, Any] | None:
         if self.optimizer is None:
@@ -183,10 +235,25 @@ class PlanResult:
             "warnings": list(self.warnings),
             "methods": self._methods_dict(),
             "share_of_achievable_pct": self.share_of_achievable_pct,
+            "floor_notes": dict(FLOOR_NOTES),
+            "human_likeness_reference": self._likeness_reference(),
         }
         if self.optimized is not None:
             out["optimized"] = self.optimized.to_dict()
         return dict(json_safe(out))
+
+    def _likeness_template(self) -> tuple[FloatArray, str]:
+        e = self.elbow_joint
+        q0, q1 = float(self.task.start[e]), float(self.task.goal[e])
+        peak = joint_on_stroke(self.target_peak_angle_deg, q0, q1)
+        return template_speed_on_stroke(self.template, q0, q1, peak_angle=peak)
+
+    def _likeness_reference(self) -> str:
+        _, source = self._likeness_template()
+        return (
+            "root-mean-square difference of the elbow speed over its peak against the fraction "
+            f"of the elbow stroke, to {source}; 0 = the same shape"
+        )
 
     def _conditions(self) -> dict[str, Any]:
         return {
@@ -247,6 +314,36 @@ class PlanResult:
         )
 
 
+def _bound_warnings(
+    objective: str, methods: dict[str, MethodResult], values: dict[str, float]
+) -> list[str]:
+    """Errors when a method under a bound's rules still beats it, notes when one outside them
+    does (no share is given to either)."""
+    out: list[str] = []
+    for bound in ("bound", "bound_unrestricted"):
+        if bound not in methods:
+            continue
+        cert = (methods[bound].solver or {}).get("certificate", {})
+        for name, value in values.items():
+            if name == bound or not beats_bound(value, values[bound], scale=values["quintic"]):
+                continue
+            if name == "bound_unrestricted" and bound == "bound":
+                continue  # outside the task's rules by definition
+            gap = 100.0 * (values[bound] - value) / abs(values[bound])
+            why = cert.get("outside_rules", {}).get(name)
+            if why is None:
+                out.append(
+                    f"error: {name} beats {bound} on {objective} by {gap:.3g} % after the "
+                    "bound's improvement: the bound does not bound, no share is given"
+                )
+            else:
+                out.append(
+                    f"{name} is {gap:.3g} % below {bound} on {objective} but outside its rules "
+                    f"({why}): no share is given"
+                )
+    return out
+
+
 def _peak_target(
     robot: Robot, task: PlanTask, template: HumanTemplate, peak_angle_deg: float | None
 ) -> tuple[float, float]:
@@ -304,6 +401,7 @@ class _Optimal:
     shares: PhaseShares | None
     n_intervals: int
     no_reversal: bool
+    converge: bool = False
 
 
 def _run_methods(
@@ -334,7 +432,11 @@ def _run_methods(
             progress=within(progress, 0.0, optimal_share),
             **paper_args,
         )
-    todo = [m for m in ("human_optimal", "bound") if m in chosen]
+    if "jerk_limited" in chosen:
+        results["jerk_limited"] = run_jerk_limited(
+            robot, task, duration=duration, report_samples=report_samples
+        )
+    todo = [m for m in ("human_optimal", "bound", "bound_unrestricted") if m in chosen]
     for i, name in enumerate(todo):
         report(
             progress,
@@ -344,23 +446,47 @@ def _run_methods(
             fraction=optimal_share + (1 - optimal_share) * i / len(todo),
             message=f"optimal control: {name}",
         )
-        spec = optimal.spec if name == "human_optimal" else HumanSpec("none", robot.elbow_joint)
-        results[name] = run_optimal(
+        if name == "human_optimal":
+            results[name] = run_optimal(
+                robot,
+                task,
+                name=name,
+                duration=duration,
+                objective=objective,
+                spec=optimal.spec,
+                warm=results.get("paper"),
+                n_intervals=optimal.n_intervals,
+                no_reversal=optimal.no_reversal,
+                report_samples=report_samples,
+            )
+            if optimal.converge:
+                results[name] = refine_to_convergence(
+                    robot, task, results[name], duration=duration, objective=objective,
+                    spec=optimal.spec, no_reversal=optimal.no_reversal,
+                    report_samples=report_samples, keep_lowest=False,
+                )  # fmt: skip
+            continue
+        # Every bound starts from the best of the other methods (the task's bound too, for the
+        # unrestricted one, whose rules it obeys) and is improved until none beats it.
+        results[name] = run_bound(
             robot,
             task,
             name=name,
             duration=duration,
             objective=objective,
-            spec=spec,
-            warm=results.get("paper"),
+            candidates=dict(results),
             n_intervals=optimal.n_intervals,
-            no_reversal=optimal.no_reversal,
+            no_reversal=optimal.no_reversal and name == "bound",
             report_samples=report_samples,
+            stricter="bound" if name == "bound_unrestricted" and optimal.no_reversal else None,
         )
-    if "jerk_limited" in chosen:
-        results["jerk_limited"] = run_jerk_limited(
-            robot, task, duration=duration, report_samples=report_samples
-        )
+        if optimal.converge:
+            results[name] = refine_to_convergence(
+                robot, task, results[name], duration=duration, objective=objective,
+                spec=HumanSpec("none", robot.elbow_joint),
+                no_reversal=optimal.no_reversal and name == "bound",
+                report_samples=report_samples, keep_lowest=True,
+            )  # fmt: skip
     return {m: results[m] for m in chosen}, pso, via_time
 
 
@@ -381,6 +507,7 @@ def plan(
     human_constraint: str = "peak",
     no_reversal: bool = True,
     n_intervals: int = DEFAULT_INTERVALS,
+    converge: bool = False,
     progress: ProgressFn | None = None,
 ) -> PlanResult:
     """Plan a task with the chosen methods and compare them.
@@ -403,6 +530,9 @@ def plan(
         human_constraint: ``human_optimal``'s constraint: ``peak``, ``phases`` or ``none``.
         no_reversal: the optimal-control methods never move a joint against its stroke.
         n_intervals: constant-jerk intervals of the optimal-control transcription.
+        converge: refine every optimal-control result on meshes of 2N, 4N, ... intervals until
+            its objective changes by less than 0.1 % (``solver.convergence`` holds the
+            evidence). Off by default: it multiplies their cost (docs/planning.md).
         progress: called with a ``Progress`` (stages ``pso``, ``optimal_control``, ``done``).
 
     Returns:
@@ -445,7 +575,7 @@ def plan(
             "iterations": iterations,
             "n_samples": n_samples,
         },
-        optimal=_Optimal(spec, shares, n_intervals, no_reversal),
+        optimal=_Optimal(spec, shares, n_intervals, no_reversal, converge),
         report_samples=report_samples,
         progress=progress,
     )
@@ -454,6 +584,11 @@ def plan(
         check_floors(m.evaluated, fl, name)
     report(progress, "done", 1, 1, message="planned")
     paper = results.get("paper")
+    values = {n: objective_value(robot, m.evaluated, objective) for n, m in results.items()}
+    warnings = [
+        *_plan_warnings(given_template, results),
+        *_bound_warnings(objective, results, values),
+    ]
     return PlanResult(
         robot=robot.name,
         objective=objective,
@@ -469,13 +604,12 @@ def plan(
         via_time=via_time,
         elbow_joint=robot.elbow_joint,
         phase_bounds_deg=(float(template.phase_bounds_deg[0]), float(template.phase_bounds_deg[1])),
-        warnings=tuple(_plan_warnings(given_template, results)),
+        warnings=tuple(warnings),
         methods=results,
-        objective_values={
-            n: objective_value(robot, m.evaluated, objective) for n, m in results.items()
-        },
+        objective_values=values,
         human_constraint=human_constraint,
         no_reversal=no_reversal,
         phase_shares=shares,
         joint_names=tuple(robot.joint_names),
+        human_rule=spec.rules() if "human_optimal" in chosen else "",
     )

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from app.config import Settings
 from app.db import crud
-from app.names import METHODS, PHASE_BOUNDS_DEG, TERMINAL_JOB_STATES
+from app.names import PHASE_BOUNDS_DEG, STANDARD_METHODS, TERMINAL_JOB_STATES
 from app.services.core import Services, start_services, stop_services
 from app.services.recordings import store_recording
 
@@ -134,7 +134,7 @@ def synthetic_curls_csv(**kwargs: Any) -> bytes:
 #: every first start of ``make run``), with every method, as a plan from the page has.
 DEMO_TASK_PARAMS: dict[str, Any] = {
     "robot": "curtain_wall_6dof",
-    "methods": list(METHODS),
+    "methods": list(STANDARD_METHODS),
     "duration": 1.0,
     "payload": 4.0,
     "objective": "abs_work",

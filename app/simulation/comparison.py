@@ -206,14 +206,17 @@ class SimulationResult:
 
     def share_of_achievable_pct(self) -> dict[str, float]:
         """Per method, 100 (quintic − method) / (quintic − bound) of the objective, simulated."""
-        from app.planning.methods import share_of_achievable_pct
+        from app.planning.methods import simulated_share_of_achievable_pct as share
 
         if "bound" not in self.runs:
             return {}
         obj = self.plan.objective
         values = {name: _simulated_objective(self, name, obj) for name in self.runs}
         q, b = values["quintic"], values["bound"]
-        return {name: share_of_achievable_pct(q, v, b) for name, v in values.items()}
+        return {
+            name: math.nan if name == "bound_unrestricted" else share(q, v, b)
+            for name, v in values.items()
+        }
 
     def phase_times(self, label: str = "optimized") -> tuple[float, float]:
         """Times [s] at which the commanded elbow crosses the A/B and B/C bounds."""
@@ -427,6 +430,7 @@ def simulate_comparison(
         SimulationError: the simulation ran away or the input is bad.
     """
     from app.planning.methods import DEFAULT_METHODS
+    from app.planning.optimal import DEFAULT_INTERVALS
     from app.planning.planner import plan
 
     _check_mjcf(robot)
@@ -447,7 +451,7 @@ def simulate_comparison(
         human_constraint=human_constraint,
         no_reversal=no_reversal,
         progress=within(progress, 0.0, 0.85),
-        **({} if n_intervals is None else {"n_intervals": int(n_intervals)}),
+        n_intervals=DEFAULT_INTERVALS if n_intervals is None else int(n_intervals),
     )
     report(progress, "simulate", 0, 1, fraction=0.85, message="simulating in MuJoCo")
     names_ = list(result.methods)

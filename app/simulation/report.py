@@ -609,7 +609,7 @@ def write_demo_report(
     Returns:
         The path of ``index.html``.
     """
-    from app.planning.methods import ALL_METHODS
+    from app.names import STANDARD_METHODS
     from app.planning.robots import load_robot
     from app.simulation.sweep import run_sweep, simulate_comparison
 
@@ -629,7 +629,7 @@ def write_demo_report(
             seed=seed,
             particles=particles,
             iterations=iterations,
-            methods=ALL_METHODS if methods is None else methods,
+            methods=STANDARD_METHODS if methods is None else methods,
         )
         results[case.robot] = sim
         sections.append(_case_section(case, sim))
@@ -642,7 +642,7 @@ def write_demo_report(
             objectives=sweep_objectives,
             seed=seed,
             workers=sweep_workers,
-            methods=ALL_METHODS if sweep_methods is None else sweep_methods,
+            methods=STANDARD_METHODS if sweep_methods is None else sweep_methods,
             progress=within(progress, cases_share, 0.95),
         )
     report(progress, "report", 0, 1, fraction=0.96, message="writing the report")

@@ -415,7 +415,7 @@ def _run_cell(job: _CellJob) -> SweepCell:
         planned_change_pct=planned,
         standard=std,
         optimized=optimized,
-        floors={k: float(v) for k, v in res.floors.to_dict().items()},
+        floors={k: float(v) for k, v in res.floors.to_dict().items() if v is not None},
         at_floor=bool(std["abs_work"] <= (1.0 + AT_FLOOR_FRACTION) * res.floors.abs_work),
         tracking_max=float(max(run.tracking_max.max() for run in res.runs.values())),
         warnings=res.warnings,

@@ -261,7 +261,7 @@ def test_each_rate_changes_the_sample_count(human: Any) -> None:
 def test_numbers_are_written_short_and_read_back_exactly(human: Any) -> None:
     """Issue 29: times printed as 0.0030000000000000001 (17 digits whatever the number);
     each number is now the shortest text that reads back as the same float."""
-    robot, result, motion = human
+    robot, _result, motion = human
     text = export_bytes(motion, "csv", method="quintic", rate=1000.0, robot=robot).decode()
     rows = list(csv.reader(io.StringIO(text)))[1:]
     times = [row[0] for row in rows]

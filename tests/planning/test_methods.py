@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from app.names import METHODS
+from app.names import METHODS, STANDARD_METHODS
 from app.planning.human_constraints import DEFAULT_SHARE_SPREAD, phase_shares
 from app.planning.human_template import HumanTemplate
 from app.planning.jerk_limited import JerkLimitedError, jerk_limited
@@ -24,7 +24,7 @@ def cw() -> Robot:
 
 @pytest.fixture(scope="module")
 def everything(cw: Robot) -> object:
-    return plan(cw, objective="peak_power", methods=tuple(METHODS), particles=16, iterations=30)
+    return plan(cw, objective="peak_power", methods=STANDARD_METHODS, particles=16, iterations=30)
 
 
 def test_jerk_limited_respects_every_limit_and_the_duration(cw: Robot) -> None:
@@ -63,18 +63,20 @@ def test_robot_controller_limits_come_from_the_table_or_defaults(cw: Robot) -> N
 def test_result_holds_every_method_with_shares_and_arrays(everything: object) -> None:
     res = everything
     d = json.loads(json.dumps(res.to_dict(), allow_nan=False))  # type: ignore[attr-defined]
-    assert list(d["methods"]) == list(METHODS)
+    assert list(d["methods"]) == list(STANDARD_METHODS)
+    assert "bound_unrestricted" in METHODS and "bound_unrestricted" not in STANDARD_METHODS
     for key in ("standard", "optimized", "floors", "improvement_pct", "optimizer", "conditions"):
         assert key in d
     assert d["standard"] == {k: v for k, v in d["methods"]["quintic"].items() if k in d["standard"]}
     shares = d["share_of_achievable_pct"]
-    assert shares["quintic"] == 0.0 and shares["bound"] == pytest.approx(100.0)
+    assert shares["quintic"] == 0.0 and shares["bound"] == 100.0
+    assert all(s is None or s <= 100.0 for s in shares.values())
     for name, m in d["methods"].items():
         assert m["share_of_achievable_pct"] == shares[name]
         assert m["label"] == METHODS[name].label
     arrays = res.arrays()  # type: ignore[attr-defined]
     t = arrays["t"]
-    for name in (*METHODS, "standard", "optimized"):
+    for name in (*STANDARD_METHODS, "standard", "optimized"):
         for kind in ("q", "qd", "qdd", "tau"):
             assert arrays[f"{name}_{kind}"].shape == (t.size, 6)
         assert arrays[f"{name}_power"].shape == arrays[f"{name}_energy"].shape == t.shape

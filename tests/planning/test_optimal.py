@@ -95,15 +95,18 @@ def test_bound_abs_work_reaches_the_lift_floor(human: Robot) -> None:
     assert bound.abs_work <= floor * 1.0005
 
 
-def test_bound_below_human_optimal_below_paper(human_tau_sq: object) -> None:
+def test_bound_below_human_optimal_and_paper(human_tau_sq: object) -> None:
+    """The bound is below both human-like methods. The paper's plan is no longer above the
+    human-like optimum: its elbow speed stays within 1 % of its peak over more flexion than the
+    ``peak`` constraint's one clear peak allows (at most 8 deg), so it lies outside that set."""
     values = human_tau_sq.objective_values  # type: ignore[attr-defined]
-    tol = 1e-4 * values["quintic"]
+    tol = 1e-5 * values["bound"]
     assert values["bound"] <= values["human_optimal"] + tol
-    assert values["human_optimal"] <= values["paper"] + tol
+    assert values["bound"] <= values["paper"] + tol
     assert values["paper"] < values["quintic"]
     shares = human_tau_sq.share_of_achievable_pct  # type: ignore[attr-defined]
-    assert shares["bound"] == pytest.approx(100.0)
-    assert 0.0 < shares["paper"] < shares["human_optimal"] <= 100.0 + 1e-3
+    assert shares["bound"] == 100.0
+    assert 0.0 < shares["paper"] <= 100.0 and 0.0 < shares["human_optimal"] <= 100.0
 
 
 def test_human_peak_holds_on_the_fine_grid(human_tau_sq: object) -> None:

@@ -12,9 +12,11 @@ import { banner, fmt, h, messageOf, pct, when } from "./ui.js";
 // Older results name their floors after the physics only (ΔPE, ΔPE/T).
 const LEGACY_FLOOR_KEYS = { abs_work: "delta_potential", pos_work: "delta_potential", peak_power: "min_peak_power" };
 const FLOOR_TEXT = {
-  abs_work: "|ΔPE|", pos_work: "max(ΔPE, 0)", peak_power: "|ΔPE|/T", electrical_energy: "ΔPE + friction",
-  delta_potential: "ΔPE", min_peak_power: "ΔPE/T",
+  abs_work: "|ΔPE|", pos_work: "max(ΔPE, 0)", peak_power: "|ΔPE|/T (loose: the bound is the reference)", electrical_energy: "ΔPE + friction",
+  delta_potential: "ΔPE", min_peak_power: "ΔPE/T (loose: the bound is the reference)",
 };
+// Said plainly where a metric has no physical floor (tau_sq, peak_torque, torque_change).
+const NO_FLOOR = "no floor";
 const EXPORT_FORMATS = [
   ["csv", "CSV (t, q, qd, qdd, tau per joint)"], ["json", "JSON"], ["yaml", "YAML (ROS 2 JointTrajectory)"],
   ["mcap", "MCAP (rosbag2)"], ["script", "URScript"], ["mot", "OpenSim .mot"],
@@ -92,11 +94,16 @@ async function allCurves(base, data) {
   return out;
 }
 
-export async function render(main, [kindArg, idArg, methodsArg]) {
-  const [plans, sims, sweeps] = await Promise.all([
+export async function render(main, [kindArg, idArg, query]) {
+  const params = new URLSearchParams(query || "");
+  const methodsArg = params.get("methods") || undefined;
+  const sweepArg = params.get("sweep");
+  const [plans, sims, sweeps, chosenSweep] = await Promise.all([
     api(`/api/plans${qs({ state: "succeeded", limit: 100 })}`),
     api(`/api/simulations${qs({ state: "succeeded", limit: 100 })}`),
     api(`/api/sweeps${qs({ state: "succeeded", limit: 5 })}`).catch(() => ({ items: [] })),
+    // ?sweep=ID: that sweep's heat maps (any sweep, not only the newest of a robot).
+    sweepArg ? api(`/api/sweeps/${encodeURIComponent(sweepArg)}`).catch((err) => ({ error: err })) : null,
   ]);
   const options = [
     ...sims.items.map((x) => ({ kind: "simulation", item: x })),
@@ -111,6 +118,13 @@ export async function render(main, [kindArg, idArg, methodsArg]) {
   }
   let kind = kindArg;
   let id = Number(idArg);
+  const wanted = chosenSweep && !chosenSweep.error ? chosenSweep : null;
+  if (chosenSweep && chosenSweep.error) main.append(banner("warn", `Sweep #${sweepArg}: ${messageOf(chosenSweep.error)}`));
+  if (wanted && !kind) {
+    // Beside the newest comparison of the sweep's robot (or the newest of all when none).
+    const same = options.find((o) => o.item.robot === wanted.robot);
+    if (same) ({ kind, item: { id } } = same);
+  }
   if (!kind || !options.some((o) => o.kind === kind && o.item.id === id)) {
     if (kind) main.append(banner("warn", `${kind} #${idArg} is not a finished comparison; showing the newest.`));
     ({ kind } = options[0]);
@@ -149,8 +163,12 @@ export async function render(main, [kindArg, idArg, methodsArg]) {
   await drawCurves(curvesCard, data, curvesOf, pair);
   await drawHuman(humanCard, data, curvesOf);
 
-  const sweep = sweeps.items.find((s) => s.robot === data.robot);
-  if (sweep) main.append(sweepCard(sweep));
+  const sweep = wanted || sweeps.items.find((s) => s.robot === data.robot);
+  if (sweep) {
+    const card = sweepCard(sweep);
+    main.append(card);
+    if (wanted) card.scrollIntoView({ block: "start" });
+  }
   main.append(viewerCard(kind, id, data, pair), exportCard(kind, id, data, pair));
 }
 
@@ -209,10 +227,10 @@ function metricsCard(kind, result, planned, jointNames) {
     return h("tr", { dataset: { metric: m.name }, class: m.name === objective ? "objective-row" : "" },
       h("td", {}, h("strong", {}, m.name), h("span", { class: "narrow-only" }, ` [${m.unit}]`), m.name === objective ? h("span", { class: "small muted" }, " (objective)") : null, h("div", { class: "small muted" }, m.formula),
         // On a narrow window the unit and floor columns give way to these lines.
-        floor === null ? null : h("div", { class: "small narrow-only floor-inline" }, `floor ${fmt(floor)} ${m.unit}: ${floorText}`)),
+        h("div", { class: "small narrow-only floor-inline" }, floor === null ? NO_FLOOR : `floor ${fmt(floor)} ${m.unit}: ${floorText}`)),
       h("td", { class: "wide-only" }, m.unit),
       cells,
-      h("td", { class: "num wide-only", dataset: { floor: floor ?? "" } }, floor === null ? h("span", { class: "muted" }, "–") : [fmt(floor), h("div", { class: "small muted" }, floorText)]),
+      h("td", { class: "num wide-only", dataset: { floor: floor ?? "" } }, floor === null ? h("span", { class: "muted no-floor" }, NO_FLOOR) : [fmt(floor), h("div", { class: "small muted" }, floorText)]),
     );
   });
   const shares = result.share_of_achievable_pct || {};
@@ -236,7 +254,7 @@ function metricsCard(kind, result, planned, jointNames) {
         h("tbody", {}, rows, shareRow, angleRow),
       ),
     ),
-    h("p", { class: "small muted" }, "Under each value: its change against the standard quintic, 100 (quintic − method) / quintic; positive (green) uses less. Floors: no rest-to-rest motion does less work than |ΔPE| or has a lower peak power than |ΔPE|/T; electrical energy adds the friction no motion avoids."),
+    h("p", { class: "small muted" }, "Under each value: its change against the standard quintic, 100 (quintic − method) / quintic; positive (green) uses less. Floors: no rest-to-rest motion does less work than |ΔPE| or has a lower peak power than |ΔPE|/T (a loose floor: the bound is the reference); electrical energy adds the friction no motion avoids; tau_sq and peak torque have no floor. Shares are never above 100 %: the bound is solved from every method's trajectory until none beats it."),
     torqueTable(result, planned, jointNames, side),
   );
 }

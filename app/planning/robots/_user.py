@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.planning.energy import NOT_MODELLED, MotorModel
+from app.planning.robots._identified import identified_urdf, with_friction
 from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import Payload, Robot, RobotError
 from app.planning.robots._urdf import UrdfJoint, UrdfModel, parse_urdf, read_xml
@@ -321,6 +322,13 @@ def user_robot(
     q_min = np.array([j.lower for j in joints])
     q_max = np.array([j.upper for j in joints])
     motors, motor_source = _motors(urdf.name, free, car)
+    motors = with_friction(motors, free, car)
+    model_urdf = identified_urdf(urdf, car)  # the sidecar's identified link inertias applied
+    if model_urdf != urdf and mjcf is not None and not mjcf_only:
+        raise RobotError(
+            f"{car.path.name if car else urdf.name}: identified links with MJCF {mjcf.name}: "
+            "expected the URDF alone (MuJoCo then compiles the identified URDF)"
+        )
     body_payload, body, payload_kind = _payload(
         car, payload, joints[-1].child, model.links, urdf.name
     )
@@ -328,8 +336,12 @@ def user_robot(
     robot = Robot(
         name=model.name,
         joint_names=tuple(free),
-        urdf_path=urdf.resolve(),
-        mjcf_path=mjcf.resolve() if mjcf is not None else mujoco_ready_urdf(urdf),
+        urdf_path=model_urdf.resolve(),
+        mjcf_path=(
+            mjcf.resolve()
+            if mjcf is not None and model_urdf == urdf
+            else mujoco_ready_urdf(model_urdf)
+        ),
         q_min=q_min,
         q_max=q_max,
         qd_max=_speed_limits(joints, car, mjcf_only),
