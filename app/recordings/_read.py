@@ -195,6 +195,27 @@ def _read(src: Source, format: str | None, opts: Options) -> Recording:
         return _read_checked(src, format, opts)
 
 
+#: Extensions of binary formats: a file so named whose bytes sniff as text was misnamed.
+_BINARY_SUFFIXES = {".mat": "mat", ".c3d": "c3d", ".edf": "edf", ".bdf": "edf", ".xdf": "xdf"}
+
+
+def _misnamed(exc: RecordingError, src: Source, fmt: str) -> RecordingError:
+    """A text reader's refusal of a file named like a binary format says so first (a text
+    file renamed ``.mat`` got only the CSV parser's complaint)."""
+    suffix = Path(src.name).suffix.lower()
+    named = _BINARY_SUFFIXES.get(suffix)
+    if named is None or named == fmt:
+        return exc
+    return RecordingError(
+        f"is named {suffix} but is not a {named} file; read as {fmt} (what its bytes look "
+        f"like): {exc.message}",
+        file=exc.file or src.name,
+        line=exc.line,
+        channel=exc.channel,
+        expected=exc.expected,
+    )
+
+
 def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
     if format is None:
         fmt = sniff_bytes(src.data()[:SNIFF_BYTES], src.name)
@@ -208,7 +229,9 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
         raise src.error("file is empty", expected="a recording")
     try:
         rec = READERS[fmt](src, opts)
-    except (RecordingError, MemoryError):
+    except RecordingError as exc:
+        raise _misnamed(exc, src, fmt) if format is None else exc from None
+    except MemoryError:
         raise  # out of memory is not a corrupt file (a sandboxed read turns it into a 413)
     except Exception as exc:
         # Third-party parsers raise any exception type on corrupt input; callers are promised

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -199,3 +200,19 @@ def test_muscle_map_errors_name_the_problem(tmp_path: Path) -> None:
         read_recording(path, muscle_map={"ch1": "calf"})
     rec = read_recording(path, muscle_map={"ch1": "biceps"})
     assert rec.channels["ch1"].kind == "emg" and rec.emg_by_site()["biceps"].name == "ch1"
+
+
+def test_a_text_file_named_like_a_binary_format_is_said_to_be_misnamed(tmp_path: Path) -> None:
+    """Issue 29: a text file renamed .mat got only the CSV parser's complaint; the message now
+    says first that the file is not what its name says."""
+    misnamed = tmp_path / "trial.mat"
+    misnamed.write_text("these are my notes about the session\nnothing to plot here\n")
+    with pytest.raises(RecordingError) as err:
+        read_recording(misnamed)
+    assert re.match(
+        r"trial\.mat(, line 1)?: is named \.mat but is not a mat file; read as csv", str(err.value)
+    )
+    # A file that reads as what its bytes hold is still read (the extension is only a hint).
+    good = tmp_path / "generic.mat"
+    good.write_text("time;biceps\n0;1,5\n0,001;2,5\n0,002;2,0\n")
+    assert read_recording(good, rate=None).channels
