@@ -43,6 +43,12 @@ ONSET_LEAD = 1.0
 #: at 6 Hz, so 250 Hz loses nothing, while a 2 kHz goniometer made the arm's inverse dynamics
 #: half of a long session's analysis.
 ENERGETICS_RATE = 250.0
+#: A lift is low-quality when more than this share of its frames is (pose detection quality:
+#: the arm poorly seen, limbs of implausible lengths, or another person tracked); it is kept
+#: out of the template unless the analysis keeps low-quality lifts.
+MAX_LOW_QUALITY_SHARE = 0.2
+#: Why low-quality lifts are left out, as the template's provenance says it.
+LOW_QUALITY_REASON = "low pose quality"
 
 
 @dataclass(frozen=True)
@@ -127,6 +133,11 @@ class LiftReport:
         emg_peak_times: muscle -> time of the envelope peak during the concentric part [s].
         profile: the kinematic/EMG features that feed the template.
         energetics: torques, power and energies (None without angles or dynamics).
+        low_quality_share: share of the lift's pose frames that are low-quality (None without
+            a per-frame quality, e.g. motion capture or EMG-only lifts).
+        low_quality: more than :data:`MAX_LOW_QUALITY_SHARE` of its frames are low-quality;
+            such a lift is left out of the template unless low-quality lifts are kept.
+        quality_reasons: why its frames are low-quality: reason -> frames.
     """
 
     index: int
@@ -137,6 +148,9 @@ class LiftReport:
     emg_peak_times: dict[str, float]
     profile: LiftProfile
     energetics: Energetics | None = None
+    low_quality_share: float | None = None
+    low_quality: bool = False
+    quality_reasons: dict[str, int] = field(default_factory=dict)
 
     @property
     def emg_peak_after_velocity_peak(self) -> dict[str, float]:
@@ -174,6 +188,13 @@ class LiftReport:
             "emg_peak_time_fraction": prof.emg_peak_time_fraction,
             "emg_peak_after_velocity_peak_s": self.emg_peak_after_velocity_peak,
             "energetics": self.energetics.to_dict() if self.energetics else None,
+            "quality": None
+            if self.low_quality_share is None
+            else {
+                "low_quality_share": self.low_quality_share,
+                "low_quality": self.low_quality,
+                "reasons": dict(self.quality_reasons),
+            },
         }
 
 
@@ -220,6 +241,7 @@ class RecordingAnalysis:
                 "elbow_range_deg": [_deg(float(elbow.min())), _deg(float(elbow.max()))]
                 if elbow.size
                 else None,
+                "quality": None if a.quality is None else a.quality.summary(),
             }
         return {
             "source": self.source,
@@ -305,6 +327,10 @@ class AnalysisResult:
                     head += (
                         f"  v_peak {_deg(r.profile.peak_velocity):.0f} deg/s"
                         f" at {_deg(r.profile.peak_velocity_angle):.0f} deg"
+                    )
+                if r.low_quality:
+                    head += (
+                        f"  LOW POSE QUALITY ({100 * (r.low_quality_share or 0):.0f}% of frames)"
                     )
                 lines.append(head)
                 for p in r.phases:
@@ -505,6 +531,9 @@ class AnalysisOptions:
         offset: t_emg = t_pose + offset [s]; ``"auto"`` = cross-correlation; None = 0.
         emg_options: options for :func:`emg_process`.
         pose_options: options for :func:`arm_angles` (``side``, ``min_visibility``...).
+        keep_low_quality_lifts: keep lifts whose pose frames are mostly low-quality (another
+            person tracked, the arm poorly seen, implausible limb lengths) in the template;
+            by default they are flagged and left out.
     """
 
     emg_rate: float | None = None
@@ -514,6 +543,7 @@ class AnalysisOptions:
     offset: float | Literal["auto"] | None = None
     emg_options: Mapping[str, Any] = field(default_factory=dict)
     pose_options: Mapping[str, Any] = field(default_factory=dict)
+    keep_low_quality_lifts: bool = False
 
 
 def _without_excluded(recording: Recording, exclude: frozenset[str]) -> Recording:
@@ -721,6 +751,50 @@ def _lift_reports(lifts: list[Lift], ctx: _Context) -> list[LiftReport]:
     return reports
 
 
+def _with_quality(
+    reports: list[LiftReport], angles: ArmAngles | None, shift: float, warnings: list[str]
+) -> list[LiftReport]:
+    """The lifts with their pose quality: share of low-quality frames, flagged above
+    :data:`MAX_LOW_QUALITY_SHARE` (a warning names them)."""
+    if angles is None or angles.quality is None:
+        return reports
+    q = angles.quality
+    out: list[LiftReport] = []
+    for r in reports:
+        if r.lift.source != "angle":
+            out.append(r)
+            continue
+        t0, t1 = r.lift.start - shift, r.lift.end - shift
+        inside = (angles.t >= t0 - 1e-9) & (angles.t <= t1 + 1e-9)
+        share = angles.low_quality_share(t0, t1)
+        reasons = {
+            "no_pose": int((q.person[inside] < 0).sum()),
+            "other_person": int((q.person[inside] > 0).sum()),
+            "implausible_lengths": int((inside & ~q.plausible & (q.person == 0)).sum()),
+            "low_visibility": int(
+                (inside & q.plausible & (q.person == 0) & (q.visibility < q.min_visibility)).sum()
+            ),
+        }
+        out.append(
+            replace(
+                r,
+                low_quality_share=share,
+                low_quality=share > MAX_LOW_QUALITY_SHARE,
+                quality_reasons={k: v for k, v in reasons.items() if v},
+            )
+        )
+    flagged = [r for r in out if r.low_quality]
+    if flagged:
+        why = sorted({k.replace("_", " ") for r in flagged for k in r.quality_reasons})
+        warnings.append(
+            f"{len(flagged)} lift(s) ({', '.join(f'#{r.index}' for r in flagged)}) rest on"
+            f" low-quality pose frames (more than {100 * MAX_LOW_QUALITY_SHARE:.0f}%: "
+            + ", ".join(why)
+            + "); left out of the template unless low-quality lifts are kept"
+        )
+    return out
+
+
 def _analyze_one(
     recording: Recording,
     options: AnalysisOptions,
@@ -761,7 +835,7 @@ def _analyze_one(
         emg=emg,
         angles=angles,
         offset=shift,
-        lifts=_lift_reports(lifts, ctx),
+        lifts=_with_quality(_lift_reports(lifts, ctx), angles, shift, warnings),
         warnings=warnings,
         rate_check=rate_check(recording),
     )
@@ -814,6 +888,7 @@ def analyze_recordings(
     together: bool = False,
     emg_options: Mapping[str, Any] | None = None,
     pose_options: Mapping[str, Any] | None = None,
+    keep_low_quality_lifts: bool = False,
 ) -> AnalysisResult:
     """Analyse recordings and build one HumanTemplate from all their lifts.
 
@@ -836,6 +911,9 @@ def analyze_recordings(
         emg_options: options for :func:`emg_filter`/:func:`emg_envelope` (band, notch,
             lowpass, method, ...).
         pose_options: options for :func:`arm_angles` (side, min_visibility, max_gap, ...).
+        keep_low_quality_lifts: keep the lifts flagged for low pose quality (mostly frames of
+            another person, a poorly seen arm or implausible limb lengths) in the template; by
+            default they are left out and the template's ``source`` says how many and why.
 
     Returns:
         AnalysisResult.
@@ -861,17 +939,24 @@ def analyze_recordings(
         offset=offset,
         emg_options=emg_options or {},
         pose_options=pose_options or {},
+        keep_low_quality_lifts=bool(keep_low_quality_lifts),
     )
     warnings: list[str] = []
     dynamics = _arm_model(body_mass, body_height, load_mass, warnings)
     analyses = [_analyze_one(rec, options, dynamics) for rec in recs]
     assumptions = [a for rec in recordings if (a := image_size_assumption(rec))]
+    lifts = [r for a in analyses for r in a.lifts]
+    kept = [r for r in lifts if options.keep_low_quality_lifts or not r.low_quality]
+    n_low = sum(r.low_quality for r in lifts)
     template = build_template(
-        [r.profile for a in analyses for r in a.lifts],
+        [r.profile for r in kept],
         phase_bounds_deg=bounds_deg,
         files=[r.source for r in recordings],
         assumptions=assumptions,
+        left_out={LOW_QUALITY_REASON: len(lifts) - len(kept)} if len(kept) < len(lifts) else {},
     )
+    if n_low and options.keep_low_quality_lifts:
+        warnings.append(f"{n_low} lift(s) with low pose quality kept in the template on request")
     if template.is_paper_default:
         warnings.append(
             f"the template's kinematics are the paper's defaults ({template.source}): "
@@ -910,6 +995,7 @@ def _settings_echo(
         "emg": {"band_hz": [20.0, 450.0], "lowpass_hz": 6.0, "method": "lowpass"}
         | dict(options.emg_options),
         "pose": dict(options.pose_options),
+        "keep_low_quality_lifts": options.keep_low_quality_lifts,
     }
 
 
@@ -980,6 +1066,7 @@ def analyze_files(
     together: bool = False,
     emg_options: Mapping[str, Any] | None = None,
     pose_options: Mapping[str, Any] | None = None,
+    keep_low_quality_lifts: bool = False,
     frame_rate: float | None = None,
     image_size: tuple[int, int] | None = None,
     pose_python: str | Path | None = None,
@@ -1019,6 +1106,7 @@ def analyze_files(
         together=together,
         emg_options=emg_options,
         pose_options=pose_options,
+        keep_low_quality_lifts=keep_low_quality_lifts,
     )
     result.settings["frame_rate_hz"] = frame_rate
     result.settings["image_size_px"] = list(image_size) if image_size else None

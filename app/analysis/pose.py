@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.analysis._checks import scipy_signal
+from app.recordings._pose_quality import FrameQuality, arm_quality, image_landmarks
 from app.recordings.types import Channel, Recording, RecordingError
 
 Side = Literal["left", "right"]
@@ -48,6 +49,8 @@ class ArmAngles:
         side: which arm (``"left"``, ``"right"``, or ``"unspecified"`` for a one-arm marker set).
         position_unit: unit of the positions behind ``wrist_acceleration`` (``"m"``, ``"px"``,
             ``"norm"``).
+        quality: per-frame detection quality of the arm's image landmarks (visibility, limb
+            lengths, who is tracked), None for markers and joint-angle channels.
     """
 
     t: NDArray[np.float64]
@@ -64,6 +67,15 @@ class ArmAngles:
     rate: float
     side: str
     position_unit: str
+    quality: FrameQuality | None = None
+
+    def low_quality_share(self, t0: float, t1: float) -> float:
+        """Share of the frames in [t0, t1] (pose clock [s]) that are low-quality (0 without a
+        quality track or frames)."""
+        if self.quality is None:
+            return 0.0
+        inside = (self.t >= t0 - 1e-9) & (self.t <= t1 + 1e-9)
+        return float(self.quality.low[inside].mean()) if inside.any() else 0.0
 
     @property
     def q(self) -> NDArray[np.float64]:
@@ -723,7 +735,28 @@ def arm_angles(
         rate=rate,
         side=chosen_side if sided else "unspecified",
         position_unit=unit,
+        quality=_quality(recording, found, t, chosen_side, min_visibility),
     )
+
+
+def _quality(
+    recording: Recording,
+    found: dict[str, list[Channel]],
+    t: NDArray[np.float64],
+    side: Side,
+    min_visibility: float,
+) -> FrameQuality | None:
+    """Per-frame quality of the arm when it comes from image landmarks (MediaPipe), else None."""
+    arm = [ch for role in ("shoulder", "elbow", "wrist") for ch in found[role]]
+    if not all(ch.kind == "landmark" for ch in arm):
+        return None
+    lms = image_landmarks(recording.channels)
+    if any(len(v[0]) != len(t) for v in lms.values()):
+        return None
+    try:
+        return arm_quality(lms, t, side, min_visibility=min_visibility)
+    except KeyError:
+        return None
 
 
 #: Name fragments of joint-angle channels: goniometers and OpenSim coordinates (arm26

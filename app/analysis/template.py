@@ -153,6 +153,7 @@ def build_template(
     phase_bounds_deg: tuple[float, float] = (40.0, 90.0),
     files: Sequence[str] = (),
     assumptions: Sequence[str] = (),
+    left_out: Mapping[str, int] | None = None,
 ) -> HumanTemplate:
     """The HumanTemplate from lift profiles.
 
@@ -168,6 +169,9 @@ def build_template(
         phase_bounds_deg: (A/B, B/C) elbow thresholds [deg] to record in the template.
         files: the recordings the lifts came from.
         assumptions: what the analysis assumed, recorded in the template.
+        left_out: reason -> number of lifts the analysis left out before (e.g. ``{"low pose
+            quality": 2}``); ``source`` says so, also when the paper's default is all that is
+            left.
 
     Returns:
         A HumanTemplate (JSON round-trip through ``to_json``/``from_json``).
@@ -182,7 +186,7 @@ def build_template(
         emg_lifts=sum(bool(p.activation_order or p.emg_peak_time_fraction) for p in profiles),
         assumptions=tuple(assumptions),
         n_lifts=0,
-        source=_default_source(profiles),
+        source=_default_source(profiles, left_out or {}),
     )
     if not kin:
         return base
@@ -207,8 +211,16 @@ def build_template(
         acceleration_mean=tuple(float(v) for v in acc.mean(axis=0)),
         acceleration_sd=_profile_sd(acc),
         n_lifts=len(kin),
-        source=f"{len(kin)} lift(s) with kinematics" + (f" ({without} without)" if without else ""),
+        source=f"{len(kin)} lift(s) with kinematics"
+        + (f" ({without} without)" if without else "")
+        + _left_out_text(left_out or {}),
     )
+
+
+def _left_out_text(left_out: Mapping[str, int]) -> str:
+    """``"; 2 lift(s) left out (low pose quality)"`` for the template's ``source``."""
+    parts = [f"{n} lift(s) left out ({why})" for why, n in left_out.items() if n]
+    return "".join(f"; {p}" for p in parts)
 
 
 def _sd(x: NDArray[np.float64]) -> float:
@@ -220,15 +232,20 @@ def _profile_sd(x: NDArray[np.float64]) -> tuple[float, ...]:
     return tuple(float(v) for v in sd)
 
 
-def _default_source(profiles: Sequence[LiftProfile]) -> str:
+def _default_source(profiles: Sequence[LiftProfile], left_out: Mapping[str, int]) -> str:
     """``source`` of a template that keeps the paper's kinematics, with the reason."""
+    if not profiles and any(left_out.values()):
+        why = ", ".join(f"{n} for {reason}" for reason, n in left_out.items() if n)
+        return f"{PAPER_DEFAULT_SOURCE}: every lift found was left out ({why})"
     if not profiles:
         return f"{PAPER_DEFAULT_SOURCE}: no lifts found in these files"
     if all(p.lift.source == "emg" for p in profiles):
         return f"{PAPER_DEFAULT_SOURCE}: no kinematics in these files"
     reasons = sorted({p.rejected for p in profiles if p.rejected})
     why = "; ".join(reasons) if reasons else "no usable elbow kinematics"
-    return f"{PAPER_DEFAULT_SOURCE}: no lift with usable kinematics ({why})"
+    return f"{PAPER_DEFAULT_SOURCE}: no lift with usable kinematics ({why})" + _left_out_text(
+        left_out
+    )
 
 
 def _emg_fields(profiles: Sequence[LiftProfile]) -> tuple[tuple[str, ...], dict[str, float]]:

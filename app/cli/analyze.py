@@ -130,6 +130,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
         "offset": _offset(args.offset),
         "together": args.together,
         "pose_options": pose,
+        "keep_low_quality_lifts": args.keep_low_quality_lifts,
     }
 
 
@@ -267,6 +268,12 @@ def register(sub: Any) -> None:
         "--together",
         action="store_true",
         help="the files were recorded at the same time (one clock); default: separate trials",
+    )
+    p.add_argument(
+        "--keep-low-quality-lifts",
+        action="store_true",
+        help="keep lifts on mostly low-quality pose frames (another person tracked, arm poorly"
+        " seen, implausible limb lengths) in the template; default: flagged and left out",
     )
     p.add_argument("--phase-bounds-deg", default="40,90", help="A/B and B/C elbow angles [deg]")
     p.add_argument("--body-mass", type=float, default=75.0, help="subject mass [kg]")

@@ -6,6 +6,12 @@ the frame is square. With ``image_size=(width, height)``, x and z are multiplied
 width/height (MediaPipe scales z like x), which puts all three in units of the image height
 and makes angles true. Confidence is MediaPipe's ``visibility`` (``presence`` when there is
 no visibility, 1 when neither is stored).
+
+MediaPipe Pose follows one person; when the track jumps to someone (or something) else, the
+reader says so: ``metadata["pose_track"]`` holds the persons followed, the frames where the
+track switched and the tracked person's frames (see ``_pose_quality``), and a warning names
+them. A video's document may state what the extraction saw of other people (``persons``:
+frames checked, frames where another person was found), kept as ``metadata["persons"]``.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from app.recordings._common import F64, Options, Source, check_rate, grid_rate, position_channel
+from app.recordings._pose_quality import frame_ranges, identity, image_landmarks
 from app.recordings._table import detect_layout, read_table
 from app.recordings.types import Channel, Recording
 
@@ -227,7 +234,44 @@ def read_mediapipe_csv(src: Source, opts: Options) -> Recording:
     if table.text:
         metadata["annotations"] = {k: v.to_pylist() for k, v in table.text.items()}
     channels = _channels(src, xyz, conf, rate=rate, start=start, times=times, factor=factor)
+    _track_check(src, channels, metadata)
     return Recording(channels=channels, source=src.name, format="mediapipe_csv", metadata=metadata)
+
+
+def _track_check(src: Source, channels: dict[str, Channel], metadata: dict[str, Any]) -> None:
+    """Record (and warn) when the pose track jumps from one person to another."""
+    lms = image_landmarks(channels)
+    if not lms:
+        return
+    first = next(iter(channels.values()))
+    who = identity(lms, np.asarray(first.times, dtype=np.float64))
+    if not who.switches:
+        return
+    tracked = frame_ranges(np.flatnonzero(who.person == 0))
+    metadata["pose_track"] = {
+        "persons": who.n_persons,
+        "switch_frames": list(who.switches),
+        "tracked_frames": tracked,
+    }
+    shown = ", ".join(str(k) for k in who.switches[:6]) + (" ..." if len(who.switches) > 6 else "")
+    src.warn(
+        f"the pose track jumps to another person (or object) at frame(s) {shown}: it follows"
+        f" {who.n_persons} in turn; the tracked person (most frames) is in frames {tracked},"
+        " and lifts in the other frames are flagged as low pose quality"
+    )
+
+
+def _persons(info: dict[str, Any], metadata: dict[str, Any]) -> None:
+    """What the video's extraction saw of other people (``persons`` in the document)."""
+    persons = info.get("persons")
+    if not isinstance(persons, dict):
+        return
+    checked, another = persons.get("checked"), persons.get("another")
+    if isinstance(checked, list) and isinstance(another, list):
+        metadata["persons"] = {
+            "frames_checked": len(checked),
+            "frames_with_another_person": [int(k) for k in another if isinstance(k, int)],
+        }
 
 
 # ---------------------------------------------------------------------------------------------
@@ -314,6 +358,8 @@ def read_mediapipe_json(src: Source, opts: Options) -> Recording:
         LANDMARK_NAMES[k]: parsed.conf[:, k] for k in range(len(LANDMARK_NAMES))
     }
     channels = _channels(src, xyz, confs, rate=rate, start=start, times=times, factor=factor)
+    _persons(info, metadata)
+    _track_check(src, channels, metadata)
     return Recording(channels=channels, source=src.name, format="mediapipe_json", metadata=metadata)
 
 

@@ -7,14 +7,21 @@ process (``app.recordings.video``) over stdout, one JSON object per line:
 
 - ``{"event": "start", "frames": N, "fps": F, "width": W, "height": H}``
 - ``{"event": "progress", "done": i, "of": N}`` (throttled)
-- ``{"event": "done", "landmarks": PATH, "frames": n, "with_pose": k, "skeletons": [PATH...]}``
+- ``{"event": "done", "landmarks": PATH, "frames": n, "with_pose": k, "skeletons": [PATH...],
+  "persons": {"checked": [i...], "another": [i...]}}``
 - ``{"event": "error", "code": CODE, "message": TEXT}`` with CODE one of ``corrupt``,
   ``too_long``, ``no_person``, ``environment``; then exit status 3.
 
 The landmarks file is MediaPipe JSON as ``app.recordings`` reads it (``fps``, ``image_width``,
 ``image_height``, ``frames`` with ``timestamp_ms`` and ``pose_landmarks``). Skeleton frames are
 JPEG images of a few frames with the detected skeleton drawn on them, for the user to check the
-fit.
+fit: ``CANDIDATES`` times as many as asked for, evenly spread, from which the main process keeps
+the frames that show the tracked person well.
+
+MediaPipe Pose follows one person. To count people, every ``CHECK_EVERY_S`` seconds the tracked
+person's box is painted grey and a second, single-image Pose looks at what is left: a pose found
+there is another person (``persons.another`` lists those frames, ``persons.checked`` the frames
+looked at). The document's ``persons`` key carries the same.
 
 Usage: ``python _pose_worker.py VIDEO OUT_DIR MAX_SECONDS N_SKELETON_FRAMES``
 """
@@ -28,6 +35,12 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 ERROR_EXIT = 3
+#: Skeleton frames drawn per frame asked for (the main process picks among them).
+CANDIDATES = 3
+#: How often another person is looked for [s], and the margin around the tracked person's box
+#: painted over (a fraction of the box).
+CHECK_EVERY_S = 1.0 / 3.0
+MASK_MARGIN = 0.15
 #: Skeleton images are shrunk to at most this width [px] (they are for a web page).
 SKELETON_WIDTH = 640
 #: The skeleton drawn: MediaPipe Pose ids of the arm, trunk and leg segments.
@@ -79,6 +92,19 @@ def draw_skeleton(cv2: Any, image: Any, lms: list[dict[str, float]]) -> Any:
     return out
 
 
+def another_person(other: Any, rgb: Any, lms: list[dict[str, float]]) -> bool:
+    """Whether a second pose is found once the tracked person's box is painted grey."""
+    h, w = rgb.shape[:2]
+    xs = [min(max(lm["x"], 0.0), 1.0) for lm in lms]
+    ys = [min(max(lm["y"], 0.0), 1.0) for lm in lms]
+    mx, my = MASK_MARGIN * (max(xs) - min(xs)), MASK_MARGIN * (max(ys) - min(ys))
+    x0, x1 = max(0, int((min(xs) - mx) * w)), min(w, int((max(xs) + mx) * w) + 1)
+    y0, y1 = max(0, int((min(ys) - my) * h)), min(h, int((max(ys) + my) * h) + 1)
+    masked = rgb.copy()
+    masked[y0:y1, x0:x1] = 127
+    return other.process(masked).pose_landmarks is not None
+
+
 def open_video(cv2: Any, path: str, max_seconds: float) -> tuple[Any, int, float, int, int]:
     cap = cv2.VideoCapture(path)
     if not cap.isOpened():
@@ -103,16 +129,25 @@ def main(argv: list[str]) -> None:
     cap, total, fps, width, height = open_video(cv2, video, max_seconds)
     emit(event="start", frames=total, fps=fps, width=width, height=height)
     # Skeleton frames near evenly spaced targets: the first frame with a pose at or after each.
-    pending = sorted({round(k * (total - 1) / max(n_skeletons - 1, 1)) for k in range(n_skeletons)})
+    n_targets = CANDIDATES * n_skeletons
+    pending = sorted({round(k * (total - 1) / max(n_targets - 1, 1)) for k in range(n_targets)})
     frames: list[dict[str, Any]] = []
     skeletons: list[str] = []
+    persons: dict[str, list[int]] = {"checked": [], "another": []}
+    every = max(1, round(CHECK_EVERY_S * fps))
     last = 0.0
-    with mp.solutions.pose.Pose(
+    tracker = mp.solutions.pose.Pose(
         static_image_mode=False,
         model_complexity=1,
         min_detection_confidence=0.5,
         min_tracking_confidence=0.5,
-    ) as pose:
+    )
+    # A second, single-image Pose (no tracking) looks for another person; Python 3.9 has no
+    # parenthesised with-statement.
+    single = mp.solutions.pose.Pose(
+        static_image_mode=True, model_complexity=1, min_detection_confidence=0.5
+    )
+    with tracker as pose, single as other:
         while True:
             ok, image = cap.read()
             if not ok:
@@ -123,6 +158,10 @@ def main(argv: list[str]) -> None:
             rgb = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
             lms = landmarks_of(pose.process(rgb))
             frames.append({"frame": i, "timestamp_ms": 1000.0 * i / fps, "pose_landmarks": [lms]})
+            if lms and i % every == 0:
+                persons["checked"].append(i)
+                if another_person(other, rgb, lms):
+                    persons["another"].append(i)
             if lms and pending and i >= pending[0]:
                 pending.pop(0)
                 path = out_dir / f"skeleton_{i:06d}.jpg"
@@ -141,7 +180,13 @@ def main(argv: list[str]) -> None:
         if not f["pose_landmarks"][0]:
             f["pose_landmarks"] = []
     landmarks = out_dir / "landmarks.json"
-    doc = {"fps": fps, "image_width": width, "image_height": height, "frames": frames}
+    doc = {
+        "fps": fps,
+        "image_width": width,
+        "image_height": height,
+        "persons": persons,
+        "frames": frames,
+    }
     landmarks.write_text(json.dumps(doc), encoding="utf-8")
     emit(event="progress", done=len(frames), of=len(frames))
     emit(
@@ -150,6 +195,7 @@ def main(argv: list[str]) -> None:
         frames=len(frames),
         with_pose=with_pose,
         skeletons=skeletons,
+        persons=persons,
     )
 
 

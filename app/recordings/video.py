@@ -11,11 +11,18 @@ progress as JSON lines (frames done / total) and writes the landmarks as MediaPi
 video's frame rate and image size, so they are read and analysed exactly like an uploaded
 MediaPipe file (true angles: the image size undoes the aspect distortion). Cancelling stops the
 worker at once.
+
+MediaPipe Pose follows one person. The worker also looks for another person a few times a
+second (the tracked person painted over); the landmarks tell when the track jumped to someone
+(or something) else. Both become a warning that says in which frames the tracked person is
+shown, and the skeleton frames returned are picked among more candidates: the tracked person,
+arm well seen, limbs of plausible lengths, spread over the video; each says whom it shows.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import queue
 import shutil
@@ -29,8 +36,11 @@ from importlib import resources
 from pathlib import Path
 from typing import IO, Any
 
+import numpy as np
+
 from app.names import MAX_VIDEO_SECONDS
 from app.progress import ProgressFn, report
+from app.recordings._pose_quality import FrameQuality, arm_quality, frame_ranges, image_landmarks
 from app.recordings.types import Recording, RecordingError
 
 #: Environment variable naming the pose environment's Python.
@@ -49,6 +59,8 @@ POSE_REQUIREMENTS: tuple[str, ...] = (
     "matplotlib",
 )
 MEDIAPIPE = "mediapipe==0.10.21"
+#: A skeleton frame is shown as good when it and this many frames each side are good quality.
+SKELETON_CONTEXT = 5
 
 
 @dataclass(frozen=True)
@@ -59,11 +71,18 @@ class SkeletonFrame:
         frame: 0-based frame index.
         time: its time in the video [s].
         jpeg: the image (JPEG bytes, at most 640 px wide).
+        person: whom the skeleton is on: 0 the tracked person (the one followed in most
+            frames), 1, 2... someone (or something) else the track jumped to, -1 unknown.
+        quality: the frame's detection quality (the better arm's score, 0-1; NaN unknown).
+        note: the same in words, for the page.
     """
 
     frame: int
     time: float
     jpeg: bytes
+    person: int = -1
+    quality: float = math.nan
+    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -275,7 +294,7 @@ def extract_pose(
     with tempfile.TemporaryDirectory(prefix="bioplan-pose-") as tmp:
         worker = _Worker(py, path, Path(tmp), label)
         done = worker.run(max_seconds, skeleton_frames, progress, cancel)
-        return _collect(done, label)
+        return _collect(done, label, max(skeleton_frames, 0))
 
 
 def _worker_command(py: Path, video: Path, out: Path, max_seconds: float, n: int) -> list[str]:
@@ -360,18 +379,31 @@ def _log_tail(out: Path) -> str:
     return lines[-1][:200] if lines else "no log"
 
 
-def _collect(done: dict[str, Any], label: str) -> PoseExtraction:
+def _collect(done: dict[str, Any], label: str, n_skeletons: int) -> PoseExtraction:
     doc_bytes = Path(done["landmarks"]).read_bytes()
     doc = json.loads(doc_bytes)
     fps = float(doc["fps"])
-    skeletons = []
-    for p in done.get("skeletons", []):
-        k = int(Path(p).stem.split("_")[-1])
-        skeletons.append(SkeletonFrame(frame=k, time=k / fps, jpeg=Path(p).read_bytes()))
     frames, with_pose = int(done["frames"]), int(done["with_pose"])
     warnings: list[str] = []
     if with_pose < 0.5 * frames:
         warnings.append(f"{label}: a person was detected in only {with_pose} of {frames} frames")
+    quality = _frame_quality(doc_bytes)
+    warnings += _people_warnings(label, doc.get("persons"), quality)
+    candidates = [int(Path(p).stem.split("_")[-1]) for p in done.get("skeletons", [])]
+    paths = dict(zip(candidates, done.get("skeletons", []), strict=True))
+    skeletons = []
+    for k in _pick_skeletons(candidates, quality, n_skeletons):
+        person, score = _who(quality, k)
+        skeletons.append(
+            SkeletonFrame(
+                frame=k,
+                time=k / fps,
+                jpeg=Path(paths[k]).read_bytes(),
+                person=person,
+                quality=score,
+                note=_note(person, score, quality),
+            )
+        )
     return PoseExtraction(
         source=label,
         landmarks_json=doc_bytes,
@@ -382,6 +414,96 @@ def _collect(done: dict[str, Any], label: str) -> PoseExtraction:
         skeletons=skeletons,
         warnings=warnings,
     )
+
+
+def _frame_quality(doc_bytes: bytes) -> FrameQuality | None:
+    """Per-frame quality of the better-seen arm of the extracted landmarks (None if unreadable)."""
+    from app.recordings._read import read_bytes
+
+    try:
+        rec = read_bytes(doc_bytes, "landmarks.json", format="mediapipe_json")
+    except RecordingError:
+        return None
+    lms = image_landmarks(rec.channels)
+    t = next(iter(rec.channels.values())).times
+    arms = []
+    for side in ("left", "right"):
+        try:
+            arms.append(arm_quality(lms, t, side))
+        except KeyError:
+            continue
+    if not arms:
+        return None
+    return max(arms, key=lambda q: float(q.score.mean()))
+
+
+def _people_warnings(label: str, persons: Any, quality: FrameQuality | None) -> list[str]:
+    """The warning when another person was seen or the track jumped to someone else."""
+    another: list[int] = []
+    checked = 0
+    if isinstance(persons, dict):
+        another = [int(k) for k in persons.get("another", [])]
+        checked = len(persons.get("checked", []))
+    switched = quality is not None and quality.n_persons > 1
+    if not another and not switched:
+        return []
+    tracked = (
+        frame_ranges(np.flatnonzero(quality.person == 0)) if quality is not None else "unknown"
+    )
+    if another:
+        head = (
+            f"{label}: 2 people detected (another person in {len(another)} of {checked} frames"
+            " checked)"
+        )
+    else:
+        head = (
+            f"{label}: the pose track jumps between {quality.n_persons if quality else 2} persons"
+        )
+    return [
+        f"{head}; the tracked person is shown in frames {tracked}; lifts in other frames are"
+        " flagged as low pose quality and left out of the template"
+    ]
+
+
+def _pick_skeletons(candidates: list[int], quality: FrameQuality | None, n: int) -> list[int]:
+    """``n`` of the candidate frames: the tracked person well seen first, spread over time."""
+    if n <= 0 or not candidates:
+        return []
+    if quality is None:
+        idx = np.unique(np.round(np.linspace(0, len(candidates) - 1, n)).astype(int))
+        return [candidates[i] for i in idx]
+    # Good: the frame and its neighbours (SKELETON_CONTEXT frames each way) are of good
+    # quality, so a frame that merely flickers good amid a drifting track is not shown.
+    low = quality.low
+    good = [
+        k
+        for k in candidates
+        if k < len(low) and not low[max(0, k - SKELETON_CONTEXT) : k + SKELETON_CONTEXT + 1].any()
+    ]
+    if len(good) >= n:
+        idx = np.unique(np.round(np.linspace(0, len(good) - 1, n)).astype(int))
+        return [good[i] for i in idx]
+    rest = sorted(
+        (k for k in candidates if k not in good),
+        key=lambda k: -float(quality.score[k]) if k < len(quality.score) else 0.0,
+    )
+    return sorted(good + rest[: n - len(good)])
+
+
+def _who(quality: FrameQuality | None, k: int) -> tuple[int, float]:
+    if quality is None or k >= len(quality.person):
+        return -1, math.nan
+    return int(quality.person[k]), float(quality.score[k])
+
+
+def _note(person: int, score: float, quality: FrameQuality | None) -> str:
+    if person < 0:
+        return "person unknown"
+    if person > 0:
+        return f"not the tracked person (the track jumped to someone or something else, #{person})"
+    if quality is not None and score < quality.min_visibility:
+        return "the tracked person, but the arm is poorly detected here (low quality)"
+    return "the tracked person"
 
 
 def save_skeletons(extraction: PoseExtraction, folder: str | Path) -> list[Path]:

@@ -111,6 +111,26 @@ def test_no_lifts_at_all_is_said_too() -> None:
     assert result.warnings and "paper's defaults" in result.warnings[0]
 
 
+def test_the_source_says_how_many_lifts_were_left_out_and_why() -> None:
+    lift = Lift(0.0, 1.0, 2.0, "angle", start_angle=0.2, top_angle=2.2, end_angle=0.2)
+    t = np.linspace(0.0, 2.0, 201)
+    elbow = 0.2 + 2.0 * np.sin(np.pi * t / 2.0) ** 2
+    vel, acc = np.gradient(elbow, t), np.gradient(np.gradient(elbow, t), t)
+    prof = lift_profile(lift, t=t, elbow=elbow, elbow_velocity=vel, elbow_acceleration=acc)
+    assert prof.has_kinematics
+    plain = build_template([prof, prof])
+    assert plain.source == "2 lift(s) with kinematics"
+    some = build_template([prof], left_out={"low pose quality": 1})
+    assert some.source == "1 lift(s) with kinematics; 1 lift(s) left out (low pose quality)"
+    assert some.n_lifts == 1
+    none = build_template([], left_out={"low pose quality": 3})
+    assert none.is_paper_default
+    assert none.source == "paper default: every lift found was left out (3 for low pose quality)"
+    assert build_template([], left_out={"low pose quality": 0}).source == (
+        "paper default: no lifts found in these files"
+    )
+
+
 def test_pyomeca_lifts_start_when_the_elbow_moves_and_peaks_map_by_range() -> None:
     """The real trial (31->114, 40->127, 38->138 deg with the old 5 %-of-range start): the
     speed rule starts each lift earlier and lower, the peak lies inside each range, and the

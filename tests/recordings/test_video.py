@@ -168,3 +168,30 @@ def test_analyze_files_takes_a_video() -> None:
     (rec,) = result.recordings
     assert rec.source == "demo.pose.json" and rec.angles is not None
     assert not result.template.assumptions  # the video states its size
+
+
+def test_demo_video_says_two_people_and_shows_the_tracked_person() -> None:
+    """Two people: the platform's is tracked in frames 3-168, then the track jumps to the
+    walker and to another place; the warning says so, the skeleton frames show the tracked
+    person, and the template's lifts come from the tracked person's well-seen frames."""
+    from app.analysis import analyze_recordings
+
+    py = _pose_python()
+    x = extract_pose(shared_file(DEMO), pose_python=py)
+    (people,) = [w for w in x.warnings if "people" in w]
+    assert people.startswith("demo.mp4: 2 people detected (another person in")
+    assert "the tracked person is shown in frames 3-16" in people
+    assert x.skeletons and all(s.person == 0 for s in x.skeletons)
+    assert all(s.note == "the tracked person" and s.quality >= 0.5 for s in x.skeletons)
+    rec = x.recording()
+    assert rec.metadata["persons"]["frames_with_another_person"]
+    assert rec.metadata["pose_track"]["persons"] >= 2
+    assert any("jumps to another person" in w for w in rec.metadata["warnings"])
+    result = analyze_recordings([rec])
+    a = result.recordings[0].angles
+    assert a is not None and a.quality is not None
+    assert a.quality.summary()["other_person_frames"] > 30  # the frames after the jump
+    assert result.lifts and all(not r.low_quality for r in result.lifts)
+    assert all(r.lift.end < 168 / 30 for r in result.lifts)  # within the tracked frames
+    assert "left out" not in result.template.source  # nothing was: the source says only that
+    assert result.template.n_lifts == len(result.lifts)
