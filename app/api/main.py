@@ -6,6 +6,7 @@ from fastapi import APIRouter
 
 from app.api.routes import (
     analyses,
+    cohorts,
     dashboard,
     jobs,
     meta,
@@ -27,6 +28,7 @@ api_router.include_router(plans.router)
 api_router.include_router(simulations.router)
 api_router.include_router(sweeps.router)
 api_router.include_router(profiles.router)
+api_router.include_router(cohorts.router)
 api_router.include_router(jobs.router)
 api_router.include_router(jobs.events_router)
 api_router.include_router(robots.router)

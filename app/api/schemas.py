@@ -56,7 +56,7 @@ else:
     MethodName = Literal[tuple(METHODS)]
     HumanConstraint = Literal[HUMAN_CONSTRAINTS]
     ReaderFormat = Literal[FORMATS]
-JobKind = Literal["analysis", "pose", "plan", "simulation", "sweep", "profiles"]
+JobKind = Literal["analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort"]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
 #: ``WIDTHxHEIGHT`` in pixels (1 to 99999 each), or blank for none.
@@ -127,6 +127,12 @@ def left_out(body: BaseModel) -> set[str]:
 #: The user's short name for a recording, plan or simulation (at most 200 characters).
 Label = Annotated[
     Annotated[str, StringConstraints(max_length=200)] | None, BeforeValidator(blank_label_is_none)
+]
+
+
+#: A recording's experimental condition ("light", "heavy"), at most 100 characters.
+Condition = Annotated[
+    Annotated[str, StringConstraints(max_length=100)] | None, BeforeValidator(blank_label_is_none)
 ]
 
 
@@ -243,7 +249,7 @@ class _JobState(BaseModel):
 
 
 class Job(_JobState):
-    """A background job (analysis, pose, plan, simulation, sweep or profiles)."""
+    """A background job (analysis, pose, plan, simulation, sweep, profiles or cohort)."""
 
     params: dict[str, Any] = Field(description="the request, with the CLI's field names")
 
@@ -342,6 +348,9 @@ class RecordingSummary(BaseModel):
     load_kg: float | None
     notes: str | None
     label: str | None = Field(description="the user's short name for the session")
+    condition: str | None = Field(
+        default=None, description="the experimental condition (a cohort groups by it)"
+    )
     created_at: datetime
     n_files: int
     formats: list[str]
@@ -375,6 +384,9 @@ class RecordingPatch(_Request):
     task: str | None = Field(default=None, max_length=200)
     notes: str | None = Field(default=None, max_length=10000)
     label: Label = Field(default=None, description="a short name; null or blank: none")
+    condition: Condition = Field(
+        default=None, description="the experimental condition; null or blank: none"
+    )
     load_kg: float | None = Field(default=None, ge=0, le=100, description="load lifted [kg]")
     session: SessionMode | None = Field(default=None, description="separate or together")
     muscle_map: dict[ChannelName, SiteOrNone] | None = Field(
@@ -490,6 +502,11 @@ class AnalysisRequest(_Request):
         description="which markers are the shoulder, elbow and wrist: a preset (plugin_gait_right,"
         " plugin_gait_left, opencap_right, opencap_left, pose2sim_right, pose2sim_left, or"
         " without _right/_left) or 'shoulder=RSHO,elbow=RELB,wrist=RWRA'; default: automatic",
+    )
+    keep_low_quality_lifts: bool = Field(
+        default=False,
+        description="keep lifts on mostly low-quality pose frames (another person tracked, arm"
+        " poorly seen, implausible limb lengths) in the template; default: flagged, left out",
     )
 
     @field_validator("landmarks")
@@ -682,6 +699,152 @@ class ProfilesRequest(_Request):
     seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     particles: int = Field(default=PSO_DEFAULTS.particles, ge=2, le=1000)
     iterations: int = Field(default=PSO_DEFAULTS.iterations, ge=1, le=10000)
+
+
+# ---------------------------------------------------------------------------------- cohorts
+
+#: Python annotation (as the dataclass states it) -> the API field's type.
+_COHORT_TYPES: dict[str, Any] = {
+    "float | None": float | None,
+    "float": float,
+    "int": int,
+    "str": str,
+}
+#: Longest regular expression a request may give (it runs on file names in the job).
+_PATTERN_MAX = 200
+
+
+def _cohort_option_field(f: Any) -> tuple[Any, Any]:
+    """One field of :class:`CohortOptions` as a pydantic (type, Field): its default, help,
+    unit, choices and range come from the dataclass, nothing is written twice."""
+    meta = f.metadata
+    kind = Literal[tuple(meta["choices"])] if "choices" in meta else _COHORT_TYPES[str(f.type)]
+    text = str(meta["help"]) + (f" [{meta['unit']}]" if "unit" in meta else "")
+    bounds: dict[str, Any] = {}
+    if meta.get("low") is not None:
+        bounds["gt"] = meta["low"]
+    if meta.get("high") is not None:
+        bounds["lt"] = meta["high"]
+    if meta.get("minimum") is not None:
+        bounds["ge"] = meta["minimum"]
+    if f.name == "subject_pattern":
+        bounds["max_length"] = _PATTERN_MAX
+    return kind, Field(default=f.default, description=text, **bounds)
+
+
+def _cohort_options_model() -> type[BaseModel]:
+    from dataclasses import fields
+
+    from pydantic import create_model
+
+    from app.analysis.cohort import CohortError, CohortOptions
+
+    def checked(self: BaseModel) -> BaseModel:
+        try:  # what no schema states (a regular expression that compiles), in the library's words
+            CohortOptions(**self.model_dump())
+        except CohortError as exc:
+            name = next((n for n in type(self).model_fields if n in str(exc)), None)
+            raise ValueError(f"{name or 'options'}: {exc}") from None
+        return self
+
+    def regex(value: str) -> str:
+        import re
+
+        try:
+            re.compile(value)
+        except re.error as exc:
+            raise ValueError(f"{value!r} is not a regular expression ({exc})") from None
+        return value
+
+    from pydantic import model_validator
+
+    spec = {f.name: _cohort_option_field(f) for f in fields(CohortOptions)}
+    model: type[BaseModel] = create_model(  # type: ignore[call-overload]
+        "CohortOptionsIn",
+        __base__=_Request,
+        __doc__="Options of a cohort comparison (``app.analysis.cohort.CohortOptions``).",
+        __validators__={
+            "_regex": field_validator("subject_pattern")(regex),
+            "_library_checks": model_validator(mode="after")(checked),
+        },
+        **spec,
+    )
+    return model
+
+
+if TYPE_CHECKING:
+    CohortOptionsIn = BaseModel
+else:
+    CohortOptionsIn = _cohort_options_model()
+
+#: A group (condition) name (one of blanks only is refused by the service, naming ``groups``).
+GroupName = Annotated[str, StringConstraints(min_length=1, max_length=100)]
+RecordingId = Annotated[int, Field(ge=1, le=2**31 - 1)]
+#: Most groups and recordings per group of one cohort.
+COHORT_MAX_GROUPS = 20
+COHORT_MAX_PER_GROUP = 500
+
+
+class CohortRequest(_Request):
+    """Compare groups of stored recordings (``bioplan cohort``): explicit ``groups`` of
+    recording ids, or the recordings (``recording_ids``, default: all) grouped by their
+    ``condition``. A recording of several files (trials on their own clocks) gives one
+    measured recording per file."""
+
+    label: Label = Field(default=None, description="a short name for the result")
+    groups: (
+        Annotated[
+            dict[
+                GroupName,
+                Annotated[list[RecordingId], Field(min_length=1, max_length=COHORT_MAX_PER_GROUP)],
+            ],
+            Field(min_length=2, max_length=COHORT_MAX_GROUPS),
+        ]
+        | None
+    ) = Field(
+        default=None,
+        description="group name -> recording ids (at least two groups, each recording in one)",
+    )
+    group_by: Literal["condition"] | None = Field(
+        default=None,
+        description='"condition": group the recordings by their condition (the default when no'
+        " groups are given); not beside groups",
+    )
+    recording_ids: Distinct[RecordingId] | None = Field(
+        default=None,
+        min_length=2,
+        max_length=COHORT_MAX_GROUPS * COHORT_MAX_PER_GROUP,
+        description="the recordings grouped by condition (default: every recording that has one);"
+        " not beside groups",
+    )
+    options: CohortOptionsIn = Field(
+        default_factory=lambda: CohortOptionsIn(), description="options of the comparison"
+    )
+
+
+class CohortOut(BaseModel):
+    """A cohort comparison: the job, the groups it compared and, once it succeeded, the
+    result (``bioplan cohort --json`` and ``recording_ids``, aligned with ``recordings``)."""
+
+    id: int
+    label: str | None = Field(description="the user's short name for it")
+    groups: dict[str, list[int]] = Field(description="group name -> recording ids compared")
+    job: Job
+    result: dict[str, Any] | None
+
+
+class CohortOptionInfo(BaseModel):
+    """One option of a cohort comparison as the page offers it (from ``CohortOptions``)."""
+
+    name: str
+    default: Any
+    help: str
+    unit: str | None = None
+    choices: list[str] | None = None
+    low: float | None = Field(default=None, description="exclusive lower bound")
+    high: float | None = Field(default=None, description="exclusive upper bound")
+    minimum: int | None = Field(default=None, description="inclusive lower bound (integers)")
+    type: str = Field(description="number, integer or string")
 
 
 class ResultOut(BaseModel):

@@ -106,7 +106,8 @@ def create_recording(
     Args:
         session: open database session.
         blobs: the file store.
-        meta: ``subject, task, load_kg, notes, label, options, session_mode`` of the session.
+        meta: ``subject, task, load_kg, notes, label, condition, options, session_mode`` of the
+            session.
         files: parsed files, at least one; a file's ``parent`` is the index of an earlier one.
     """
     if not files:
@@ -119,6 +120,7 @@ def create_recording(
         load_kg=meta.get("load_kg"),
         notes=meta.get("notes"),
         label=meta.get("label"),
+        condition=meta.get("condition"),
         options=json_safe(meta.get("options") or {}),
         session_mode=meta.get("session_mode") or "separate",
         created_at=utcnow(),
@@ -177,6 +179,7 @@ def _recording_filters(
                 RecordingSession.task.ilike(like),
                 RecordingSession.notes.ilike(like),
                 RecordingSession.label.ilike(like),
+                RecordingSession.condition.ilike(like),
                 RecordingSession.files.any(RecordingFile.original_name.ilike(like)),
             )
         )
@@ -260,6 +263,7 @@ def list_recording_summaries(
         RecordingSession.load_kg,
         RecordingSession.notes,
         RecordingSession.label,
+        RecordingSession.condition,
         RecordingSession.created_at,
         RecordingSession.session_mode.label("session"),
     )
@@ -661,6 +665,18 @@ def create_job(
     session.add(model(id=job.id, **resource))
     session.commit()
     return job
+
+
+def delete_job(*, session: Session, blobs: BlobStore, job_id: int) -> bool:
+    """Delete a job with its result row (they cascade) and its result in the file store when
+    no other row refers to it; False when there is no such job."""
+    with blobs.lock:
+        job = session.get(JobRecord, job_id)
+        if job is None:
+            return False
+        hashes = set(session.scalars(select(ResultBlob.sha256).where(ResultBlob.job_id == job_id)))
+        _delete_with_blobs(session, blobs, job, hashes)
+    return True
 
 
 def get_job(*, session: Session, job_id: int) -> JobRecord | None:

@@ -45,7 +45,7 @@ NAMING_CONVENTION = {
 #: Job states and the ones a job never leaves (one home: ``app.names``).
 JOB_STATES = _names.JOB_STATES
 TERMINAL_STATES = _names.TERMINAL_JOB_STATES
-JOB_KINDS = ("analysis", "pose", "plan", "simulation", "sweep", "profiles")
+JOB_KINDS = ("analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort")
 #: What an uploaded file is to its session: a recording (read and analysed; also the landmarks
 #: extracted from a video), a sidecar of another file (BIDS ``_channels.tsv``/``_emg.json`` of an
 #: EDF: used when that file is read, never read on its own), or a video (turned into pose).
@@ -93,6 +93,8 @@ class RecordingSession(Base):
     notes: Mapped[str | None] = mapped_column(Text)
     #: the user's short name for the session ("S01 curls, heavy"), None when not given.
     label: Mapped[str | None] = mapped_column(String(200))
+    #: the experimental condition ("light", "heavy", "fatigued"): a cohort groups by it.
+    condition: Mapped[str | None] = mapped_column(String(100), index=True)
     #: reader options used at upload (rate overrides, muscle map, image size, frame rate), so an
     #: analysis rereads the raw bytes the same way.
     options: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
@@ -315,6 +317,17 @@ class Profiles(_ResultMixin, Base):
     job: Mapped[JobRecord] = relationship()
 
 
+class Cohort(_ResultMixin, Base):
+    """Groups of stored recordings compared (``bioplan cohort``); the recordings are named in
+    the job's params (a recording deleted later leaves the stored result as it was)."""
+
+    __tablename__ = "cohorts"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+
+    job: Mapped[JobRecord] = relationship()
+
+
 class ResultBlob(Base):
     """A job result too large for its row, kept in the file store: the row's ``result`` holds
     ``{RESULT_BLOB_KEY: sha256, "bytes": n}`` and this row keeps the blob referenced (read back
@@ -338,7 +351,8 @@ RESULT_MODELS: dict[
     | type[Plan]
     | type[Simulation]
     | type[Sweep]
-    | type[Profiles],
+    | type[Profiles]
+    | type[Cohort],
 ] = {
     "analysis": Analysis,
     "pose": PoseExtraction,
@@ -346,4 +360,5 @@ RESULT_MODELS: dict[
     "simulation": Simulation,
     "sweep": Sweep,
     "profiles": Profiles,
+    "cohort": Cohort,
 }

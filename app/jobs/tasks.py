@@ -13,10 +13,10 @@ Robot specs in payloads are ``{"name": str}`` for a built-in robot, or ``{"name"
 from __future__ import annotations
 
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -185,6 +185,104 @@ def analyse(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict
         "template": result.template.to_dict(),
         "arrays": overlays.to_arrays(),
     }
+
+
+# ----------------------------------------------------------------------------------- cohorts
+
+
+class _GroupFiles(Sequence[Any]):
+    """One group's recording files, read when the comparison reaches each (one recording's
+    arrays held at a time), reporting progress per recording file."""
+
+    def __init__(self, files: list[dict[str, Any]], counter: list[int], total: int,
+                 progress: ProgressFn, emg_rate: float | None) -> None:  # fmt: skip
+        self.files, self.counter, self.total = files, counter, total
+        self.progress, self.emg_rate = progress, emg_rate
+
+    def __len__(self) -> int:
+        return len(self.files)
+
+    @overload
+    def __getitem__(self, i: int) -> Any: ...
+    @overload
+    def __getitem__(self, i: slice) -> Sequence[Any]: ...
+    def __getitem__(self, i: int | slice) -> Any:
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        f = self.files[i]
+        done = self.counter[0]
+        report(self.progress, "analyse", done, self.total, fraction=0.95 * done / self.total,
+               message=f"analysing {f['name']} (recording #{f['recording_id']})")  # fmt: skip
+        self.counter[0] += 1
+        read_options = dict(f["read_options"])
+        if self.emg_rate is not None:  # as ``bioplan cohort --emg-rate``: every file reads so
+            read_options["emg_rate"] = self.emg_rate
+        rec = _read_file({**f, "read_options": read_options}, {})
+        excluded = {str(n).strip().lower() for n in f.get("exclude_channels", ())}
+        for name in [n for n in rec.channels if n.strip().lower() in excluded]:
+            del rec.channels[name]
+        return rec
+
+
+def cohort(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
+    """Compare groups of stored recordings (``bioplan cohort``).
+
+    Payload: ``groups`` {name: [{"recording_id", "subject" (stored, or None), "exclude_channels",
+    "files": [as :func:`analyse`'s]}]}, ``options``: the fields of ``CohortOptions``. Every
+    recording file is one measured recording; a recording's stored subject, where it has one,
+    is its subject (pairing by subject uses it), else the library's rule.
+
+    Progress: stage ``analyse``, one unit per recording file; then ``compare``.
+
+    Returns:
+        ``{"result": CohortResult.to_dict() + "recording_ids"}`` (aligned with
+        ``recordings``).
+    """
+    import importlib
+    from dataclasses import replace
+
+    lib = importlib.import_module("app.analysis.cohort")
+    options = lib.CohortOptions(**payload["options"])
+    files: dict[str, list[dict[str, Any]]] = {}
+    for name, recs in payload["groups"].items():
+        files[name] = [
+            {**f, "recording_id": r["recording_id"], "exclude_channels": r["exclude_channels"]}
+            for r in recs
+            for f in r["files"]
+        ]
+    total = max(sum(len(v) for v in files.values()), 1)
+    counter = [0]
+    groups = {
+        name: _GroupFiles(fs, counter, total, progress, options.emg_rate)
+        for name, fs in files.items()
+    }
+    result = lib.cohort_statistics(groups, options)
+    if any(r.get("subject") for recs in payload["groups"].values() for r in recs):
+        report(progress, "compare", 0, 1, fraction=0.96, message="pairing by stored subjects")
+        result = _with_stored_subjects(result, payload, options, lib, replace)
+    report(progress, "done", 1, 1, message="compared")
+    out = json_safe(result.to_dict())
+    out["recording_ids"] = [f["recording_id"] for fs in files.values() for f in fs]
+    return {"result": out}
+
+
+def _with_stored_subjects(
+    result: Any, payload: dict[str, Any], options: Any, lib: Any, replace: Any
+) -> Any:
+    """The comparison again with each recording's stored subject (no analysis rerun)."""
+    subjects = [r.get("subject") for recs in payload["groups"].values() for r in recs
+                for _ in r["files"]]  # fmt: skip
+    measures = [
+        m if not s else replace(m, subject=str(s), subject_from="the recording's stored subject")
+        for m, s in zip(result.recordings, subjects, strict=True)
+    ]
+    again = lib.compare_groups(measures, options)
+    rule = str(again.subject_rule).removeprefix("subject = ")
+    return replace(
+        again,
+        subject_rule="subject = the recording's stored subject (set at upload or by PATCH) where"
+        f" it has one, else {rule}",
+    )
 
 
 # ------------------------------------------------------------------------------------ videos
@@ -791,6 +889,7 @@ TASKS: dict[str, TaskFn] = {
     "simulation": simulate,
     "sweep": sweep,
     "profiles": profiles,
+    "cohort": cohort,
 }
 
 

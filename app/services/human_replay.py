@@ -15,8 +15,8 @@ from sqlalchemy.orm import Session, sessionmaker, undefer
 
 from app.analysis import AnalysisOverlays, OverlaysError, ReplayError, replay_from_overlays
 from app.db.arrays import decode_arrays
-from app.db.models import Analysis, JobRecord
-from app.viewer.comparison import Comparison
+from app.db.models import Analysis, JobRecord, RecordingSession
+from app.viewer.comparison import Comparison, template_provenance
 
 
 class HumanReplayLoader:
@@ -38,8 +38,25 @@ class HumanReplayLoader:
             params: dict[str, Any] = dict(job.params) if job is not None else {}
             analysis_id = params.get("template_analysis_id")
             if analysis_id is None:
+                inline = params.get("template")
+                comparison = dataclasses.replace(
+                    comparison,
+                    template=template_provenance(
+                        comparison.result, template=inline, inline=inline is not None
+                    ),
+                )
                 return dataclasses.replace(comparison, human_note=_why_none(comparison, params))
             row = session.get(Analysis, int(analysis_id), options=[undefer(Analysis.arrays)])
+            if row is not None:
+                comparison = dataclasses.replace(
+                    comparison,
+                    template=template_provenance(
+                        comparison.result,
+                        template=row.template,
+                        analysis_id=int(analysis_id),
+                        recording=_recording_name(session, row.recording_id),
+                    ),
+                )
             if row is None or row.arrays is None:
                 note = f"no recorded human: analysis #{analysis_id} no longer exists"
                 return dataclasses.replace(comparison, human_note=note)
@@ -55,6 +72,17 @@ class HumanReplayLoader:
         if human.notes:
             note += "; " + "; ".join(human.notes)
         return dataclasses.replace(comparison, human=human, human_note=note)
+
+
+def _recording_name(session: Session, recording_id: int | None) -> str | None:
+    """How to name a recording: "recording #3 “label”" (or its subject)."""
+    if recording_id is None:
+        return None
+    rec = session.get(RecordingSession, recording_id)
+    if rec is None:
+        return None
+    name = rec.label or rec.subject
+    return f"recording #{rec.id}" + (f" “{name}”" if name else "")
 
 
 def _why_none(comparison: Comparison, params: dict[str, Any]) -> str:

@@ -38,7 +38,7 @@ from app.db.models import Analysis, JobRecord, utcnow
 from app.errors import BioPlanError, storage_problem, without_paths
 from app.jobs.runner import JobEvent, JobRunner
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
-from app.services import recordings
+from app.services import cohorts, recordings
 from app.services.broker import JobBroker
 from app.services.errors import ConflictError, NotFoundError, ServiceError
 from app.services.limits import JobLimits
@@ -54,6 +54,7 @@ KIND_PATHS = {
     "simulation": "simulations",
     "sweep": "sweeps",
     "profiles": "profiles",
+    "cohort": "cohorts",
 }
 
 #: Structured progress of a job that has not reported any yet.
@@ -109,6 +110,10 @@ def _about(kind: str, params: dict[str, Any]) -> str:
     """One line saying what a job works on ("curtain_wall_6dof, 4 kg, 1 s, abs_work")."""
     if kind in ("analysis", "pose"):
         return f"recording #{params.get('recording_id')}"
+    if kind == "cohort":
+        groups = params.get("groups") or {}
+        n = sum(len(ids) for ids in groups.values())
+        return f"{len(groups)} groups ({', '.join(groups)}), {n} recordings"
     parts = [str(params.get("robot", ""))]
     if kind == "sweep":
         cells = len(params.get("durations") or ()) * len(params.get("payloads") or ())
@@ -407,6 +412,8 @@ class JobService:
         params = job.params
         if job.kind == "analysis":
             return recordings.analysis_payload(session, self.blobs, params)
+        if job.kind == "cohort":
+            return cohorts.cohort_payload(session, self.blobs, params)
         if job.kind == "pose":
             scratch = None if self.scratch_dir is None else str(self.scratch_dir)
             return recordings.pose_payload(

@@ -29,6 +29,7 @@ def summary(rec: RecordingSession) -> dict[str, Any]:
         "load_kg": rec.load_kg,
         "notes": rec.notes,
         "label": rec.label,
+        "condition": rec.condition,
         "created_at": rec.created_at,
         "n_files": len(uploaded),
         "formats": sorted({f.format for f in uploaded}),

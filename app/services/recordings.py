@@ -393,7 +393,7 @@ def get_recording(session: Session, recording_id: int) -> RecordingSession:
 # ----------------------------------------------------------------------------------- changes
 
 
-_META_FIELDS = ("subject", "task", "notes", "load_kg", "label")
+_META_FIELDS = ("subject", "task", "notes", "load_kg", "label", "condition")
 
 
 def update_recording(
@@ -405,8 +405,8 @@ def update_recording(
 
     Args:
         changes: the fields the request sets (absent: unchanged; None clears an option):
-            ``subject, task, notes, load_kg, label, session`` and the keys of ``READER_OPTIONS`` and
-            ``ANALYSIS_DEFAULTS``.
+            ``subject, task, notes, load_kg, label, condition, session`` and the keys of
+            ``READER_OPTIONS`` and ``ANALYSIS_DEFAULTS``.
 
     Raises:
         NotFoundError: no such recording.
@@ -547,7 +547,8 @@ def analysis_payload(session: Session, blobs: BlobStore, params: dict[str, Any])
             }
         )
     keys = ("emg_rate", "muscle_map", "exclude_channels", "phase_bounds_deg", "body_mass",
-            "body_height", "load_mass", "together", "offset", "side", "landmarks")  # fmt: skip
+            "body_height", "load_mass", "together", "offset", "side", "landmarks",
+            "keep_low_quality_lifts")  # fmt: skip
     size = options.get("image_size")
     echo = {
         "rate_hz": options.get("rate"),

@@ -77,6 +77,8 @@ class Comparison:
             before methods existed (only ``standard`` and ``optimized``).
         human: the recorded lift replayed on this comparison's time grid, or None.
         human_note: why there is no human (or what was assumed for it); shown in the viewer.
+        template: where the human template came from and what its angle is
+            (:func:`template_provenance`); the Compare page, the viewer and the report say it.
     """
 
     kind: Kind
@@ -108,6 +110,7 @@ class Comparison:
     methods: tuple[str, ...] = ()
     human: HumanReplay | None = None
     human_note: str = ""
+    template: dict[str, Any] = field(default_factory=dict)
 
     @property
     def choices(self) -> tuple[str, ...]:
@@ -221,6 +224,8 @@ class Comparison:
             "phases": PHASES,
             "methods": dict(zip(LABELS, self.shown, strict=True)),
             "planned": list(self.methods),
+            "floor_tolerance": floor_tolerance(self.kind),
+            "template": self.template or template_provenance(self.result),
             "human": {
                 "shown": self.human is not None,
                 "note": self.human_note,
@@ -446,3 +451,107 @@ def _method_arrays(arrays: Mapping[str, Any], methods: tuple[str, str]) -> dict[
             raise ComparisonError(f"method {method!r} was not planned in this result")
         out.update({f"{label}_{name}": v for name, v in mine.items()})
     return out
+
+
+#: How far below its floor a planned metric may lie by integration error alone (relative): the
+#: planner accepts a trapezoidal net work within 0.1 % of ΔPE (``planning.evaluation.
+#: check_floors``); a simulation's discrete time steps are allowed 0.5 %
+#: (``simulation.comparison.FLOOR_SLACK``). Within it a value is *at* its floor, not below.
+FLOOR_TOLERANCE: dict[str, float] = {"plan": 1e-3, "simulation": 5e-3}
+
+
+def floor_tolerance(kind: str) -> float:
+    """The relative tolerance within which a ``kind``'s metric counts as at its floor."""
+    return FLOOR_TOLERANCE.get(kind, 1e-3)
+
+
+def floor_state(value: float | None, floor: float | None, tolerance: float) -> str | None:
+    """``"below"``, ``"at"`` or ``"above"`` the floor (None without a value or floor): a value
+    within ``tolerance`` (relative) of its floor is at it, whatever the round-off."""
+    if value is None or floor is None or not (math.isfinite(value) and math.isfinite(floor)):
+        return None
+    slack = tolerance * max(abs(floor), 1e-12)
+    if value < floor - slack:
+        return "below"
+    return "at" if value <= floor + slack else "above"
+
+
+def template_provenance(
+    result: Mapping[str, Any],
+    *,
+    template: Mapping[str, Any] | None = None,
+    analysis_id: int | None = None,
+    recording: str | None = None,
+    inline: bool = False,
+) -> dict[str, Any]:
+    """Where a comparison's human template came from, and what its angle is, said plainly.
+
+    The planner places the template's peak on the robot's elbow stroke at the same *fraction*
+    of the stroke where the person's lifts peak within their own ranges
+    (``HumanTemplate.peak_joint_angle``); that angle (``angle_deg``) differs from the mean of
+    the lifts' own peak angles (``per_lift_mean_deg`` ± ``per_lift_sd_deg``, what a recording's
+    page shows) whenever the robot's stroke is not the lifts' range.
+
+    Args:
+        result: the plan's or simulation's JSON result.
+        template: the template the plan used (``HumanTemplate.to_dict()``), when known.
+        analysis_id: the analysis it came from.
+        recording: how to name the recording of that analysis (its label or subject).
+        inline: the template was uploaded with the request.
+
+    Returns:
+        ``{"paper_default", "source", "angle_deg", "angle_text", "n_lifts",
+        "per_lift_mean_deg", "per_lift_sd_deg", "range_fraction", "analysis_id",
+        "recording"}``; ``source`` and ``angle_text`` are the sentences to show.
+    """
+    conditions = result.get("conditions") or {}
+    target = result.get("target_peak_velocity_angle_deg")
+    if target is None:
+        target = conditions.get("target_peak_velocity_angle_deg")
+    t = dict(template or {})
+    n_lifts = int(t.get("n_lifts", conditions.get("template_lifts") or 0) or 0)
+    default = bool(conditions.get("template_is_paper_default", n_lifts == 0))
+    paper = n_lifts == 0 if t else default
+    angle = "–" if target is None else f"{float(target):.1f}°"
+    out: dict[str, Any] = {
+        "paper_default": paper,
+        "angle_deg": target,
+        "n_lifts": 0 if paper else n_lifts,
+        "per_lift_mean_deg": None if paper else t.get("peak_velocity_angle_deg"),
+        "per_lift_sd_deg": None if paper else t.get("peak_velocity_angle_sd_deg"),
+        "range_fraction": None if paper else t.get("peak_velocity_range_fraction"),
+        "analysis_id": analysis_id,
+        "recording": recording,
+    }
+    if paper:
+        out["source"] = f"the paper's default {angle}, not from the person's lifts"
+        out["angle_text"] = (
+            f"peak-velocity angle {angle}: the paper's value, placed on the robot's elbow stroke"
+        )
+        return out
+    lifts = f"{n_lifts} lift{'' if n_lifts == 1 else 's'}" if n_lifts else "the lifts"
+    whose = recording or (f"analysis #{analysis_id}" if analysis_id is not None else None)
+    if whose is None:
+        whose = "an uploaded template" if inline else str(conditions.get("template") or "?")
+    elif analysis_id is not None and recording:
+        whose = f"{recording} (analysis #{analysis_id})"
+    out["source"] = f"from {lifts} of {whose}"
+    out["angle_text"] = _angle_text(angle, out)
+    return out
+
+
+def _angle_text(angle: str, info: Mapping[str, Any]) -> str:
+    """What the template's angle is, beside the lifts' own peaks (what the recording shows)."""
+    frac, mean, sd = info["range_fraction"], info["per_lift_mean_deg"], info["per_lift_sd_deg"]
+    text = f"template angle {angle} on the robot's elbow stroke"
+    if frac is not None:
+        text += (
+            f" (where the lifts peak on average, {100 * float(frac):.0f} % of the way through"
+            " each lift's own range, placed on the robot's stroke)"
+        )
+    if mean is not None:
+        spread = "" if info["n_lifts"] == 1 or sd is None else f" ± {float(sd):.1f}°"
+        text += (
+            f"; per-lift peaks {float(mean):.1f}°{spread} (mean ± SD of each lift's own peak angle)"
+        )
+    return text

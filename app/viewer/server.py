@@ -103,37 +103,36 @@ class ViewerSession:
         return self.scene.prepared.comparison
 
     def tick(self) -> None:
-        """Pose the robots for the clock's time; refresh the GUI at most every GUI_PERIOD."""
+        """Pose the robots for the clock's time; the panel's phase with the pose (one source,
+        ``scene.phases_now``, which the labels show too), the slider and plot at most every
+        GUI_PERIOD."""
         with self.lock:
             t = self.clock.time()
             index = self.comparison.index_at(t)
             moved = index != self.scene.index
             if moved or self.dirty:
                 with self.client.atomic():
-                    phases = self.scene.show(index)
+                    self.scene.show(index)
+                    self._show_phase()
                 self.stats.frame()
             now = time.monotonic()
             if self.dirty or (moved and now - self.last_gui >= GUI_PERIOD):
-                self._refresh_gui(t, phases if moved or self.dirty else None)
+                self._refresh_gui(t)
                 self.last_gui = now
                 self.dirty = False
 
-    def _refresh_gui(self, t: float, phases: dict[str, str] | None) -> None:
-        c = self.comparison
-        if phases is None:
-            phases = {
-                slot: c.phase_at(label, self.scene.index)
-                for slot, label in self.scene.shown.items()
-            }
-            if self.scene.human is not None:
-                phases["human"] = self.scene.human.phase
-        slider = self.gui["time"]
-        slider.value = round(min(t, float(slider.max)), 3)
-        text = _phase_text(phases, self.scene.shown)
-        if text != self.phase_text:  # only at a phase boundary
+    def _show_phase(self) -> None:
+        """The panel's phase text from the phases the scene's labels show (sent only when it
+        changes, at a phase boundary: never a frame behind the labels)."""
+        text = _phase_text(self.scene.phases_now, self.scene.shown)
+        if text != self.phase_text:
             self.phase_text = text
             self.gui["phase"].content = text
-        self.gui["plot"].data = power_plot(c, t, labels=self._plotted())
+
+    def _refresh_gui(self, t: float) -> None:
+        slider = self.gui["time"]
+        slider.value = round(min(t, float(slider.max)), 3)
+        self.gui["plot"].data = power_plot(self.comparison, t, labels=self._plotted())
 
     def _plotted(self) -> tuple[str, str]:
         return self.scene.shown["standard"], self.scene.shown["optimized"]

@@ -72,6 +72,12 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
         "durations": "long enough for the chosen robot's joint speed limits",
         "cells": "durations x payloads x objectives within BIOPLAN_MAX_SWEEP_CELLS (a product)",
     },
+    "POST /api/cohorts": {
+        "groups": "each recording in one group; a group name is not blanks only",
+        "group_by": "not beside groups",
+        "recording_ids": "not beside groups",
+        "options.subject_pattern": "a regular expression that compiles",
+    },
     "GET /api/viewer/recordings/{recording_id}/analysis": {"t1": "not before t0"},
     "GET /api/plans/{plan_id}/trajectory": {
         "rate": "a rate the format's controller takes (URScript: 500 Hz / a whole number), "
@@ -146,7 +152,8 @@ def schema(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFact
 
 def test_openapi_documents_every_resource(schema: Any) -> None:
     paths = set(schema.raw_schema["paths"])
-    for prefix in ("recordings", "analyses", "plans", "simulations", "sweeps", "jobs", "robots"):
+    resources = ("recordings", "analyses", "plans", "simulations", "sweeps", "jobs", "robots")
+    for prefix in (*resources, "cohorts"):
         assert f"/api/{prefix}" in paths
     assert {"/api/health", "/api/version", "/api/viewer", "/api/jobs/{job_id}/events"} <= paths
 

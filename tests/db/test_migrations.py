@@ -136,3 +136,50 @@ def test_0006_adds_labels_and_loses_no_row(db_url: str) -> None:
                 assert conn.execute(text(f"SELECT count(*) FROM {table}")).scalar() == 1
     finally:
         engine.dispose()
+
+
+def test_0008_adds_conditions_and_cohorts_and_loses_no_row(db_url: str) -> None:
+    """Issue 29 item 1: a recording stored before conditions existed survives 0008 both ways
+    (without a condition, then with its label and files intact); the way down removes the
+    cohort jobs with their table (an older server knows no such kind) and nothing else."""
+    engine = make_engine(db_url)
+    job = (
+        "INSERT INTO jobs (id, kind, state, progress, message, params, attempts, created_at,"
+        " updated_at, stage, done, of) VALUES ({id}, '{kind}', 'succeeded', 1.0, 'done', '{{}}',"
+        " 1, CURRENT_TIMESTAMP, CURRENT_TIMESTAMP, '', 1, 1)"
+    )
+    try:
+        upgrade(db_url, "0007_result_blobs")
+        with engine.begin() as conn:
+            conn.execute(
+                text(
+                    "INSERT INTO recording_sessions (id, subject, label, options, session_mode,"
+                    " created_at) VALUES (2, 'S01', 'heavy', '{}', 'separate', CURRENT_TIMESTAMP)"
+                )
+            )
+            conn.execute(text(job.format(id=4, kind="plan")))
+            conn.execute(text("INSERT INTO plans (id, robot) VALUES (4, 'human_arm_2dof')"))
+        upgrade(db_url)
+        with engine.begin() as conn:
+            assert conn.execute(text("SELECT condition FROM recording_sessions")).one()[0] is None
+            conn.execute(text("UPDATE recording_sessions SET condition = 'fatigued'"))
+            conn.execute(text(job.format(id=5, kind="cohort")))
+            conn.execute(text("INSERT INTO cohorts (id, result) VALUES (5, '{\"groups\": {}}')"))
+            conn.execute(
+                text("INSERT INTO result_blobs (job_id, sha256, size) VALUES (5, 'ab', 1)")
+            )
+        downgrade(db_url, "0007_result_blobs")
+        assert "cohorts" not in inspect(engine).get_table_names()
+        columns = {c["name"] for c in inspect(engine).get_columns("recording_sessions")}
+        assert "condition" not in columns
+        with engine.connect() as conn:
+            row = conn.execute(text("SELECT id, subject, label FROM recording_sessions")).one()
+            assert tuple(row) == (2, "S01", "heavy")
+            assert [r[0] for r in conn.execute(text("SELECT id FROM jobs"))] == [4]
+            assert conn.execute(text("SELECT count(*) FROM plans")).scalar() == 1
+            assert conn.execute(text("SELECT count(*) FROM result_blobs")).scalar() == 0
+        upgrade(db_url)
+        with engine.connect() as conn:
+            assert conn.execute(text("SELECT count(*) FROM recording_sessions")).scalar() == 1
+    finally:
+        engine.dispose()

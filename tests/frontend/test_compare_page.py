@@ -185,3 +185,128 @@ def test_a_labelled_plan_is_named_in_the_picker_and_renamed(live_server: Server,
     page.reload()
     page.wait_for_selector("#metrics-table", timeout=120_000)
     assert "“renamed on compare”" in page.inner_text(chosen)
+
+
+# Issue 29: findings of a researcher using the Compare page -----------------------------------
+
+STANDARD = ["quintic", "paper", "human_optimal", "bound", "jerk_limited"]
+
+
+@pytest.fixture(scope="module")
+def slow_lift(live_server: Server) -> int:
+    """A long slow lift (60 s) planned with every standard method and the paper's default
+    template: its work sits on the |ΔPE| floor to round-off."""
+    body = {"robot": "human_arm_2dof", "duration": 60.0, "objective": "abs_work",
+            "methods": STANDARD, "particles": 8, "iterations": 5, "label": "slow lift"}  # fmt: skip
+    job = live_server.post("/api/plans", json=body).json()
+    state = wait_for(
+        lambda: (
+            (s := live_server.get(f"/api/jobs/{job['id']}")["state"]) in ("succeeded", "failed")
+            and s
+        ),
+        900,
+        "the 60-s plan",
+    )
+    assert state == "succeeded", live_server.get(f"/api/jobs/{job['id']}")
+    return int(job["id"])
+
+
+def test_the_card_says_where_the_template_came_from(live_server: Server, page: Any) -> None:
+    """Items 1 and 2: the card says plainly whose lifts made the template (or that it is the
+    paper's default), and what its angle is beside the per-lift peaks the recording shows."""
+    plan = demo_ids(live_server)["plan"]
+    data = live_server.get(f"/api/viewer/comparisons/plan/{plan}?points=10")
+    info = data["template"]
+    job = live_server.get(f"/api/jobs/{plan}")
+    analysis_id = job["params"]["template_analysis_id"]
+    template = live_server.get(f"/api/analyses/{analysis_id}/template")
+    # The same analysis: the plan's angle is the lifts' mean peak fraction on the robot's stroke,
+    # the recording's number the mean of the per-lift peak angles; both are stated.
+    assert info["paper_default"] is False and info["n_lifts"] == template["n_lifts"]
+    assert info["per_lift_mean_deg"] == pytest.approx(template["peak_velocity_angle_deg"])
+    assert info["range_fraction"] == pytest.approx(template["peak_velocity_range_fraction"])
+    assert info["angle_deg"] == pytest.approx(data["result"]["target_peak_velocity_angle_deg"])
+    page.goto(f"{live_server.url}/#/compare/plan/{plan}")
+    page.wait_for_selector("#metrics-table")
+    source = page.inner_text("#template-source")
+    assert f"from {template['n_lifts']} lifts of recording #" in source, source
+    assert "paper" not in source
+    angle = page.inner_text("#template-angle")
+    assert f"template angle {info['angle_deg']:.1f}°" in angle, angle
+    assert f"per-lift peaks {template['peak_velocity_angle_deg']:.1f}°" in angle, angle
+    assert "mean ± SD of each lift's own peak angle" in angle
+    # The recording's page says what its number is, and where a plan puts the peak.
+    analysis = live_server.get(f"/api/analyses/{analysis_id}")
+    page.goto(f"{live_server.url}/#/recordings/{analysis['recording_id']}")
+    wait_for(lambda: "template from" in page.inner_text("#template-facts"), 180, "the template")
+    facts = page.inner_text("#template-facts")
+    assert "mean ± SD of each lift's own peak angle" in facts, facts
+    assert f"{round(100 * template['peak_velocity_range_fraction'])} % of the elbow stroke" in facts
+
+
+def test_a_metric_on_its_floor_to_round_off_is_not_below_it(
+    live_server: Server, page: Any, slow_lift: int
+) -> None:
+    """Item 3: a 60-s plan showed "below floor!" where value and floor both printed alike."""
+    result = live_server.get(f"/api/plans/{slow_lift}")["result"]
+    floor = result["floors"]["abs_work"]
+    values = {m: v["abs_work"] for m, v in result["methods"].items()}
+    assert any(v < floor for v in values.values())  # under the floor by round-off only
+    page.goto(f"{live_server.url}/#/compare/plan/{slow_lift}")
+    page.wait_for_selector("#metrics-table", timeout=120_000)
+    assert page.locator("#metrics-table .below-floor").count() == 0
+    assert "below its physical floor" not in page.inner_text("#metrics-card")
+    at = page.locator('#metrics-table tr[data-metric="abs_work"] td[data-floor-state="at"]')
+    assert at.count() >= 1 and "at the floor" in at.first.inner_text()
+    # Item 1: no template was given: the card says it is the paper's default, not the person's.
+    source = page.inner_text("#template-source")
+    assert "paper's default" in source and "not from the person's lifts" in source, source
+
+
+def test_the_report_holds_every_method(live_server: Server, slow_lift: int) -> None:
+    """Item 4: the exported report shows every planned method as the Compare page does."""
+    import html
+    import re
+
+    url = f"{live_server.url}/api/viewer/comparisons/plan/{slow_lift}/export?format=report"
+    with urllib.request.urlopen(url, timeout=300) as response:
+        page = response.read().decode()
+    table = re.search(r'<table id="metrics">.*?</table>', page, flags=re.S)
+    assert table, "no metrics table"
+    heads = [html.unescape(h) for h in re.findall(r"<th>(.*?)</th>", table.group(0))]
+    for label in ("standard quintic", "paper's method", "human-like optimum", "physical bound",
+                  "industrial jerk-limited"):  # fmt: skip
+        assert label in heads, heads
+    text = html.unescape(page.split("<script", 1)[0])
+    assert "{'" not in text and "': " not in text
+    assert "no floor" in text and "share of the achievable saving" in text
+    assert "paper's default" in text and "no recorded human" in text
+
+
+@pytest.mark.parametrize("kind", ["plan", "simulation"])
+def test_no_horizontal_overflow_at_400_px(live_server: Server, browser: Any, kind: str) -> None:
+    """Item 7: at 400 px the tables scroll inside their cards; the page itself never scrolls
+    sideways."""
+    from tests.utils.browser import new_context
+
+    context = new_context(browser, viewport={"width": 400, "height": 800})
+    try:
+        page = context.new_page()
+        result_id = demo_ids(live_server)[kind]
+        page.goto(f"{live_server.url}/#/compare/{kind}/{result_id}")
+        page.wait_for_selector("#export-card", timeout=180_000)
+        page.wait_for_selector("#plot-human .main-svg", timeout=180_000)
+        widths = page.evaluate(
+            "[document.documentElement.scrollWidth, document.documentElement.clientWidth,"
+            " document.body.scrollWidth]"
+        )
+        assert widths[0] <= widths[1] and widths[2] <= widths[1], widths
+        for table in ("#metrics-table", "#torque-table"):
+            wrap = page.evaluate(
+                f"(() => {{ const r = document.querySelector('{table}').parentElement"
+                ".getBoundingClientRect(); return [r.left, r.right]; })()"
+            )
+            assert wrap[0] >= 0 and wrap[1] <= widths[1], (table, wrap)
+        screenshot(page, f"compare-400px-{kind}")
+    finally:
+        context.close()

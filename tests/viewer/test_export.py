@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import re
+from typing import Any
 
 import numpy as np
 import pytest
@@ -62,9 +63,37 @@ def test_report_has_metrics_floors_and_inline_plotly(plan_comparison: Comparison
     assert "plotly.js v" in page or "Plotly" in page[:200_000]
     # Every metric row, with the standard value as the table shows it.
     for metric in ("tau_sq", "abs_work", "pos_work", "electrical_energy", "peak_power"):
-        assert f"<td>{metric}</td>" in page
+        assert f"<td>{metric}<div" in page
         assert f"{result['standard'][metric]:.4g}" in page
     assert f"{result['floors']['delta_potential']:.4g}" in page
-    # The six panels each carry both trajectories.
+    # The six panels each carry every planned trajectory.
     assert page.count('"name":"standard quintic"') == 6
+    assert page.count('"name":"paper\'s method"') == 6
     assert np.isfinite(result["improvement_pct"]["abs_work"])
+
+
+def _root_x(messages: list[Any], name: str) -> float:
+    """The last x position the recording gives a node (0: never moved from its parent)."""
+    xs = [m["position"][0] for _, m in messages
+          if m.get("name") == name and m.get("type") == "SetPositionMessage"]  # fmt: skip
+    return float(xs[-1]) if xs else 0.0
+
+
+def test_the_exported_scene_puts_the_robots_side_by_side(plan_comparison: Comparison) -> None:
+    """Issue 29 item 5: the exported scene overlaid both robots and their labels; it now places
+    them apart as the live viewer first does (``PreparedComparison.slot_offsets``)."""
+    prepared = PreparedComparison(plan_comparison)
+    rec = _recording(scene_html(prepared, fps=5.0))
+    messages = rec["messages"]
+    assert isinstance(messages, list)
+    solid = _root_x(messages, "/bioplan/standard")
+    ghost = _root_x(messages, "/bioplan/optimized")
+    assert abs(ghost - solid) >= prepared.reach  # bases apart by at least the robot's reach
+    assert ghost - solid == pytest.approx(prepared.slot_offsets("side_by_side")["optimized"][0])
+    # The name labels hang at their robots' roots: as far apart, never over each other.
+    for slot in ("standard", "optimized"):
+        label = [m for _, m in messages if m.get("name") == f"/bioplan/{slot}/name"]
+        assert label and label[0]["type"] == "LabelMessage"
+    # The robots' boxes (every trajectory, both slots) do not overlap.
+    a, b = prepared.robot_boxes("side_by_side")
+    assert a[1][0] < b[0][0]

@@ -178,7 +178,8 @@ def test_playing_sends_the_phase_text_only_at_boundaries_and_the_gui_at_4_hz(
     # Slider and plot cursor: at most 4 updates a second while moving, plus the first.
     slider = [v for name, key, v in log if name == "time" and key == "value"]
     assert 2 <= len(slider) <= 2 + 4 * plan_comparison.duration and slider == sorted(slider)
-    assert len(texts) < len(slider)
+    # (the phase text goes with the pose that changed it: issue 29, tests/viewer/
+    # test_phase_sources.py; so it is not bound to the slider's rate)
     assert len([1 for name, key, _ in log if name == "plot" and key == "data"]) == len(slider)
 
 

@@ -171,7 +171,10 @@ def export(
         Literal["scene", "report"],
         Query(description="scene: 3-D animation (viser); report: curves and metrics (Plotly)"),
     ] = "scene",
-    layout: Literal["ghost", "side_by_side"] = "ghost",
+    layout: Annotated[
+        Literal["ghost", "side_by_side"],
+        Query(description="scene: the robots side by side (as the live viewer) or overlaid"),
+    ] = "side_by_side",
     methods: MethodsQuery = None,
 ) -> Response:
     """A file that opens without the server: the recorded 3-D comparison, or the report."""

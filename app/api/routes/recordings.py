@@ -133,6 +133,10 @@ def upload_recording(
     label: Annotated[
         str | None, Form(max_length=200, description="a short name for the session")
     ] = None,
+    condition: Annotated[
+        str | None,
+        Form(max_length=100, description="the experimental condition (a cohort groups by it)"),
+    ] = None,
     session_mode: Annotated[
         SessionMode,
         Form(
@@ -204,6 +208,7 @@ def upload_recording(
                 "load_kg": load_kg,
                 "notes": notes,
                 "label": blank_label_is_none(label),
+                "condition": blank_label_is_none(condition),
             },
             options={k: v for k, v in options.items() if v is not None},
             session_mode=session_mode,

@@ -10,6 +10,7 @@ const routes = [
   { re: /^#\/recordings\/(\d+)$/, page: "recordings", load: () => import("./recording.js") },
   { re: /^#\/recordings\/?$/, page: "recordings", load: () => import("./recordings.js") },
   { re: /^#\/plan\/?(?:\?(.*))?$/, page: "plan", load: () => import("./plan.js") },
+  { re: /^#\/cohort(?:\/(\d+))?\/?$/, page: "cohort", load: () => import("./cohort.js") },
   // Query: ?methods=a,b (the pair shown), ?sweep=ID (that sweep's heat maps).
   { re: /^#\/?compare(?:\/(plan|simulation)\/(\d+))?\/?(?:\?(.*))?$/, page: "compare", load: () => import("./compare.js") },
 ];

@@ -1,5 +1,6 @@
 // Compare: every planned method side by side. The metrics table has a column per method, each
-// metric with its physical floor (a value below one is flagged), the share of the achievable
+// metric with its physical floor (a value below one is flagged; within the integration's
+// tolerance, `floor_tolerance`, it is "at the floor"), the share of the achievable
 // saving and the peak torques; the curves per joint draw every method; the recorded human's
 // elbow velocity is drawn over the robots'; any two methods go to the 3-D viewer; exports of any
 // method in the formats controllers read.
@@ -36,8 +37,14 @@ function floorOf(floors, metric) {
   return [null, null];
 }
 
-function isBelow(value, floor) {
-  return floor !== null && value !== null && value !== undefined && value < floor - 1e-6 * Math.max(1, Math.abs(floor));
+/** "below", "at" or "above" its floor (null without one). Within `tolerance` (relative: the
+ * integration error the planner or simulator accepts, sent as `floor_tolerance`) a value is at
+ * its floor: 159.79 against 159.8 is round-off, not an impossible number. */
+function floorState(value, floor, tolerance) {
+  if (floor === null || floor === undefined || value === null || value === undefined) return null;
+  const slack = tolerance * Math.max(Math.abs(floor), 1e-12);
+  if (value < floor - slack) return "below";
+  return value <= floor + slack ? "at" : "above";
 }
 
 /** What tells one comparison from another in the picker. */
@@ -154,7 +161,7 @@ export async function render(main, [kindArg, idArg, query]) {
   if (optimizer && optimizer.stopped_early) {
     main.append(banner("info", `The paper's method: its PSO stopped early, after ${optimizer.iterations} iterations, because the swarm had stopped improving; the plan is the best it found.`));
   }
-  main.append(factsCard(selected, data), metricsCard(kind, result, planned, data.joint_names));
+  main.append(factsCard(data), metricsCard(kind, result, planned, data.joint_names, data.floor_tolerance ?? 1e-3));
 
   const curvesCard = h("section", { class: "card", id: "curves-card" });
   const humanCard = h("section", { class: "card", id: "human-card" });
@@ -172,7 +179,7 @@ export async function render(main, [kindArg, idArg, query]) {
   main.append(viewerCard(kind, id, data, pair), exportCard(kind, id, data, pair));
 }
 
-function factsCard(selected, data) {
+function factsCard(data) {
   const result = data.result;
   const cond = result.conditions || {};
   const warnings = result.warnings || [];
@@ -183,21 +190,22 @@ function factsCard(selected, data) {
       fact("duration", `${fmt(data.duration)} s`),
       fact("objective", cond.objective || "–"),
       fact("methods planned", data.planned.map((m) => methodInfo(m).label).join(", ")),
-      fact("human template", templateText(selected, result)),
+      fact("human template", templateSource(data.template || {}, result), "template-source"),
     ),
+    h("p", { class: "small", id: "template-angle", style: "margin:8px 0 0" }, (data.template || {}).angle_text || ""),
     warnings.length ? h("details", { class: "small", style: "margin-top:8px" }, h("summary", {}, `${warnings.length} warning(s)`), h("ul", {}, warnings.map((w) => h("li", {}, w)))) : null,
   );
 }
 
-function templateText(option, result) {
-  const params = option ? option.item.job.params : {};
+/** Where the template came from, in the card itself: the paper's default or whose lifts. */
+function templateSource(template, result) {
+  if (template.source) return template.source;
   const target = result.target_peak_velocity_angle_deg ?? (result.conditions || {}).target_peak_velocity_angle_deg;
-  const source = params.template_analysis_id ? `analysis #${params.template_analysis_id}` : params.template ? "uploaded" : (result.conditions || {}).template || "the paper's default";
-  return target === undefined ? source : `${source}, peak at ${fmt(target, 3)}°`;
+  return `${(result.conditions || {}).template || "the paper's default"}, peak at ${fmt(target, 3)}°`;
 }
 
-function fact(k, v) {
-  return h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v", style: "font-size:14px" }, v));
+function fact(k, v, id) {
+  return h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v", style: "font-size:14px", id }, v));
 }
 
 function methodHead(name) {
@@ -207,7 +215,7 @@ function methodHead(name) {
 }
 
 /** One row per metric, one column per method; the floor beside; below-floor values flagged. */
-function metricsCard(kind, result, planned, jointNames) {
+function metricsCard(kind, result, planned, jointNames, tolerance) {
   const floors = result.floors || {};
   const side = (name) => (result.methods && result.methods[name]) || (name === "quintic" ? result.standard : name === "paper" ? result.optimized : null);
   const objective = (result.conditions || {}).objective;
@@ -217,11 +225,13 @@ function metricsCard(kind, result, planned, jointNames) {
       const s = side(name) || {};
       const value = s[m.name];
       const change = name === "quintic" ? null : (s.improvement_pct || {})[m.name];
-      const below = isBelow(value, floor);
-      return h("td", { class: `num${below ? " below-floor" : ""}`, dataset: { method: name, value: value ?? "" } },
+      const state = floorState(value, floor, tolerance);
+      const below = state === "below";
+      return h("td", { class: `num${below ? " below-floor" : ""}`, dataset: { method: name, value: value ?? "", floorState: state ?? "" } },
         value === null || value === undefined ? h("span", { class: "muted", title: "no motor model for this robot" }, "not modelled") : fmt(value),
         change === null || change === undefined ? null : h("div", { class: `small ${change > 0.05 ? "better" : change < -0.05 ? "worse" : "muted"}` }, pct(change)),
-        below ? h("div", { class: "worse small", role: "alert" }, "below floor!") : null);
+        below ? h("div", { class: "worse small", role: "alert" }, "below floor!") : null,
+        state === "at" ? h("div", { class: "small muted at-floor", title: `within ${100 * tolerance} % of the floor: the integration's round-off` }, "at the floor") : null);
     });
     const floorText = floorKey === "electrical_energy" && floors.friction_energy ? `ΔPE + friction ${fmt(floors.friction_energy)} J` : FLOOR_TEXT[floorKey] ?? floorKey;
     return h("tr", { dataset: { metric: m.name }, class: m.name === objective ? "objective-row" : "" },

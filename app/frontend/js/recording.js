@@ -113,6 +113,26 @@ export async function render(main, [idText]) {
   return () => stops.forEach((f) => f());
 }
 
+/** The recording's condition (a cohort groups by it), changed in place without re-analysing. */
+function conditionEditor(rec) {
+  const input = h("input", { id: "rec-condition", maxlength: "100", value: rec.condition || "", placeholder: "none (e.g. heavy)", "aria-label": "Condition", style: "max-width:220px" });
+  const status = h("span", { class: "small muted", id: "rec-condition-status" });
+  async function save(e) {
+    e.preventDefault();
+    try {
+      const now = await api(`/api/recordings/${rec.id}`, { method: "PATCH", body: { condition: input.value, analyse: false } });
+      input.value = now.condition || "";
+      status.textContent = now.condition ? `saved: ${now.condition}` : "saved: no condition";
+    } catch (err) {
+      status.textContent = messageOf(err);
+    }
+  }
+  return h("form", { class: "row small", id: "condition-form", onsubmit: save },
+    h("label", { for: "rec-condition", style: "margin:0" }, "Condition"), input,
+    h("button", { type: "submit", class: "small" }, "Save"), status,
+    h("a", { href: "#/cohort", class: "small" }, "compare conditions →"));
+}
+
 async function recordingPage(main, rec, ctx) {
   const id = rec.id;
   const state = { window: [null, null], analysis: null, emgChannels: [], stop: ctx.stops };
@@ -138,6 +158,7 @@ async function recordingPage(main, rec, ctx) {
     ),
     analysisStatus,
   );
+  main.append(conditionEditor(rec));
   if (rec.notes) main.append(h("p", { class: "muted" }, rec.notes));
 
   const fileRows = channels.map((c) =>
@@ -327,7 +348,11 @@ async function recordingPage(main, rec, ctx) {
     const paperDefault = isPaperDefault(T);
     clear(templateFacts).append(
       fact("template from", paperDefault ? "the paper's default (no lifts with kinematics from this person)" : `this person's lifts: ${T.source}`),
-      fact("velocity peak at", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}°${paperDefault ? " (paper)" : T.n_lifts === 1 ? " (from one lift: no spread)" : ` ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}°`}`),
+      fact("velocity peak at (per lift)", T.peak_velocity_angle_deg === null ? "–" : `${fmt(T.peak_velocity_angle_deg, 3)}°${paperDefault ? " (paper)" : T.n_lifts === 1 ? " (from one lift: no spread)" : ` ± ${fmt(T.peak_velocity_angle_sd_deg, 2)}° (mean ± SD of each lift's own peak angle)`}`),
+      // What a plan uses (issue 29): the same fraction of the robot's elbow stroke, so a plan's
+      // template angle differs from the per-lift mean when the stroke is not the lifts' range.
+      ...(paperDefault || T.peak_velocity_range_fraction === null || T.peak_velocity_range_fraction === undefined ? []
+        : [fact("plans place the peak at", `${Math.round(100 * T.peak_velocity_range_fraction)} % of the elbow stroke (where these lifts peak within their own range; a plan's template angle is that point of the robot's stroke)`)]),
       fact("lifts", `${lifts.length} found, ${paperDefault ? 0 : T.n_lifts} with kinematics`),
       fact("peak at", T.peak_velocity_time_fraction === null ? "–" : `${Math.round(100 * T.peak_velocity_time_fraction)} % of the lift`),
       fact("activation order", orderText(T.activation_order)),

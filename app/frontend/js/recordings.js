@@ -7,7 +7,7 @@ import { banner, bytes, clear, debounce, fmt, h, inFormWords, messageOf, namesIn
 const SITES = ["deltoid", "triceps", "biceps", "forearm"];
 /** The API's form fields in the words of this form. */
 const FIELD_WORDS = {
-  files: "Files", label: "Label", subject: "Subject", task: "Task", load_kg: "Load", notes: "Notes", session: "Recorded",
+  files: "Files", label: "Label", subject: "Subject", task: "Task", load_kg: "Load", notes: "Notes", session: "Recorded", condition: "Condition",
   muscle_map: "Muscle mapping", rate: "Sampling rate", emg_rate: "EMG rate", image_size: "Image size",
   frame_rate: "Frame rate", format: "Format",
 };
@@ -60,6 +60,7 @@ export function render(main) {
   const load = h("input", { id: "load", type: "number", min: "0", max: "500", step: "0.1", placeholder: "kg" });
   const notes = h("textarea", { id: "notes", rows: "2", maxlength: "10000" });
   const label = h("input", { id: "rec-label", maxlength: "200", placeholder: "e.g. warm-up set" });
+  const condition = h("input", { id: "condition", maxlength: "100", placeholder: "e.g. heavy (a cohort groups by it)" });
   const rate = h("input", { id: "rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
   const emgRate = h("input", { id: "emg-rate", type: "number", min: "0", step: "any", placeholder: "from the file" });
   const frameRate = h("input", { id: "frame-rate", type: "number", min: "0", step: "any", placeholder: "video landmarks" });
@@ -149,7 +150,7 @@ export function render(main) {
 
   /** The next upload starts from empty fields: nothing of this session carries over. */
   function resetFields() {
-    [label, subject, task, load, notes, rate, emgRate, frameRate, imageSize, landmarkPreset, landmarkMap].forEach((el) => (el.value = ""));
+    [label, subject, task, load, notes, condition, rate, emgRate, frameRate, imageSize, landmarkPreset, landmarkMap].forEach((el) => (el.value = ""));
     sessionMode.value = "separate";
     clear(maps);
   }
@@ -222,7 +223,7 @@ export function render(main) {
     const sent = [...files];
     const form = new FormData();
     sent.forEach((f) => form.append("files", f.file, f.file.name));
-    const fields = { session: sessionMode.value, label: label.value, subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, rate: rate.value, emg_rate: emgRate.value, frame_rate: frameRate.value, image_size: imageSize.value, muscle_map: muscleMap() };
+    const fields = { session: sessionMode.value, label: label.value, subject: subject.value, task: task.value, load_kg: load.value, notes: notes.value, condition: condition.value, rate: rate.value, emg_rate: emgRate.value, frame_rate: frameRate.value, image_size: imageSize.value, muscle_map: muscleMap() };
     for (const [k, v] of Object.entries(fields)) if (v !== null && String(v).trim() !== "") form.append(k, String(v).trim());
     const landmarks = landmarkMap.value.trim() || landmarkPreset.value; // an analysis option
     progress.hidden = false;
@@ -278,6 +279,7 @@ export function render(main) {
       h("div", {}, h("label", { for: "subject" }, "Subject"), subject),
       h("div", {}, h("label", { for: "task" }, "Task"), task),
       h("div", {}, h("label", { for: "load" }, "Load ", h("span", { class: "hint" }, "[kg]")), load),
+      h("div", {}, h("label", { for: "condition" }, "Condition"), condition),
       h("div", { class: "wide" }, h("label", { for: "rec-label" }, "Label ", h("span", { class: "hint" }, "(optional)")), label),
       h("div", { class: "wide" }, h("label", { for: "notes" }, "Notes"), notes),
       h("div", { class: "wide" }, h("label", { for: "session" }, "The files were"), sessionMode),
@@ -300,7 +302,7 @@ export function render(main) {
   );
 
   // ---- list card ----------------------------------------------------------------------
-  const search = h("input", { type: "search", id: "search", placeholder: "Search labels, subject, task, notes, file names", "aria-label": "Search recordings" });
+  const search = h("input", { type: "search", id: "search", placeholder: "Search labels, subject, condition, task, notes, file names", "aria-label": "Search recordings" });
   const tbody = h("tbody", { id: "recordings-body" });
   const total = h("span", { class: "muted small" });
   const listError = h("div", {});
@@ -345,7 +347,7 @@ export function render(main) {
         tbody.append(
           h("tr", { class: "click", dataset: { id: rec.id } },
             h("td", { class: "mono", onclick: open }, rec.id),
-            h("td", { onclick: open }, rec.label ? h("div", { class: "rec-label" }, h("strong", {}, rec.label)) : null, rec.subject || h("span", { class: "muted" }, "–")),
+            h("td", { onclick: open }, rec.label ? h("div", { class: "rec-label" }, h("strong", {}, rec.label)) : null, rec.subject || h("span", { class: "muted" }, "–"), rec.condition ? h("div", { class: "small muted rec-condition" }, `condition: ${rec.condition}`) : null),
             h("td", { class: "wide-only", onclick: open }, rec.task || h("span", { class: "muted" }, "–")),
             h("td", { class: "num", onclick: open }, rec.load_kg === null ? "–" : `${rec.load_kg} kg`),
             h("td", { class: "wide-only", onclick: open }, h("div", { class: "mono" }, rec.file_names.join(", ")), h("div", { class: "small muted" }, rec.formats.join(", "))),
