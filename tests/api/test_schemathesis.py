@@ -61,6 +61,7 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
     "POST /api/analyses": {
         "phase_bounds_deg": "A/B below B/C (an order between two items)",
         "exclude_channels": "names channels of the recording",
+        "landmarks": "a preset, or shoulder=, elbow=, wrist= (each once) naming markers",
     },
     "POST /api/plans": {
         "duration": "long enough for the chosen robot's joint speed limits",

@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -101,18 +105,39 @@ def test_tab_mot_in_degrees(tmp_path: Path) -> None:
     np.testing.assert_allclose(rec.channels["elbow_flexion"].data, np.deg2rad(np.round(elbow, 6)))
 
 
+#: Writes an STO with OpenSim's own STOFileAdapter (argv: path, inDegrees, then a JSON table).
+_WRITE_STO = """
+import json, sys
+import opensim as osim
+path, deg, data = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
+table = osim.TimeSeriesTable()
+table.setColumnLabels(data["labels"])
+for ti, values in zip(data["t"], data["rows"]):
+    row = osim.RowVector(len(values), 0.0)
+    for j, v in enumerate(values):
+        row[j] = float(v)
+    table.appendRow(float(ti), row)
+table.addTableMetaDataString("inDegrees", deg)
+osim.STOFileAdapter.write(table, path)
+"""
+
+
 def _opensim_sto(path: Path, labels: list[str], t: np.ndarray, cols: np.ndarray, deg: str) -> Path:
-    """An STO written by OpenSim itself (STOFileAdapter, as IK and the Manager write them)."""
-    osim = pytest.importorskip("opensim", reason="opensim (pip install opensim) writes the STO")
-    table = osim.TimeSeriesTable()
-    table.setColumnLabels(labels)
-    for i, ti in enumerate(t):
-        row = osim.RowVector(len(labels), 0.0)
-        for j in range(len(labels)):
-            row[j] = float(cols[i, j])
-        table.appendRow(float(ti), row)
-    table.addTableMetaDataString("inDegrees", deg)
-    osim.STOFileAdapter.write(table, str(path))
+    """An STO written by OpenSim itself (STOFileAdapter, as IK and the Manager write them).
+
+    OpenSim is run in a child process: importing it puts its own libraries (a CasADi 3.7
+    among them) first on this process's LD_LIBRARY_PATH, which every later subprocess of the
+    test run would inherit, breaking CasADi 3.8 in them."""
+    if importlib.util.find_spec("opensim") is None:
+        pytest.skip("opensim (pip install opensim) writes the STO")
+    data = {"labels": labels, "t": t.tolist(), "rows": np.asarray(cols).tolist()}
+    done = subprocess.run(
+        [sys.executable, "-c", _WRITE_STO, str(path), deg, json.dumps(data)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
     return path
 
 
@@ -238,3 +263,12 @@ def test_datalog_needs_rates(tmp_path: Path) -> None:
         read_recording(
             path, datalog_sensors=[DatalogSensor(7, "knee", "angle", 100.0, 180.0, "deg")]
         )
+
+
+def test_writing_with_opensim_leaves_this_process_alone(tmp_path: Path) -> None:
+    """Importing OpenSim here put its CasADi 3.7 on LD_LIBRARY_PATH, and every later `bioplan`
+    subprocess of the run failed to import CasADi 3.8 (found by a clean CI run)."""
+    t = np.linspace(0.0, 1.0, 5)
+    _opensim_sto(tmp_path / "x.sto", ["elbow_flexion"], t, t[:, None], "no")
+    assert "opensim" not in sys.modules
+    assert "opensim" not in os.environ.get("LD_LIBRARY_PATH", "")
