@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from app.names import METHODS
 from tests.utils.api import TestClient, assert_problem, wait_job
 
 TINY = {
@@ -275,7 +276,8 @@ def test_the_comparison_shows_any_two_planned_methods(shared_client: TestClient)
         "/api/viewer/comparisons/{kind}/{result_id}"
     ]["get"]["parameters"]
     listed = next(p for p in pairs if p["name"] == "methods")["schema"]["anyOf"][0]["enum"]
-    assert len(listed) == 20 and "paper,bound" in listed and "bound,bound" not in listed
+    n_pairs = len(METHODS) * (len(METHODS) - 1)  # every ordered pair of two methods
+    assert len(listed) == n_pairs and "paper,bound" in listed and "bound,bound" not in listed
     # An array this plan lacks is missing here (404), as a recording's channel; a name that
     # no array could have is refused by the schema (found by schemathesis over HTTP).
     arrays_url = f"/api/plans/{out['id']}/arrays"

@@ -41,7 +41,11 @@ def live_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
 
 
 @pytest.fixture(scope="session")
-def browser(live_server: Server) -> Iterator[Any]:
+def chromium() -> Iterator[Any]:
+    """Debian's Chromium through Playwright, once per test run: Playwright's sync API cannot
+    be started twice in one process (a second start fails inside the first's event loop)."""
+    if not CHROMIUM.is_file():
+        pytest.skip(f"Chromium not found at {CHROMIUM} (make test installs Debian's chromium)")
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
@@ -50,6 +54,12 @@ def browser(live_server: Server) -> Iterator[Any]:
             yield instance
         finally:
             instance.close()
+
+
+@pytest.fixture(scope="session")
+def browser(live_server: Server, chromium: Any) -> Any:
+    """The browser for pages of the live demo server."""
+    return chromium
 
 
 @pytest.fixture

@@ -5,31 +5,14 @@ refused polls, and takes the stream again once a place is free."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import pytest
-
 from tests.frontend.test_browser import wait_for
-from tests.utils.browser import CHROMIUM, CHROMIUM_ARGS, new_context
+from tests.utils.browser import new_context
 from tests.utils.server import Server
 
 TINY = {"robot": "human_arm_2dof", "particles": 8, "iterations": 5, "methods": ["quintic", "paper"]}
-
-
-@pytest.fixture(scope="module")
-def chromium() -> Iterator[Any]:
-    if not CHROMIUM.is_file():
-        pytest.skip(f"Chromium not found at {CHROMIUM} (make test installs Debian's chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        instance = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        try:
-            yield instance
-        finally:
-            instance.close()
 
 
 def _open_drawer(chromium: Any, server: Server) -> tuple[Any, Any, list[str]]:
