@@ -148,7 +148,7 @@ class JobRunner(ABC):
 # ------------------------------------------------------------------------------------ local
 
 
-def _address_space() -> int:
+def address_space() -> int:
     """This process's virtual memory now [bytes] (``VmSize``)."""
     with open("/proc/self/status", encoding="ascii") as status:
         for line in status:
@@ -163,7 +163,7 @@ def limit_memory(memory_mb: float | None) -> None:
     if memory_mb is None:
         return
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
-    limit = _address_space() + int(memory_mb * 1024 * 1024)
+    limit = address_space() + int(memory_mb * 1024 * 1024)
     if hard != resource.RLIM_INFINITY:
         limit = min(limit, hard)
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))

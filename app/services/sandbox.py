@@ -23,6 +23,7 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any, TypeVar
 
+from app.jobs.runner import address_space
 from app.services.errors import ParseLimitError
 
 T = TypeVar("T")
@@ -31,15 +32,6 @@ T = TypeVar("T")
 NICENESS = 10
 #: Seconds a killed child is given to be reaped.
 REAP_SECONDS = 5.0
-
-
-def _address_space() -> int:
-    """This process's virtual memory now [bytes] (``VmSize``)."""
-    with open("/proc/self/status", encoding="ascii") as status:
-        for line in status:
-            if line.startswith("VmSize:"):
-                return int(line.split()[1]) * 1024
-    return 0  # pragma: no cover - every Linux has VmSize
 
 
 def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extra: int) -> None:
@@ -57,7 +49,7 @@ def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extr
     # Below the API process in the scheduler's eyes, so reads stay quick while a file is read.
     os.nice(NICENESS)
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
-    limit = _address_space() + extra
+    limit = address_space() + extra
     if hard != resource.RLIM_INFINITY:
         limit = min(limit, hard)
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
