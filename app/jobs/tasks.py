@@ -762,34 +762,6 @@ def simulate(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dic
     return {"result": out, "arrays": _arrays_of(result)}
 
 
-def export_trajectory(
-    spec: dict[str, Any],
-    result: dict[str, Any],
-    fmt: str,
-    *,
-    method: str | None = None,
-    rate: float | None = None,
-) -> bytes:
-    """One method of a stored plan or simulation as an export file's bytes.
-
-    Args:
-        spec: the robot's spec (as for a job); loaded with the payload the result was planned
-            with, and checked against the result's torques (a changed robot is refused).
-        result: the stored result (with its ``motion`` block).
-        fmt, method, rate: as ``app.planning.export.export_bytes``.
-
-    Raises:
-        ExportError: no motion block, an unknown format or method, a bad rate.
-    """
-    export_result = _entry("app.planning.export", "export_result")
-    motion_of_result = _entry("app.planning.export", "motion_of_result")
-    motion = motion_of_result(result)  # refuse a result without motion before loading a robot
-    payload = motion.conditions.get("payload")
-    with robot_from_spec(spec, None if payload is None else float(payload)) as robot:
-        data: bytes = export_result(result, fmt, method=method, rate=rate, robot=robot)
-    return data
-
-
 def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
     """Savings over a grid of durations, payloads and objectives (``bioplan sweep``).
 
