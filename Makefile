@@ -85,8 +85,11 @@ lint: $(TSTAMP)
 typecheck: $(TSTAMP)
 	$(VENV)/bin/mypy app
 
+# The suite runs on every core (at most 4 workers; PYTEST_WORKERS=0 runs it in one process):
+# each test file stays on one worker in order, the browser tests together (tests/conftest.py).
+PYTEST_WORKERS ?= auto
 pytest: $(TSTAMP) $(POSE_STAMP) browser
-	$(VENV)/bin/pytest
+	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --maxprocesses 4 --dist loadgroup
 
 test: $(POSE_STAMP) lint typecheck pytest
 

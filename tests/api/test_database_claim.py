@@ -11,13 +11,12 @@ import os
 import subprocess
 import sys
 import time
-import uuid
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from tests.utils.db import POSTGRES_URL
+from tests.utils.db import POSTGRES_URL, fresh_postgres_database
 from tests.utils.server import Server, free_port
 
 #: A plan that runs long enough to be running while the second server tries to start.
@@ -29,27 +28,12 @@ LONG = {
 }
 
 
-def _fresh_postgres_database() -> str:
-    """A new, empty database on the test cluster (dropped by nobody: the cluster is
-    throwaway), so the tests never meet another's tables."""
-    from sqlalchemy import create_engine, text
-    from sqlalchemy.engine import make_url
-
-    assert POSTGRES_URL is not None
-    name = f"bioplan_claim_{uuid.uuid4().hex[:8]}"
-    admin = create_engine(POSTGRES_URL, isolation_level="AUTOCOMMIT")
-    with admin.connect() as conn:
-        conn.execute(text(f'CREATE DATABASE "{name}"'))
-    admin.dispose()
-    return make_url(POSTGRES_URL).set(database=name).render_as_string(hide_password=False)
-
-
 def _database_url(tmp_path: Path, backend: str) -> str:
     if backend == "sqlite":
         return f"sqlite:///{tmp_path / 'shared' / 'bioplan.db'}"
     if POSTGRES_URL is None:
         pytest.skip("no PostgreSQL: set BIOPLAN_TEST_POSTGRES_URL (scripts/ci_postgres.sh)")
-    return _fresh_postgres_database()
+    return fresh_postgres_database("bioplan_claim")
 
 
 def _serve(data_dir: Path, url: str) -> subprocess.CompletedProcess[str]:
