@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from app.analysis.downsample import minmax_downsample
 from app.errors import BioPlanError
-from app.planning.jsonsafe import json_safe
+from app.jsonsafe import json_safe
 
 if TYPE_CHECKING:
     from app.analysis.pipeline import AnalysisResult, RecordingAnalysis

@@ -347,7 +347,14 @@ def _reduce(pin: Any, model: Any, locks: Mapping[str, float], file: str) -> Any:
         else:
             reference[joint.idx_q] = value
         ids.append(joint_id)
-    return pin.buildReducedModel(model, sorted(ids), reference)
+    try:
+        return pin.buildReducedModel(model, sorted(ids), reference)
+    except ValueError as exc:  # e.g. a fixed joint and a link of the same name (b1-z1)
+        detail = " ".join(str(exc).split())
+        raise RobotError(
+            f"{file}: pinocchio cannot lock its joints ({detail}): expected unique frame names "
+            "(rename the joint or the link that shares a name with another frame)"
+        ) from None
 
 
 class PinocchioDynamics:

@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 
 from app import names
+from app.planning.actuators import actuator_limits, actuator_violation
+from app.planning.clearance import clearance_constraint
 from app.planning.energy import objective_values
 from app.planning.evaluation import (
     EvaluatedTrajectory,
@@ -28,11 +30,12 @@ from app.planning.evaluation import (
 )
 from app.planning.human_constraints import PhaseShares, phase_bound_angles, phase_shares
 from app.planning.human_template import HumanTemplate, flexion_on_stroke, joint_on_stroke
-from app.planning.jerk_limited import jerk_limited
+from app.planning.jerk_limited import JerkLimitedError, jerk_limited
 from app.planning.optimal import (
     HUMAN_CONSTRAINTS,
     PEAK_BAND_DEG,
     PEAK_CONCAVE_DEG,
+    ExtraConstraints,
     HumanSpec,
     SolverError,
     human_spec_peak,
@@ -42,19 +45,24 @@ from app.planning.optimal import (
 from app.planning.paper import PlanProblem
 from app.planning.profiles import Trajectory, piecewise_quintic
 from app.planning.pso import PSOResult, pso_minimize
-from app.planning.robots import Robot
+from app.planning.robots import Robot, RobotError
+from app.planning.safety import Finding, check_safety, default_scene
 from app.progress import ProgressFn, report
 
 __all__ = [
     "ALL_METHODS",
     "BOUND_TOLERANCE",
     "DEFAULT_METHODS",
+    "METHOD_ERRORS",
     "BoundRules",
     "BoundViolation",
+    "MethodFailure",
     "MethodResult",
+    "PaperInfeasible",
     "beats_bound",
     "bound_rules",
     "check_methods",
+    "failure_of",
     "human_spec",
     "objective_value",
     "refine_to_convergence",
@@ -99,6 +107,43 @@ class MethodResult:
         out["label"] = names.METHODS[self.name].label
         out["solver"] = self.solver
         return out
+
+
+#: A method's own failure (reported beside the others' results, docs/planning.md); any other
+#: exception is a bug and still stops the plan.
+METHOD_ERRORS: tuple[type[Exception], ...] = (PlanningError, SolverError, JerkLimitedError)
+
+
+@dataclass(frozen=True)
+class MethodFailure:
+    """One method's own error, reported in place of its result.
+
+    Attributes:
+        name: the method (``app.names.METHODS``).
+        error: the one-line message of its error.
+        kind: ``infeasible`` (its limits or rules cannot be met in the duration),
+            ``not_converged`` (IPOPT stopped without a solution) or ``refused`` (its input
+            does not suit it, e.g. no finite speed limit for ``jerk_limited``).
+        exception: the error itself (re-raised when it is the plan's only failure).
+    """
+
+    name: str
+    error: str
+    kind: str
+    exception: Exception = dataclasses.field(repr=False, compare=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"error": self.error, "kind": self.kind, "label": names.METHODS[self.name].label}
+
+
+def failure_of(name: str, exc: Exception) -> MethodFailure:
+    """The :class:`MethodFailure` of one of :data:`METHOD_ERRORS`."""
+    message = str(exc)
+    if isinstance(exc, SolverError):
+        kind = "infeasible" if exc.infeasible else "not_converged"
+    else:
+        kind = "infeasible" if message.startswith("infeasible") else "refused"
+    return MethodFailure(name, message, kind, exc)
 
 
 def check_methods(methods: Sequence[str] | str) -> tuple[str, ...]:
@@ -201,6 +246,11 @@ def simulated_share_of_achievable_pct(quintic: float, method: float, bound: floa
         return math.nan
 
 
+class PaperInfeasible(PlanningError):
+    """The paper's PSO found no trajectory of its family (elbow velocity peak at the template
+    angle) within the limits; the task itself may still be feasible for the other methods."""
+
+
 def run_paper(
     robot: Robot,
     task: PlanTask,
@@ -242,7 +292,7 @@ def run_paper(
         initial=problem.initial,
     )
     if result.best_violation > 0:
-        raise PlanningError(
+        raise PaperInfeasible(
             f"infeasible: no trajectory with the elbow's velocity peak at {target_deg:.1f} deg "
             f"satisfies the joint limits in {duration} s with {robot.payload.mass} kg "
             "(expected a longer duration, a lighter payload or wider limits)"
@@ -333,8 +383,118 @@ def run_optimal(
         report_samples=report_samples,
         name=name,
     )
+    evaluated = evaluate_trajectory(robot, solution.trajectory, task)
+    # Actuators that can say no (issue 26): a solution outside the actuators' torque-speed
+    # envelopes or RMS limits is solved again with them as constraints, from itself. Only then:
+    # their rows make every solve 2-3x slower and rarely bind.
+    limits = actuator_limits(robot)
+    said_no = actuator_violation(robot, evaluated) if limits is not None else None
+    n = n_intervals
+    # Kept at the evaluation points, they may still be crossed between them on a coarse mesh:
+    # then once more on twice the intervals.
+    while said_no is not None and n <= 2 * n_intervals:
+        solution = solve_optimal(
+            robot, task.start, task.goal, duration, objective=objective, human=spec,
+            warm_start=solution.trajectory, warm_start_name=name, n_intervals=n,
+            no_reversal=no_reversal, report_samples=report_samples, name=name,
+            extra=ExtraConstraints(actuators=limits),
+        )  # fmt: skip
+        evaluated = evaluate_trajectory(robot, solution.trajectory, task)
+        if actuator_violation(robot, evaluated) is None:
+            break
+        n *= 2
+    # Clearance where it binds (issue 27): a solution that the safety check finds below the
+    # mounting plane is solved again with the plane as a constraint, from itself. Only then, as
+    # the actuators above: most tasks stay clear of the plane unconstrained.
+    finding = plane_finding(robot, name, solution.trajectory)
+    clearance: dict[str, Any] | None = None
+    if finding is not None:
+        clearance = {"constraint": "mount plane", "first_contact": finding.describe()}
+        solve = {
+            "objective": objective, "human": spec, "no_reversal": no_reversal,
+            "report_samples": report_samples, "name": name, "warm_start_name": name,
+            "actuators": limits if said_no is not None else None,
+        }  # fmt: skip
+        solution, evaluated = _keep_clearance(robot, task, solution, evaluated, duration,
+                                              n_intervals, solve, clearance)  # fmt: skip
     solver = {"kind": "ipopt", **solution.solver.to_dict()}
-    return MethodResult(name, evaluate_trajectory(robot, solution.trajectory, task), solver)
+    if said_no is not None:
+        solver["actuators"] = {"constrained": True, "first_violation": said_no}
+    if clearance is not None:
+        solver["clearance"] = clearance
+    return MethodResult(name, evaluated, solver)
+
+
+def plane_finding(robot: Robot, name: str, trajectory: Trajectory) -> Finding | None:
+    """The safety check's first finding of ``trajectory`` below the mounting plane, or None
+    (also when the robot cannot be checked)."""
+    report = check_safety(robot, {name: trajectory})
+    return next((f for f in report.findings if f.kind == "plane"), None)
+
+
+def _keep_clearance(
+    robot: Robot,
+    task: PlanTask,
+    solution: Any,
+    evaluated: EvaluatedTrajectory,
+    duration: float,
+    n_intervals: int,
+    solve: dict[str, Any],
+    info: dict[str, Any],
+) -> tuple[Any, EvaluatedTrajectory]:
+    """Re-solve with the mounting plane as a constraint (spheres covering the links, at the
+    evaluation points), on N then 2N intervals until the safety check finds no plane contact.
+
+    ``info`` gains ``spheres``, ``margin_m``, ``plane_m``, ``n_intervals``, ``resolved`` and,
+    when it is not, ``warning`` (the start or goal itself is below the plane, the constrained
+    problem failed, or a contact is left between the points: ``remaining``).
+    """
+    info["resolved"] = False
+    try:
+        constraint = clearance_constraint(robot, default_scene(robot))
+    except RobotError as exc:
+        constraint, info["warning"] = None, f"clearance not constrained: {exc}"
+    if constraint is None:
+        info.setdefault("warning", "clearance not constrained: no plane or no moving geometry")
+        logger.warning("%s", info["warning"])
+        return solution, evaluated
+    info.update(spheres=constraint.n_spheres, margin_m=constraint.margin, plane_m=constraint.plane)
+    for where, q in (("start", task.start), ("goal", task.goal)):
+        links = constraint.violations(robot, q)
+        if links:
+            # No trajectory from or to there keeps the clearance: say so, do not try.
+            info["warning"] = (
+                f"no trajectory keeps clear of the mount plane: at the {where}, "
+                f"{', '.join(links)} is within {1000 * constraint.margin:.0f} mm of it or below"
+            )
+            logger.warning("%s", info["warning"])
+            return solution, evaluated
+    actuators = solve.pop("actuators")
+    n = n_intervals
+    while n <= 2 * n_intervals:
+        try:
+            solution = solve_optimal(
+                robot, task.start, task.goal, duration, warm_start=solution.trajectory,
+                n_intervals=n, explain=False,
+                extra=ExtraConstraints(actuators=actuators, clearance=constraint),
+                **solve,
+            )  # fmt: skip
+        except SolverError as exc:
+            info["warning"] = f"the plane's clearance could not be kept: {exc}"
+            logger.warning("%s", info["warning"])
+            return solution, evaluated
+        evaluated = evaluate_trajectory(robot, solution.trajectory, task)
+        info["n_intervals"] = n
+        left = plane_finding(robot, str(solve["name"]), solution.trajectory)
+        if left is None:
+            info["resolved"] = True
+            info.pop("remaining", None)
+            return solution, evaluated
+        info["remaining"] = left.describe()
+        n *= 2
+    info["warning"] = f"a contact with the plane is left between the points: {info['remaining']}"
+    logger.warning("%s", info["warning"])
+    return solution, evaluated
 
 
 #: Mesh refinement stops when the objective changes by less than this fraction [-] ...
@@ -460,6 +620,9 @@ def rule_breach(
     """Why a trajectory lies outside a bound's rules (its feasible set), or None."""
     if ev.violations:
         return "violates limits: " + ev.violations[0]
+    said_no = actuator_violation(robot, ev)  # the bound keeps the actuators' limits too
+    if said_no is not None:
+        return "violates actuator limits: " + said_no
     tr, names_ = ev.trajectory, list(robot.joint_names)
     direction = np.sign(task.goal - task.start)
     for j, name in enumerate(names_):
@@ -580,6 +743,14 @@ def run_bound(
             dataclasses.replace(result.evaluated, trajectory=traj),
             {**(result.solver or {}), "warm_start": incumbent},
         )
+    if ((result.solver or {}).get("clearance") or {}).get("resolved"):
+        # The bound keeps the mounting plane clear: a method that goes below it is outside
+        # its rules (it may well be cheaper).
+        for other in list(eligible):
+            below = plane_finding(robot, other, candidates[other].trajectory)
+            if below is not None:
+                outside[other] = "goes below the mount plane: " + below.describe()
+                eligible.remove(other)
     solver = dict(result.solver or {})
     solver.update(
         multistart=len(starts),

@@ -39,6 +39,7 @@ returned as a result.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -59,6 +60,7 @@ if TYPE_CHECKING:
 __all__ = [
     "HUMAN_CONSTRAINTS",
     "OPTIMAL_OBJECTIVES",
+    "ExtraConstraints",
     "OptimalResult",
     "PiecewiseCubic",
     "SolverError",
@@ -79,6 +81,7 @@ OPTIMAL_OBJECTIVES: tuple[str, ...] = (
     "peak_power",
     "peak_torque",
     "torque_change",
+    "jerk",
 )
 #: Default number of constant-jerk intervals.
 DEFAULT_INTERVALS = 40
@@ -344,6 +347,7 @@ class _Params:
         import casadi as ca
 
         sizes = {"start": n, "T": 1, "p_scale": 1, "cost_scale": 1, "effort_scale": 1}
+        sizes.update(bound=1, bound_scale=1)  # ExtraConstraints' epsilon and its scale
         index, offset = {}, 0
         for name, size in sizes.items():
             index[name] = slice(offset, offset + size)
@@ -374,6 +378,7 @@ class _Problem:
     free: tuple[int, ...]
     no_reversal: bool
     counts: tuple[int, ...]  # intervals per segment
+    extra: ExtraConstraints | None = None
 
     @property
     def n_intervals(self) -> int:
@@ -504,7 +509,7 @@ def _build_grid(
         q=ca.vertcat(*rows[0]), qd=ca.vertcat(*rows[1]), qdd=ca.vertcat(*rows[2]), h=h, T=t_sym
     )
     _continuity(problem, grid, cons)
-    _evaluation_points(grid, n, _EIGHTHS if problem.objective in _PEAK_OBJECTIVES else _QUARTERS)
+    _evaluation_points(grid, n, _EIGHTHS if _peak_rule(problem) else _QUARTERS)
     return grid, dvar
 
 
@@ -652,6 +657,8 @@ def _objective(
     import casadi as ca
 
     obj, w = problem.objective, grid.weights
+    if obj == "jerk":  # constant per interval: Simpson's weights integrate it exactly
+        return ca.dot(w, ca.sum1(grid.point_jerk**2))
     if obj == "tau_sq":
         return ca.dot(w, ca.sum1(tau**2))
     if obj == "torque_change":
@@ -743,6 +750,104 @@ def _torque_limits(problem: _Problem, cons: _Constraints, tau: Any) -> None:
 
 
 # ----------------------------------------------------------------------------------------------
+# Extra constraints: a metric bound (epsilon-constraint fronts), controller limits, actuators
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ExtraConstraints:
+    """Constraints beyond the limits and the human-likeness rule (all optional).
+
+    Attributes:
+        metric: a second metric (:data:`OPTIMAL_OBJECTIVES`) bounded by ``bound``: the
+            epsilon-constraint of a Pareto front (:mod:`app.planning.front`); None = none.
+        bound: epsilon, the largest allowed value of ``metric`` in its unit (``peak_torque``: the
+            largest |τ_j| / τ_max,j) [metric unit].
+        controller_limits: also keep the robot's acceleration ``qdd_max`` [rad/s²] (at the
+            nodes: q̈ is linear between them) and jerk ``jerk_max`` [rad/s³] (constant per
+            interval) limits, as the jerk-limited baseline does.
+        actuators: per joint torque–speed envelopes and RMS torque limits
+            (:class:`app.planning.actuators.ActuatorLimits`), or None.
+        warm: the warm start is near the optimum (a front's neighbour): IPOPT starts with a
+            small barrier parameter (:data:`_WARM`; measured on the 6-DOF: 6 iterations instead
+            of 10, the same optimum to 1e-8).
+        clearance: spheres covering the robot's links kept above the mounting plane at every
+            evaluation point (:class:`app.planning.clearance.ClearanceConstraint`), or None.
+    """
+
+    metric: str | None = None
+    bound: float = math.inf
+    controller_limits: bool = False
+    actuators: Any = None
+    warm: bool = False
+    clearance: Any = None
+
+    def key(self, goal: FloatArray) -> tuple[Any, ...]:
+        """What changes the NLP's structure (epsilon is a parameter, not structure; the
+        actuators' numbers and the goal's holding torques are constants of its graph)."""
+        clear = None if self.clearance is None else self.clearance.key()
+        if self.actuators is None:
+            return (self.metric, self.controller_limits, None, self.warm, clear)
+        acts = self.actuators.key()
+        return (self.metric, self.controller_limits, acts, goal.tobytes(), self.warm, clear)
+
+
+#: IPOPT options of a warm-started solve (``ExtraConstraints.warm``).
+_WARM: dict[str, Any] = {"ipopt.mu_init": 1e-4, "ipopt.warm_start_init_point": "yes"}
+
+
+def _peak_rule(problem: _Problem) -> bool:
+    """Evaluate on eighths when the objective or a bounded metric is a peak (epigraph) metric."""
+    extra = problem.extra
+    bounded = extra.metric if extra is not None else None
+    return problem.objective in _PEAK_OBJECTIVES or bounded in _PEAK_OBJECTIVES
+
+
+def _extra_constraints(
+    problem: _Problem, grid: _Grid, var: _Variables, cons: _Constraints, tau: Any, par: _Params
+) -> None:
+    """The :class:`ExtraConstraints` of the problem, if any."""
+    extra = problem.extra
+    if extra is None:
+        return
+    if extra.metric is not None:
+        if extra.metric not in OPTIMAL_OBJECTIVES:
+            raise BioPlanError(
+                f"unknown bounded metric {extra.metric!r}: expected one of "
+                f"{', '.join(OPTIMAL_OBJECTIVES)}"
+            )
+        bounded = _objective(
+            dataclasses.replace(problem, objective=extra.metric), grid, var, cons, tau, par
+        )
+        par.set("bound", extra.bound)
+        par.set("bound_scale", max(abs(extra.bound), 1e-9))
+        cons.add((bounded - par["bound"]) / par["bound_scale"], -np.inf, 0.0)
+    if extra.controller_limits:
+        _controller_limits(problem, grid, cons)
+    if extra.actuators is not None:
+        extra.actuators.constrain(problem.robot, problem.goal, grid, cons, tau, problem.free)
+    if extra.clearance is not None:
+        extra.clearance.constrain(problem.robot, grid, cons)
+
+
+def _controller_limits(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
+    """|q̈| <= qdd_max at the nodes and |q⃛| <= jerk_max on every interval (free joints)."""
+    robot, T = problem.robot, grid.T
+    for j in problem.free:
+        s = float(_scales(problem)[j])
+        amax = float(np.asarray(robot.qdd_max)[j])
+        jmax = float(np.asarray(robot.jerk_max)[j])
+        qdd = grid.qdd[j, :]
+        if math.isfinite(amax):
+            cons.add(qdd * T**2 / s, -amax * float(problem.duration) ** 2 / s, np.inf)
+            cons.add(qdd * T**2 / s, -np.inf, amax * float(problem.duration) ** 2 / s)
+        if math.isfinite(jmax):
+            step = qdd[1:] - qdd[:-1]
+            cons.add((step - jmax * grid.h) * T**2 / s, -np.inf, 0.0)
+            cons.add((step + jmax * grid.h) * T**2 / s, 0.0, np.inf)
+
+
+# ----------------------------------------------------------------------------------------------
 # Solve
 # ----------------------------------------------------------------------------------------------
 
@@ -814,6 +919,7 @@ def _nlp(problem: _Problem, warm: Trajectory) -> tuple[dict[str, Any], dict[str,
     tau = _torques(problem, grid)
     _torque_limits(problem, cons, tau)
     cost = _objective(problem, grid, var, cons, tau, par)
+    _extra_constraints(problem, grid, var, cons, tau, par)
     var.apply_rules(par)
     x = var.vector()
     lbx, ubx, x0 = var.arrays()
@@ -859,6 +965,7 @@ def _structure_key(problem: _Problem) -> tuple[Any, ...]:
         tuple(float(problem.start[j]) for j in range(problem.start.size) if j not in problem.free),
         problem.no_reversal,
         tuple(np.round(_scales(problem), 9)),
+        None if problem.extra is None else problem.extra.key(problem.goal),
     )
 
 
@@ -869,7 +976,9 @@ def _solver(problem: _Problem, nlp: dict[str, Any]) -> Any:
     key = _structure_key(problem)
     solver = _SOLVERS.get(key)
     if solver is None:
-        solver = ca.nlpsol("optimal", "ipopt", nlp, _IPOPT_OPTIONS)
+        extra = problem.extra
+        warm = extra is not None and extra.warm
+        solver = ca.nlpsol("optimal", "ipopt", nlp, {**_IPOPT_OPTIONS, **(_WARM if warm else {})})
         if len(_SOLVERS) >= _SOLVER_CACHE_SIZE:
             _SOLVERS.pop(next(iter(_SOLVERS)))
         _SOLVERS[key] = solver
@@ -891,6 +1000,7 @@ def solve_optimal(
     report_samples: int = 1000,
     name: str = "optimal",
     explain: bool = True,
+    extra: ExtraConstraints | None = None,
 ) -> OptimalResult:
     """Solve one optimal-control problem by direct transcription and IPOPT.
 
@@ -909,6 +1019,8 @@ def solve_optimal(
         explain: when infeasible, search the shortest feasible duration and name it and the
             binding limit in the error (:mod:`app.planning.shortest_duration`; a few cheap
             solves).
+        extra: further constraints (a metric bound, the controller's acceleration and jerk
+            limits, the actuators' envelopes): :class:`ExtraConstraints`.
 
     Returns:
         The solution; ``solver.status`` is ``Solve_Succeeded``.
@@ -927,6 +1039,8 @@ def solve_optimal(
     problem = _problem(
         robot, start, goal, duration, objective, human, warm_start, n_intervals, no_reversal
     )
+    if extra is not None:
+        problem = dataclasses.replace(problem, extra=extra)
     nlp, args, cost_fn = _nlp(problem, warm_start)
     solver = _solver(problem, nlp)
     sol = solver(**args)
@@ -1010,6 +1124,7 @@ def _infeasible(status: str, problem: _Problem) -> bool:
             problem.robot, problem.start, problem.goal, problem.duration, objective="tau_sq",
             human=problem.human, n_intervals=problem.n_intervals,
             no_reversal=problem.no_reversal, report_samples=11, explain=False,
+            extra=problem.extra,
         )  # fmt: skip
     except SolverError as exc:
         return exc.infeasible

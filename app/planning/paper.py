@@ -152,6 +152,8 @@ class PlanProblem:
         v += np.maximum(np.abs(qd) / np.asarray(robot.qd_max) - 1.0, 0.0).max(axis=(1, 2))
         v += np.maximum(np.abs(tau) / tau_max - 1.0, 0.0).max(axis=(1, 2))
         span = np.maximum(q_max - q_min, 1e-9)
+        # An unbounded side (a continuous joint) has no violation: inf / inf would be NaN.
+        span = np.where(np.isfinite(span), span, 1.0)
         v += np.maximum((q_min - q) / span, 0.0).max(axis=(1, 2))
         v += np.maximum((q - q_max) / span, 0.0).max(axis=(1, 2))
         # The elbow's speed must peak at the via point (where it equals the via speed).

@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from app.jsonsafe import json_safe
+from app.planning.actuators import plan_actuators
 from app.planning.energy import (
     FLOOR_NOTES,
     OBJECTIVES,
@@ -51,15 +53,17 @@ from app.planning.human_constraints import (
     template_speed_on_stroke,
 )
 from app.planning.human_template import HumanTemplate, flexion_on_stroke, joint_on_stroke
-from app.planning.jsonsafe import json_safe
 from app.planning.methods import (
     ALL_METHODS,
     DEFAULT_METHODS,
+    METHOD_ERRORS,
     BoundViolation,
+    MethodFailure,
     MethodResult,
     beats_bound,
     bound_rules,
     check_methods,
+    failure_of,
     human_spec,
     objective_value,
     refine_to_convergence,
@@ -74,13 +78,17 @@ from app.planning.paper import PlanProblem
 from app.planning.profiles import quintic
 from app.planning.pso import PSOResult
 from app.planning.robots import Robot
+from app.planning.safety import SafetyReport, check_safety, not_checked
+from app.planning.shortest_duration import rest_overload, shortest_verified_duration
 from app.progress import ProgressFn, report, within
 
 __all__ = [
     "ALL_METHODS",
     "DEFAULT_METHODS",
     "EvaluatedTrajectory",
+    "MethodFailure",
     "MethodResult",
+    "PlanFailed",
     "PlanProblem",
     "PlanResult",
     "PlanTask",
@@ -94,13 +102,30 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
+#: The safety report's reason when ``plan(..., safety=False)`` skipped the check.
+SKIPPED = "not checked: skipped on request (safety=False)"
+
+
+class PlanFailed(PlanningError):
+    """No method but the quintic succeeded although others were asked for.
+
+    Attributes:
+        failures: every failed method's own error, by name.
+    """
+
+    def __init__(self, message: str, failures: dict[str, MethodFailure]) -> None:
+        super().__init__(message)
+        self.failures = failures
+
 
 @dataclass(frozen=True)
 class PlanResult:
     """Every requested method on the same task, with metrics, floors and shares.
 
     ``standard`` is the quintic and ``optimized`` the paper's method (None when it was not
-    requested); ``methods`` holds every method by name (``result.methods["bound"].trajectory``).
+    requested or failed); ``methods`` holds every method that succeeded by name
+    (``result.methods["bound"].trajectory``) and ``method_errors`` every one that failed, with
+    its own error (a plan needs the quintic and at least one other method, docs/planning.md).
     ``to_dict()`` is the JSON of ``bioplan plan --json`` (DESIGN.md's CLI contract).
     """
 
@@ -126,6 +151,11 @@ class PlanResult:
     phase_shares: PhaseShares | None = None
     joint_names: tuple[str, ...] = field(default=())
     human_rule: str = ""
+    #: Collision and workspace check of every method (``app.planning.safety``).
+    safety: SafetyReport = field(default_factory=lambda: not_checked(SKIPPED))
+    method_errors: dict[str, MethodFailure] = field(default_factory=dict)
+    #: Each method's margins to the actuator limits (``app.planning.actuators``; {} without).
+    actuators: dict[str, Any] = field(default_factory=dict)
 
     @property
     def improvement_pct(self) -> dict[str, Any]:
@@ -167,6 +197,13 @@ class PlanResult:
             )
             for name, m in self.methods.items()
         }
+
+    def lift(self) -> dict[str, Any]:
+        """Whether the task lifts or lowers: ``delta_pe_j``, the potential-energy change of the
+        robot and its payload from start to goal [J] (the net work every method does), and
+        ``lifts`` (ΔPE > 0; a lowering gives energy back, which the floors account for)."""
+        delta = float(self.floors.delta_potential)
+        return {"delta_pe_j": delta, "lifts": delta > 0.0}
 
     def method(self, name: str) -> MethodResult:
         """One method's result by name."""
@@ -222,6 +259,7 @@ class PlanResult:
             "task": {
                 "start_deg": np.degrees(self.task.start).tolist(),
                 "goal_deg": np.degrees(self.task.goal).tolist(),
+                **self.lift(),
             },
             "standard": self.standard.to_dict(),
             "floors": self.floors.to_dict(),
@@ -234,9 +272,12 @@ class PlanResult:
             "conditions": self._conditions(),
             "warnings": list(self.warnings),
             "methods": self._methods_dict(),
+            "method_errors": {n: f.to_dict() for n, f in self.method_errors.items()},
             "share_of_achievable_pct": self.share_of_achievable_pct,
             "floor_notes": dict(FLOOR_NOTES),
             "human_likeness_reference": self._likeness_reference(),
+            "safety": self.safety.to_dict(),
+            "actuators": self.actuators,
         }
         if self.optimized is not None:
             out["optimized"] = self.optimized.to_dict()
@@ -269,6 +310,7 @@ class PlanResult:
             "template_lifts": self.template.n_lifts,
             "template_is_paper_default": self.template.is_paper_default,
             "methods": list(self.methods),
+            "failed_methods": list(self.method_errors),
             "human_constraint": self.human_constraint,
             "no_reversal": self.no_reversal,
             "phase_shares": None if self.phase_shares is None else self.phase_shares.to_dict(),
@@ -392,6 +434,9 @@ def _plan_warnings(
         if m.evaluated.violations:
             what = "the standard quintic" if name == "quintic" else f"{name} (fine report grid)"
             warnings.append(f"{what} violates limits: " + "; ".join(m.evaluated.violations))
+        clearance = (m.solver or {}).get("clearance") or {}
+        if clearance.get("warning"):  # the mounting plane could not be kept clear
+            warnings.append(f"{name}: {clearance['warning']}")
     return warnings
 
 
@@ -402,6 +447,28 @@ class _Optimal:
     n_intervals: int
     no_reversal: bool
     converge: bool = False
+
+
+@dataclass
+class _Outcome:
+    """What ``_run_methods`` made: results and failures by method, the PSO run, the via time."""
+
+    results: dict[str, MethodResult] = field(default_factory=dict)
+    failures: dict[str, MethodFailure] = field(default_factory=dict)
+    pso: PSOResult | None = None
+    via_time: float | None = None
+
+    def attempt(self, name: str, run: Any) -> MethodResult | None:
+        """``run()``'s result stored under ``name``, or its own error (METHOD_ERRORS) stored
+        as the method's failure; anything else is a bug and propagates."""
+        try:
+            result: MethodResult = run()
+        except METHOD_ERRORS as exc:
+            self.failures[name] = failure_of(name, exc)
+            self.results.pop(name, None)
+            return None
+        self.results[name] = result
+        return result
 
 
 def _run_methods(
@@ -415,27 +482,32 @@ def _run_methods(
     optimal: _Optimal,
     report_samples: int,
     progress: ProgressFn | None,
-) -> tuple[dict[str, MethodResult], PSOResult | None, float | None]:
-    """Run every chosen method (the quintic always) on the same report grid."""
-    standard = quintic(task.start, task.goal, duration, n_samples=report_samples)
-    results = {"quintic": MethodResult("quintic", evaluate_trajectory(robot, standard, task))}
-    pso: PSOResult | None = None
-    via_time: float | None = None
+) -> _Outcome:
+    """Run every chosen method (the quintic always) on the same report grid; a method's own
+    error is kept as its failure and the others still run."""
+    out = _Outcome()
+    out.attempt("quintic", lambda: MethodResult(
+        "quintic",
+        evaluate_trajectory(
+            robot, quintic(task.start, task.goal, duration, n_samples=report_samples), task
+        ),
+    ))  # fmt: skip
     optimal_share = 0.5 if "paper" in chosen else 0.0
     if "paper" in chosen:
-        results["paper"], pso, via_time = run_paper(
-            robot,
-            task,
-            duration=duration,
-            objective=objective,
-            report_samples=report_samples,
-            progress=within(progress, 0.0, optimal_share),
-            **paper_args,
-        )
+
+        def paper() -> MethodResult:
+            result, out.pso, out.via_time = run_paper(
+                robot, task, duration=duration, objective=objective,
+                report_samples=report_samples, progress=within(progress, 0.0, optimal_share),
+                **paper_args,
+            )  # fmt: skip
+            return result
+
+        out.attempt("paper", paper)
     if "jerk_limited" in chosen:
-        results["jerk_limited"] = run_jerk_limited(
+        out.attempt("jerk_limited", lambda: run_jerk_limited(
             robot, task, duration=duration, report_samples=report_samples
-        )
+        ))  # fmt: skip
     todo = [m for m in ("human_optimal", "bound", "bound_unrestricted") if m in chosen]
     for i, name in enumerate(todo):
         report(
@@ -446,48 +518,84 @@ def _run_methods(
             fraction=optimal_share + (1 - optimal_share) * i / len(todo),
             message=f"optimal control: {name}",
         )
-        if name == "human_optimal":
-            results[name] = run_optimal(
-                robot,
-                task,
-                name=name,
-                duration=duration,
-                objective=objective,
-                spec=optimal.spec,
-                warm=results.get("paper"),
-                n_intervals=optimal.n_intervals,
-                no_reversal=optimal.no_reversal,
-                report_samples=report_samples,
-            )
-            if optimal.converge:
-                results[name] = refine_to_convergence(
-                    robot, task, results[name], duration=duration, objective=objective,
-                    spec=optimal.spec, no_reversal=optimal.no_reversal,
-                    report_samples=report_samples, keep_lowest=False,
-                )  # fmt: skip
-            continue
+        human = name == "human_optimal"
         # Every bound starts from the best of the other methods (the task's bound too, for the
         # unrestricted one, whose rules it obeys) and is improved until none beats it.
-        results[name] = run_bound(
-            robot,
-            task,
-            name=name,
-            duration=duration,
-            objective=objective,
-            candidates=dict(results),
-            n_intervals=optimal.n_intervals,
-            no_reversal=optimal.no_reversal and name == "bound",
-            report_samples=report_samples,
-            stricter="bound" if name == "bound_unrestricted" and optimal.no_reversal else None,
-        )
-        if optimal.converge:
-            results[name] = refine_to_convergence(
-                robot, task, results[name], duration=duration, objective=objective,
-                spec=HumanSpec("none", robot.elbow_joint),
+        made = out.attempt(name, lambda name=name, human=human: (
+            run_optimal(
+                robot, task, name=name, duration=duration, objective=objective,
+                spec=optimal.spec, warm=out.results.get("paper"),
+                n_intervals=optimal.n_intervals, no_reversal=optimal.no_reversal,
+                report_samples=report_samples,
+            ) if human else run_bound(
+                robot, task, name=name, duration=duration, objective=objective,
+                candidates=dict(out.results), n_intervals=optimal.n_intervals,
                 no_reversal=optimal.no_reversal and name == "bound",
-                report_samples=report_samples, keep_lowest=True,
-            )  # fmt: skip
-    return {m: results[m] for m in chosen}, pso, via_time
+                report_samples=report_samples,
+                stricter="bound" if name == "bound_unrestricted" and optimal.no_reversal
+                and "bound" in out.results else None,
+            )
+        ))  # fmt: skip
+        if made is not None and optimal.converge:
+            out.attempt(name, lambda name=name, human=human, made=made: refine_to_convergence(
+                robot, task, made, duration=duration, objective=objective,
+                spec=optimal.spec if human else HumanSpec("none", robot.elbow_joint),
+                no_reversal=optimal.no_reversal and name in ("human_optimal", "bound"),
+                report_samples=report_samples, keep_lowest=not human,
+            ))  # fmt: skip
+    out.results = {m: out.results[m] for m in chosen if m in out.results}
+    return out
+
+
+def _require_enough(outcome: _Outcome, chosen: tuple[str, ...]) -> None:
+    """A plan needs the quintic (every saving's reference) and, when others were asked for, at
+    least one of them; otherwise the clearest failure is raised: the only one itself (its own
+    type, e.g. ``SolverError``), else :class:`PlanFailed` led by an infeasibility that names a
+    duration, then any infeasibility, then the first failure, with the others after it."""
+    failures = outcome.failures
+    if "quintic" in failures:
+        raise failures["quintic"].exception
+    if len(outcome.results) > 1 or len(chosen) == 1:
+        return
+    if len(failures) == 1:
+        raise next(iter(failures.values())).exception
+
+    def rank(f: MethodFailure) -> int:
+        if f.kind == "infeasible" and "expected a duration" in f.error:
+            return 0
+        return 1 if f.kind == "infeasible" else 2
+
+    ordered = sorted(failures.values(), key=rank)
+    lead, rest = ordered[0], ordered[1:]
+    raise PlanFailed(
+        f"no method but the quintic succeeded: {lead.name}: {lead.error} (also failed: "
+        + "; ".join(f"{f.name}: {f.error}" for f in rest)
+        + ")",
+        failures,
+    )
+
+
+def _check_feasible_at_all(
+    robot: Robot, task: PlanTask, duration: float, chosen: tuple[str, ...]
+) -> None:
+    """Refuse, before any method runs, what no method can do: a stroke faster than a speed
+    limit allows (naming the joint, the limit and a duration verified by planning at it), and,
+    when a method that keeps the torque limits is asked for, a load no joint can hold still at
+    the start or the goal (no duration helps)."""
+    mean_speed = np.abs(np.asarray(task.goal) - np.asarray(task.start)) / duration
+    slow = np.flatnonzero(mean_speed > np.asarray(robot.qd_max))
+    if slow.size:
+        j = int(slow[np.argmax(mean_speed[slow] / np.asarray(robot.qd_max)[slow])])
+        found = shortest_verified_duration(robot, task.start, task.goal)
+        raise PlanningError(
+            f"infeasible: joint {j + 1} ({robot.joint_names[j]}) must average "
+            f"{mean_speed[j]:.2f} rad/s over {duration:g} s but its speed limit is "
+            f"{robot.qd_max[j]:.3g} rad/s: {found.describe()}"
+        )
+    if set(chosen) & {"paper", "human_optimal", "bound", "bound_unrestricted"}:
+        why = rest_overload(robot, task.start, task.goal)
+        if why:
+            raise PlanningError(why)
 
 
 def plan(
@@ -508,6 +616,7 @@ def plan(
     no_reversal: bool = True,
     n_intervals: int = DEFAULT_INTERVALS,
     converge: bool = False,
+    safety: bool = True,
     progress: ProgressFn | None = None,
 ) -> PlanResult:
     """Plan a task with the chosen methods and compare them.
@@ -533,6 +642,9 @@ def plan(
         converge: refine every optimal-control result on meshes of 2N, 4N, ... intervals until
             its objective changes by less than 0.1 % (``solver.convergence`` holds the
             evidence). Off by default: it multiplies their cost (docs/planning.md).
+        safety: check every method's trajectory for collisions with the robot itself, the
+            mounting plane and the sidecar's obstacles (``result.safety``); False skips it
+            (the report then says "not checked", never "ok").
         progress: called with a ``Progress`` (stages ``pso``, ``optimal_control``, ``done``).
 
     Returns:
@@ -548,6 +660,8 @@ def plan(
     given_template = template
     template = template or HumanTemplate()
     task = task or PlanTask.default(robot)
+    if np.shape(task.start) == np.shape(task.goal) == (robot.n_joints,) and duration > 0:
+        _check_feasible_at_all(robot, task, duration, chosen)
     validate_task(robot, task, duration)
     q_via, target_deg = _peak_target(robot, task, template, peak_angle_deg)
     if "human_optimal" in chosen:
@@ -561,7 +675,7 @@ def plan(
             q_via,
         )
         spec, shares = HumanSpec("none", robot.elbow_joint), None
-    results, pso, via_time = _run_methods(
+    outcome = _run_methods(
         robot,
         task,
         chosen,
@@ -579,6 +693,8 @@ def plan(
         report_samples=report_samples,
         progress=progress,
     )
+    _require_enough(outcome, chosen)
+    results, pso, via_time = outcome.results, outcome.pso, outcome.via_time
     fl = task_floors_of(robot, task, duration)
     for name, m in results.items():
         check_floors(m.evaluated, fl, name)
@@ -588,7 +704,10 @@ def plan(
     warnings = [
         *_plan_warnings(given_template, results),
         *_bound_warnings(objective, results, values),
+        *(f"{f.name} failed: {f.error}" for f in outcome.failures.values()),
     ]
+    actuators, actuator_warnings = plan_actuators(robot, results)
+    warnings += actuator_warnings
     return PlanResult(
         robot=robot.name,
         objective=objective,
@@ -612,4 +731,11 @@ def plan(
         phase_shares=shares,
         joint_names=tuple(robot.joint_names),
         human_rule=spec.rules() if "human_optimal" in chosen else "",
+        method_errors=dict(outcome.failures),
+        actuators=actuators,
+        safety=(
+            check_safety(robot, {n: m.trajectory for n, m in results.items()})
+            if safety
+            else not_checked(SKIPPED)
+        ),
     )

@@ -24,7 +24,13 @@ from app.planning.evaluation import PlanTask, evaluate_trajectory
 from app.planning.optimal import FloatArray, HumanSpec, OptimalResult, SolverError, solve_optimal
 from app.planning.robots import Robot
 
-__all__ = ["ShortestDuration", "shortest_feasible_duration"]
+__all__ = [
+    "ShortestDuration",
+    "VerifiedDuration",
+    "rest_overload",
+    "shortest_feasible_duration",
+    "shortest_verified_duration",
+]
 
 #: Relative width of the final bracket [lo, hi]: hi is reported, a solved duration.
 REL_TOL = 0.01
@@ -155,3 +161,123 @@ def _static_overload(robot: Robot, start: FloatArray, goal: FloatArray) -> str:
         f"holding still {s[k, 0]:.0%} of the way along the straight joint path needs "
         f"{tau:.1f} Nm at joint {robot.joint_names[j]}, above its {robot.tau_max[j]:g} Nm limit"
     )
+
+
+#: A verified duration is rounded up to this step [s] (the number the user types back).
+_DURATION_STEP = 1e-3
+#: The verified duration grows by this factor while the checked move still breaks a limit.
+_GROWTH = 1.05
+#: A rest-to-rest quintic's peak speed over its mean speed (15/8).
+QUINTIC_PEAK_RATIO = 1.875
+
+
+@dataclass(frozen=True)
+class VerifiedDuration:
+    """The shortest duration of a speed-limited task, and one that was checked to work.
+
+    Attributes:
+        lower: no rest-to-rest move is faster: the largest stroke over its speed limit [s].
+        joint: the joint that sets ``lower`` (its name).
+        speed_limit: that joint's speed limit [rad/s].
+        duration: a duration [s] at which ``method``'s move was planned and evaluated within
+            every joint's position, speed and torque limits (None: none up to the search's end).
+        method: ``jerk_limited`` (ruckig's time-optimal move, within the acceleration and jerk
+            limits too) or ``quintic`` (when ruckig cannot plan the robot).
+    """
+
+    lower: float
+    joint: str
+    speed_limit: float
+    duration: float | None
+    method: str
+
+    def describe(self) -> str:
+        """The part of the one-line error that says what is feasible."""
+        bound = (
+            f"no rest-to-rest move is faster than {self.lower:.3f} s (joint {self.joint}'s "
+            f"stroke at its {self.speed_limit:.3g} rad/s limit)"
+        )
+        if self.duration is None:
+            return (
+                f"{bound}, and no {self.method} move up to {MAX_FACTOR:g} times that keeps "
+                "every limit: expected a lighter payload or wider limits"
+            )
+        return (
+            f"expected a duration of at least {self.duration:.3f} s (verified: the "
+            f"{self.method} move of {self.duration:.3f} s keeps every joint's position, speed "
+            f"and torque limits; {bound})"
+        )
+
+
+def shortest_verified_duration(
+    robot: Robot, start: FloatArray, goal: FloatArray, *, max_factor: float = MAX_FACTOR
+) -> VerifiedDuration:
+    """The shortest duration the speed limits allow, and one checked by planning at it.
+
+    ``lower`` (stroke over speed limit) is only necessary; the returned ``duration`` is
+    ruckig's time-optimal jerk-limited move (the ``jerk_limited`` method, which then succeeds at
+    it), rounded up to 1 ms and lengthened by 5 % steps until Pinocchio's evaluation of the move
+    breaks no limit. Without finite acceleration and jerk limits it is the quintic's (peak speed
+    15/8 of the mean), checked the same way.
+    """
+    from app.planning.jerk_limited import JerkLimitedError, _calculate, jerk_limited
+    from app.planning.profiles import quintic
+
+    start, goal = np.asarray(start, float), np.asarray(goal, float)
+    times = np.abs(goal - start) / np.asarray(robot.qd_max, float)
+    j = int(np.argmax(times))
+    lower = float(times[j])
+    task = PlanTask(start, goal)
+    try:
+        first = float(_calculate(robot, start, goal, None).duration)  # type: ignore[attr-defined]
+        method = "jerk_limited"
+    except JerkLimitedError:
+        first, method = QUINTIC_PEAK_RATIO * lower, "quintic"
+    duration = math.ceil(max(first, lower) / _DURATION_STEP) * _DURATION_STEP
+    while duration <= max_factor * max(lower, _DURATION_STEP):
+        if method == "jerk_limited":
+            traj = jerk_limited(robot, start, goal, duration, n_samples=501)
+        else:
+            traj = quintic(start, goal, duration, n_samples=501)
+        if not evaluate_trajectory(robot, traj, task).violations:
+            return VerifiedDuration(
+                lower, robot.joint_names[j], float(robot.qd_max[j]), duration, method
+            )
+        duration = math.ceil(duration * _GROWTH / _DURATION_STEP) * _DURATION_STEP
+    return VerifiedDuration(lower, robot.joint_names[j], float(robot.qd_max[j]), None, method)
+
+
+def rest_overload(robot: Robot, start: FloatArray, goal: FloatArray) -> str:
+    """Why no duration helps, or "": a joint cannot hold the robot and payload still at the
+    start or the goal, where every motion begins and ends at rest.
+
+    The static torque there is the gravity torque g(q), which no duration changes. It is affine
+    in the payload's mass, g0 + m s (s from a second evaluation with 1 kg more), so the message
+    also names the heaviest payload every joint holds at both ends.
+    """
+    rest = np.stack([np.asarray(start, float), np.asarray(goal, float)])
+    zero = np.zeros_like(rest)
+    limit = np.asarray(robot.tau_max, float)
+    g = robot.dynamics().inverse_dynamics(rest, zero, zero)
+    ratio = np.abs(g) / limit
+    k, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    if ratio[k, j] <= 1.0:
+        return ""
+    mass = float(robot.payload.mass)
+    heavier = robot.with_payload(mass + 1.0).dynamics().inverse_dynamics(rest, zero, zero)
+    slope = heavier - g
+    g0 = g - mass * slope  # without the payload
+    where = ("start", "goal")[k]
+    head = (
+        f"infeasible: holding the {mass:g} kg payload still at the {where} needs "
+        f"{abs(g[k, j]):.1f} Nm at joint {robot.joint_names[j]}, above its {limit[j]:g} Nm "
+        "limit: no duration helps (every motion starts and ends at rest there)"
+    )
+    if np.any(np.abs(g0) > limit * (1.0 + 1e-9)):
+        return head + ": expected stronger joints (the arm cannot hold itself still there)"
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = np.where(
+            slope > 0, (limit - g0) / slope, np.where(slope < 0, (limit + g0) / -slope, np.inf)
+        )
+    heaviest = float(np.min(room))
+    return head + f": expected a payload of at most {heaviest:.3g} kg or stronger joints"

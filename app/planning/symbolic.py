@@ -124,6 +124,30 @@ class SymbolicChain:
                 forces[body.parent] = (n_p + rot[i] @ n_i + ca.cross(pos[i], f_rot), f_p + f_rot)
         return ca.vertcat(*tau)
 
+    def joint_placements(self, q: Any) -> list[tuple[Any, Any]]:
+        """Forward kinematics: every joint frame's pose in the base frame as CasADi expressions.
+
+        Args:
+            q: (n,) joint positions [rad] (CasADi SX/MX or anything indexable).
+
+        Returns:
+            One (rotation (3, 3), translation (3, 1) [m]) per joint, root to tip: a point x of
+            joint i's frame is at ``rotation @ x + translation`` in the base frame (Pinocchio's
+            ``data.oMi``).
+        """
+        import casadi as ca
+
+        out: list[tuple[Any, Any]] = []
+        for i, body in enumerate(self.bodies):
+            local_r = ca.DM(body.rotation) @ _rodrigues(ca, body.axis, q[i])
+            local_p = ca.DM(body.translation)
+            if body.parent < 0:
+                out.append((local_r, local_p))
+            else:
+                parent_r, parent_p = out[body.parent]
+                out.append((parent_r @ local_r, parent_p + parent_r @ local_p))
+        return out
+
     @staticmethod
     def _body_force(ca: Any, body: _Body, v: tuple[Any, Any], a: tuple[Any, Any]) -> Any:
         """Spatial force I a + v ×* (I v) on one body, (moment about the origin, force)."""

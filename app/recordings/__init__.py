@@ -6,12 +6,19 @@ message names the file, the line or channel, and what was expected.
 """
 
 from app.names import MAX_VIDEO_SECONDS
-from app.recordings._bids import BidsDataset, bids_entities, read_bids
+from app.recordings._bids import (
+    CONDITION_RULE,
+    BidsDataset,
+    bids_entities,
+    condition_from_files,
+    read_bids,
+)
 from app.recordings._mediapipe import LANDMARK_NAMES
 from app.recordings._read import read_bytes, read_recording
 from app.recordings._sniff import FORMATS, sniff_format
 from app.recordings._video_probe import VideoProbe, looks_like_video, probe_video
 from app.recordings.muscles import map_muscle
+from app.recordings.robot_logs import LOG_FORMATS, RobotLog, read_robot_log, sniff_robot_log
 from app.recordings.types import (
     SITES,
     Channel,
@@ -38,8 +45,10 @@ from app.recordings.video import (
 )
 
 __all__ = [
+    "CONDITION_RULE",
     "FORMATS",
     "LANDMARK_NAMES",
+    "LOG_FORMATS",
     "MAX_VIDEO_SECONDS",
     "POSE_PYTHON_ENV",
     "SITES",
@@ -53,10 +62,12 @@ __all__ = [
     "RateCheck",
     "Recording",
     "RecordingError",
+    "RobotLog",
     "Site",
     "SkeletonFrame",
     "VideoProbe",
     "bids_entities",
+    "condition_from_files",
     "create_pose_env",
     "default_pose_env",
     "extract_pose",
@@ -69,6 +80,8 @@ __all__ = [
     "read_bids",
     "read_bytes",
     "read_recording",
+    "read_robot_log",
     "save_skeletons",
     "sniff_format",
+    "sniff_robot_log",
 ]

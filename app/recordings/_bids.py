@@ -61,6 +61,61 @@ def bids_entities(filename: str) -> dict[str, str]:
     return out
 
 
+#: Where a recording's condition comes from when the user gives none (first match wins).
+CONDITION_RULE = (
+    "a cond-<label> entity in a file name, else the Condition field of a BIDS _emg.json"
+    " sidecar, else the acq-<label> entity, else the task-<label> entity; all files of the"
+    " session must agree"
+)
+_ENTITY_ANYWHERE = re.compile(r"(?:^|_)(?P<key>cond|acq|task)-(?P<value>[a-zA-Z0-9]+)(?=_|\.|$)")
+
+
+def condition_from_files(
+    names: Iterable[str], sidecars: dict[str, bytes] | None = None
+) -> tuple[str, str] | None:
+    """The condition named by an upload's file names or BIDS sidecars (:data:`CONDITION_RULE`).
+
+    Args:
+        names: the recording files' names (``sub-01_task-curl_acq-supinated_emg.edf``; the
+            entities are also found in non-BIDS names such as ``S01_cond-heavy.csv``).
+        sidecars: ``_emg.json`` sidecars by file name (their ``Condition`` string is used).
+
+    Returns:
+        (condition, where it came from in words), or None when nothing names one or the
+        files disagree at the first level that names one.
+    """
+    files = list(names)
+    found: dict[str, dict[str, str]] = {"cond": {}, "json": {}, "acq": {}, "task": {}}
+    for name in files:
+        for m in _ENTITY_ANYWHERE.finditer(name):
+            found[m["key"]].setdefault(name, m["value"][:100])  # the column holds 100
+    for side, data in (sidecars or {}).items():
+        if not side.lower().endswith("_emg.json"):
+            continue
+        try:
+            info = json.loads(data.decode("utf-8-sig"))
+        except (UnicodeDecodeError, ValueError):
+            continue
+        value = info.get("Condition") if isinstance(info, dict) else None
+        if isinstance(value, str) and value.strip():
+            found["json"][side] = value.strip()[:100]
+    words = {
+        "cond": "the cond-{v} entity of {f}",
+        "json": "the Condition field of {f}",
+        "acq": "the acq-{v} (BIDS acquisition) entity of {f}",
+        "task": "the task-{v} (BIDS task) entity of {f}",
+    }
+    for level, by_file in found.items():
+        values = set(by_file.values())
+        if len(values) == 1:
+            value = values.pop()
+            where = ", ".join(sorted(by_file))
+            return value, words[level].format(v=value, f=where)
+        if len(values) > 1:
+            return None
+    return None
+
+
 def _participants(root: Path) -> dict[str, dict[str, str]]:
     path = root / "participants.tsv"
     if not path.is_file():

@@ -33,7 +33,7 @@ def header_problem(data: bytes) -> str | None:
 
     The fixed header is 256 bytes; field offsets follow the EDF specification (number of
     header bytes at 184, number of signals at 252). A header shifted by one byte (255 bytes,
-    as in a known BIDS example) is recognised and named.
+    as in a known BIDS example) is recognised and named; :func:`repair_short_header` reads it.
     """
     if len(data) < 256:
         return f"the file is {len(data)} bytes, shorter than the 256-byte fixed header"
@@ -52,6 +52,63 @@ def header_problem(data: bytes) -> str | None:
         f"header size field {_field(data, 184, 8)!r} and signal count {_field(data, 252, 4)!r}"
         " do not agree"
     )
+
+
+#: Where the 256-byte fixed header's fields start after the 8-byte version: local patient
+#: (80 bytes), local recording (80), start date (8), start time (8), header bytes (8).
+_PATIENT, _RECORDING, _DATE = 8, 88, 168
+
+
+def repair_short_header(data: bytes) -> tuple[bytes, str] | None:
+    """The file with a 255-byte fixed header made standard, and what was done; None when
+    the shifted reading is not unambiguous.
+
+    One writer dropped a byte from a free-text field (the BIDS-EMG "Multimodal" example: the
+    patient field is 79 bytes, so the recording field starts at byte 87, the start date at
+    167, and the 256-byte signal headers at 255). The repair inserts one space: after the
+    patient field when the recording field starts there (EDF+ ``Startdate``) or the patient
+    field ends in padding, else at the end of the recording field; both are free text, so no
+    number moves. It is applied only when every shifted numeric field parses (start date
+    ``dd.mm.yy``, start time ``hh.mm.ss``, header bytes = 256 x (signals + 1), records,
+    samples per record) and the file size is exactly header + data, so the reading is not a
+    guess.
+    """
+    if len(data) < 255:
+        return None
+    ns = _int(_field(data, 251, 4))
+    hbytes = _int(_field(data, 183, 8))
+    nrec = _int(_field(data, 235, 8))
+    if ns is None or ns <= 0 or hbytes is None or nrec is None or nrec <= 0:
+        return None
+    if hbytes not in (256 * (ns + 1), 256 * (ns + 1) - 1):
+        return None
+    if not re.fullmatch(r"\d\d\.\d\d\.\d\d", _field(data, _DATE - 1, 8)):
+        return None
+    if not re.fullmatch(r"\d\d\.\d\d\.\d\d", _field(data, _DATE + 7, 8)):
+        return None
+    spr_start = 255 + ns * (16 + 80 + 8 + 8 + 8 + 8 + 8 + 80)
+    if len(data) < spr_start + 8 * ns:
+        return None
+    samples = [_int(_field(data, spr_start + 8 * i, 8)) for i in range(ns)]
+    if any(s is None or s <= 0 for s in samples):
+        return None
+    width = 3 if data[:1] == b"\xff" else 2
+    total = sum(s for s in samples if s is not None)
+    if len(data) != 255 + 256 * ns + nrec * width * total:
+        return None
+    after_patient = _RECORDING - 1
+    if data[after_patient : after_patient + 9] == b"Startdate" or data[after_patient - 1] == 32:
+        at, where = after_patient, "after the patient field"
+    else:
+        at, where = _DATE - 1, "at the end of the recording field"
+    fixed = bytearray(data[:at] + b" " + data[at:])
+    fixed[_DATE + 16 : _DATE + 24] = f"{256 * (ns + 1):<8d}".encode("ascii")
+    note = (
+        "EDF fixed header is 255 bytes instead of 256 (a writer's quirk); read with one"
+        f" space inserted {where}: the numeric fields, signal headers and"
+        f" {nrec} x {total} samples per record then agree with the file size"
+    )
+    return bytes(fixed), note
 
 
 def _expected_size(data: bytes) -> int | None:
@@ -108,8 +165,8 @@ def read_edf(src: Source, opts: Options) -> Recording:
     the EDF header, the EDF header wins (it defines the digital-to-physical scaling) and a
     warning says so.
     """
-    _check_header(src)
-    edf = _read_signals(src)
+    repaired = _check_header(src)
+    edf = _read_signals(src if repaired is None else Source(src.name, content=repaired))
     rows, info = _bids_sidecars(src)
     n = len(edf.headers)
     if rows is not None and len(rows) != n:
@@ -130,9 +187,18 @@ def read_edf(src: Source, opts: Options) -> Recording:
     return Recording(channels=channels, source=src.name, format="edf", metadata=metadata)
 
 
-def _check_header(src: Source) -> None:
+def _check_header(src: Source) -> bytes | None:
+    """Refuse a malformed header by name. A 255-byte one that :func:`repair_short_header`
+    reads unambiguously is repaired with a warning: the repaired bytes are returned."""
     data = src.data()
     problem = header_problem(data)
+    repaired = None
+    if problem is not None and "255 bytes" in problem:
+        fixed = repair_short_header(data)
+        if fixed is not None:
+            repaired, note = fixed
+            src.warn(note)
+            data, problem = repaired, None
     if problem is not None:
         raise src.error(
             f"EDF header is not standard-compliant: {problem}",
@@ -144,6 +210,7 @@ def _check_header(src: Source) -> None:
             f"is truncated: the header announces {size} bytes, the file has {len(data)}",
             expected="a complete EDF file",
         )
+    return repaired
 
 
 @dataclass

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app import names
+from app.jsonsafe import json_safe
 from app.planning.energy import EnergyMetrics, Floors, improvement_pct
-from app.planning.jsonsafe import json_safe
 from app.progress import ProgressFn, report, within
 from app.simulation.tracking import (
     DEFAULT_DAMPING_RATIO,
@@ -57,6 +57,10 @@ METRICS: tuple[str, ...] = names.OBJECTIVES
 AGREEMENT_PCT = 2.0
 #: Relative slack below the physical floors tolerated in simulated metrics [-].
 FLOOR_SLACK = 0.005
+#: A planned value below this fraction of its metric's scale (:func:`metric_scale`) is near
+#: zero: a percentage of it means nothing, so its difference is stated in the metric's unit and
+#: judged against AGREEMENT_PCT of the scale instead [-].
+NEAR_ZERO_FRACTION = 0.01
 
 
 def _phase(flexion_deg: float, bounds_deg: tuple[float, float]) -> str:
@@ -276,12 +280,16 @@ def _to_dict(sim: SimulationResult) -> dict[str, Any]:
         }
         d["improvement_pct"] = improvement_pct(sim.standard.metrics, run.metrics)
         d["share_of_achievable_pct"] = shares.get(name)
+        # How the plan was made (PSO, IPOPT with its mesh-refinement evidence, ruckig).
+        d["solver"] = sim.plan.methods[name].solver
         methods[name] = d
     pairs = [("standard", "quintic")] + ([("optimized", "paper")] if "paper" in sim.runs else [])
     planned: dict[str, Any] = {
         label: sim.plan.methods[name].evaluated.metrics.to_dict() for label, name in pairs
     }
     planned["improvement_pct"] = sim.plan.improvement_pct
+    # the methods that failed to plan (their own errors), so not simulated
+    planned["method_errors"] = {n: f.to_dict() for n, f in sim.plan.method_errors.items()}
     planned["simulated_minus_planned_pct"] = sim.agreement_pct()
     conditions = dict(sim.conditions)
     return {
@@ -388,6 +396,7 @@ def simulate_comparison(
     human_constraint: str = "peak",
     no_reversal: bool = True,
     n_intervals: int | None = None,
+    converge: bool = False,
     timestep: float = DEFAULT_TIMESTEP,
     feedforward: Feedforward = "pinocchio",
     natural_frequency_hz: float = DEFAULT_NATURAL_FREQUENCY_HZ,
@@ -415,6 +424,8 @@ def simulate_comparison(
         no_reversal: the optimal-control methods never move a joint against its stroke.
         n_intervals: constant-jerk intervals of the optimal-control transcription (None:
             ``plan``'s default).
+        converge: refine every optimal-control result until its objective changes by less
+            than 0.1 % (``plan(converge=True)``).
         timestep: simulation step [s].
         feedforward: ``"pinocchio"``, ``"mujoco"`` or ``"none"``.
         natural_frequency_hz: PD bandwidth [Hz].
@@ -452,6 +463,7 @@ def simulate_comparison(
         no_reversal=no_reversal,
         progress=within(progress, 0.0, 0.85),
         n_intervals=DEFAULT_INTERVALS if n_intervals is None else int(n_intervals),
+        converge=converge,
     )
     report(progress, "simulate", 0, 1, fraction=0.85, message="simulating in MuJoCo")
     names_ = list(result.methods)
@@ -517,12 +529,56 @@ def _conditions(
     }
 
 
+def metric_scale(metric: str, quintic: dict[str, float]) -> float:
+    """The size of ``metric`` in this task: the quintic's planned value of it, and for the
+    energies [J] at least the quintic's planned absolute work (positive work and, without
+    regeneration, the electrical energy are of its order; positive work is near zero on a
+    lowering task while the motion still moves joules)."""
+    keys = [metric, "abs_work"] if names.METRICS[metric].unit == "J" else [metric]
+    values = [abs(quintic.get(k, math.nan)) for k in keys]
+    finite = [v for v in values if math.isfinite(v)]  # electrical energy: NaN = not modelled
+    return max(finite) if finite else math.nan
+
+
+def agreement_warning(
+    label: str, metric: str, planned: float, simulated: float, scale: float
+) -> str | None:
+    """The warning when simulated and planned ``metric`` disagree although tracking is good.
+
+    Relative (``+3.1%``) when the planned value is at least NEAR_ZERO_FRACTION of ``scale``;
+    otherwise absolute, in the metric's unit, and only when the difference exceeds
+    AGREEMENT_PCT of ``scale`` (two near-zero values differ by a large percentage of each
+    other and by nothing that matters). None when they agree.
+    """
+    if not (math.isfinite(planned) and math.isfinite(simulated)):
+        return None
+    diff = simulated - planned
+    if math.isfinite(scale) and scale > 0 and abs(planned) < NEAR_ZERO_FRACTION * scale:
+        if abs(diff) <= AGREEMENT_PCT / 100.0 * scale:
+            return None
+        unit = names.METRICS[metric].unit
+        return (
+            f"{label}: simulated {metric} differs from the planned value by {diff:+.4g} {unit} "
+            f"(planned {planned:.4g} {unit}, near zero next to the task's scale {scale:.4g} "
+            f"{unit}; > {AGREEMENT_PCT:g}% of it) although tracking is good"
+        )
+    if planned == 0.0:
+        return None
+    pct = 100.0 * diff / abs(planned)
+    if abs(pct) <= AGREEMENT_PCT:
+        return None
+    return (
+        f"{label}: simulated {metric} differs from the planned value by {pct:+.1f}% "
+        f"(> {AGREEMENT_PCT:g}%) although tracking is good"
+    )
+
+
 def _run_warnings(sim: SimulationResult) -> list[str]:
     """Simulator warnings, simulated metrics below a floor, planned/simulated disagreement."""
     warnings: list[str] = []
     fl = sim.floors
     labels = {"quintic": "standard", "paper": "optimized"}
-    agreement = sim.agreement_pct()
+    quintic = scalar_metrics(sim.plan.methods["quintic"].evaluated.metrics)
     for name, run in sim.runs.items():
         label = labels.get(name, name)
         warnings += [f"{label}: {w}" for w in run.warnings]
@@ -538,10 +594,10 @@ def _run_warnings(sim: SimulationResult) -> list[str]:
                 )
         if not run.tracking_ok:
             continue
-        for k, v in agreement[name].items():
-            if math.isfinite(v) and abs(v) > AGREEMENT_PCT:
-                warnings.append(
-                    f"{label}: simulated {k} differs from the planned value by {v:+.1f}% "
-                    f"(> {AGREEMENT_PCT:g}%) although tracking is good"
-                )
+        simulated = scalar_metrics(run.metrics)
+        planned = scalar_metrics(sim.plan.methods[name].evaluated.metrics)
+        for k in METRICS:
+            text = agreement_warning(label, k, planned[k], simulated[k], metric_scale(k, quintic))
+            if text is not None:
+                warnings.append(text)
     return warnings

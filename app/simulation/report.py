@@ -318,12 +318,12 @@ def figure_sweep(sweep: SweepResult, objective: str, metrics: Sequence[str]) -> 
             row = []
             for p in sweep.payloads:
                 cell = sweep.cell(d, p, objective)
-                if cell.status != "ok":
-                    row.append(cell.status)
+                if cell.status != "ok" or cell.paper_infeasible:
+                    row.append(cell.classification[metric])
                     continue
                 v = cell.change_pct[metric]
                 floor = "<br>(on floor)" if cell.at_floor else ""
-                unsure = "<br>(? check seed differs)" if metric in cell.unconverged else ""
+                unsure = "<br>(? the PSO seeds disagree)" if metric in cell.unconverged else ""
                 row.append(f"{v:+.1f}%<br>{classify(v)}{floor}{unsure}")
             text.append(row)
         finite = z[np.isfinite(z)]

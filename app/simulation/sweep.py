@@ -7,13 +7,17 @@ than the quintic (every other method's change and its share of the achievable sa
 reported beside it); cells where the standard quintic already sits on the ``abs_work`` floor
 (within 1 % of |ΔPE|) are marked, and infeasible cells are reported as such.
 
-A verdict must not hang on the PSO's luck: each cell plans the paper's method a second time with
-another seed (``check_seed``) and marks the metrics whose planned verdict differs between the two
-(``unconverged``; shown as ``?``).
+A verdict must not hang on the PSO's luck: each cell plans the paper's method with ``seeds``
+seeds at the stated budget (the cell's seed, then ``check_seed``, ``check_seed + 1``, ...); a
+metric's verdict is certain only when every seed gives the same one (:func:`certify_verdicts`),
+otherwise it is marked uncertain (``unconverged``; shown as ``?``) with its spread, the min-max
+of the planned change and of the paper's share of the achievable saving over the seeds. A cell
+where the paper's family is infeasible still reports every other method (``method_status``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
@@ -26,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app import names
-from app.planning.jsonsafe import json_safe
+from app.jsonsafe import json_safe
 from app.progress import ProgressFn, report
 from app.simulation.comparison import (
     AGREEMENT_PCT,
@@ -56,6 +60,8 @@ __all__ = [
     "SimulationResult",
     "SweepCell",
     "SweepResult",
+    "Verdict",
+    "certify_verdicts",
     "classify",
     "peaks_and_phases",
     "run_sweep",
@@ -71,6 +77,11 @@ AT_FLOOR_FRACTION = 0.01
 #: PSO budget per sweep cell (modest, so a 10 x 10 grid fits in a minute on two cores).
 SWEEP_PARTICLES = 24
 SWEEP_ITERATIONS = 40
+#: Seeds of the paper's PSO per cell (the cell's and the check seeds): a verdict is certain only
+#: when all agree.
+SWEEP_SEEDS = names.SWEEP_SEEDS
+#: Uncertain verdicts listed in the text summary (all of them are in the JSON).
+MAX_UNCERTAIN_LINES = 12
 
 
 def classify(change_pct: float) -> str:
@@ -80,6 +91,53 @@ def classify(change_pct: float) -> str:
     if abs(change_pct) < NO_DIFFERENCE_PCT:
         return "no difference"
     return "saves" if change_pct > 0.0 else "costs more"
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One metric's verdict over the seeds of the paper's PSO.
+
+    Attributes:
+        verdict: the cell's verdict (its first seed's, :func:`classify`).
+        certain: every seed gives the same verdict.
+        by_seed: each seed's verdict, in seed order.
+        low_pct, high_pct: the spread: min and max of the planned change over the seeds [%]
+            (NaN when no seed has a finite change).
+    """
+
+    verdict: str
+    certain: bool
+    by_seed: tuple[str, ...]
+    low_pct: float
+    high_pct: float
+
+
+def _spread(values: Sequence[float]) -> tuple[float, float]:
+    finite = [v for v in values if math.isfinite(v)]
+    return (min(finite), max(finite)) if finite else (math.nan, math.nan)
+
+
+def certify_verdicts(changes_by_seed: Sequence[dict[str, float]]) -> dict[str, Verdict]:
+    """Certify each metric's verdict over the PSO seeds of one cell.
+
+    Args:
+        changes_by_seed: per seed (the cell's first), the planned change per metric [%]
+            (NaN where that seed found no plan).
+
+    Returns:
+        Per metric (every key of any seed): certain only when every seed's :func:`classify`
+        agrees, a seed without a plan ("n/a") agreeing with no finite change.
+    """
+    if not changes_by_seed:
+        raise ValueError("certify_verdicts needs at least one seed's changes")
+    keys = list(dict.fromkeys(k for run in changes_by_seed for k in run))
+    out: dict[str, Verdict] = {}
+    for k in keys:
+        values = [run.get(k, math.nan) for run in changes_by_seed]
+        labels = tuple(classify(v) for v in values)
+        low, high = _spread(values)
+        out[k] = Verdict(labels[0], len(set(labels)) == 1, labels, low, high)
+    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -110,9 +168,13 @@ class SweepCell:
             objective, (quintic − method) / (quintic − bound), simulated [%].
         method_status: per requested method, ``ok`` or why it has no result (e.g. the
             jerk-limited move needs more time than the cell's duration).
-        unconverged: metrics whose planned verdict changes when the paper's PSO runs with the
-            check seed (the verdict depends on the PSO's budget or luck).
-        check_planned_change_pct: the check run's planned change per metric.
+        unconverged: metrics whose planned verdict is not the same for every seed of the
+            paper's PSO (the verdict depends on the PSO's budget or luck).
+        check_planned_change_pct: the first check seed's planned change per metric.
+        seeds: the seeds the paper's PSO ran with (the cell's first).
+        verdicts: per metric, the certified verdict over the seeds (:class:`Verdict`).
+        paper_share_by_seed: per seed, the paper's planned share of the achievable saving of
+            the objective [%] (NaN without a bound or a plan).
     """
 
     duration: float
@@ -134,18 +196,35 @@ class SweepCell:
     method_status: dict[str, str] = field(default_factory=dict)
     unconverged: tuple[str, ...] = ()
     check_planned_change_pct: dict[str, float] = field(default_factory=dict)
+    seeds: tuple[int, ...] = ()
+    verdicts: dict[str, Verdict] = field(default_factory=dict)
+    paper_share_by_seed: tuple[float, ...] = ()
+
+    @property
+    def paper_infeasible(self) -> bool:
+        """The paper's family had no plan within the limits (the other methods still ran)."""
+        return self.method_status.get("paper", "ok") != "ok"
 
     @property
     def classification(self) -> dict[str, str]:
-        """Per metric: "saves", "no difference", "costs more" (or the status when not ok)."""
+        """Per metric: "saves", "no difference", "costs more" (or the status when not ok;
+        "infeasible" when only the paper's family is)."""
         if self.status != "ok":
             return {k: self.status for k in METRICS}
+        if self.paper_infeasible:
+            return {k: "infeasible" for k in METRICS}
         return {k: classify(self.change_pct.get(k, math.nan)) for k in METRICS}
+
+    @property
+    def paper_share_range_pct(self) -> tuple[float, float]:
+        """Min and max of the paper's planned share over the seeds [%] (NaN: none)."""
+        return _spread(self.paper_share_by_seed)
 
     def to_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
         d["warnings"] = list(self.warnings)
         d["classification"] = self.classification
+        d["paper_share_range_pct"] = list(self.paper_share_range_pct)
         return dict(json_safe(d))
 
 
@@ -217,13 +296,14 @@ class SweepResult:
         lines = [
             f"sweep of {self.robot}: {len(self.durations)} durations x {len(self.payloads)} "
             f"payloads x {len(self.objectives)} objective(s), seed {c['seed']}, PSO "
-            f"{c['particles']} particles x {c['iterations']} iterations per cell, MuJoCo step "
+            f"{c['particles']} particles x {c['iterations']} iterations x "
+            f"{len(c.get('seeds') or [c['seed']])} seed(s) per cell, MuJoCo step "
             f"{1000 * c['timestep']:g} ms, {c['workers']} worker(s), {c['seconds']:.1f} s",
             "cells: change in % of the standard (positive = the bio-inspired plan saves);",
             f"  '+' saves, '=' no difference (|change| < {NO_DIFFERENCE_PCT:g}%), '-' costs "
             "more, '*' standard already on the abs_work floor, '!' the cell has warnings (e.g. "
-            "the standard quintic exceeds a limit), '?' the verdict changes with the check "
-            "seed (not converged), 'infeasible'/'unstable' as said",
+            "the standard quintic exceeds a limit), '?' uncertain: the seeds of the paper's PSO "
+            "disagree (spread below), 'infeasible'/'unstable' as said",
         ]
         for o in self.objectives:
             for m in metrics or METRICS:
@@ -240,6 +320,7 @@ class SweepResult:
                     lines.append(f"{d:>16g}" + "".join(cells))
                 counts = self.counts(o, m)
                 lines.append("  " + ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())))
+        lines.extend(self._uncertain_lines(metrics or METRICS))
         if c.get("pool_note"):
             lines.append(f"note: {c['pool_note']}")
         bad = [c for c in self.cells if c.status != "ok"]
@@ -250,7 +331,36 @@ class SweepResult:
             )
         if len(bad) > 5:
             lines.append(f"... and {len(bad) - 5} more cells not ok (see --json for each)")
+        for cell in [c for c in self.cells if c.status == "ok" and c.paper_infeasible][:5]:
+            lines.append(
+                f"paper infeasible: T={cell.duration:g} s, m={cell.payload:g} kg, "
+                f"{cell.objective} (the other methods are reported): {cell.method_status['paper']}"
+            )
         return "\n".join(lines)
+
+    def _uncertain_lines(self, metrics: Sequence[str]) -> list[str]:
+        """One line per uncertain verdict: the seeds' verdicts and the spread."""
+        lines: list[str] = []
+        for cell in self.cells:
+            for m in metrics:
+                v = cell.verdicts.get(m)
+                if v is None or v.certain:
+                    continue
+                share = ""
+                lo, hi = cell.paper_share_range_pct
+                if math.isfinite(lo):
+                    share = f"; paper's share {lo:.1f}..{hi:.1f} %"
+                lines.append(
+                    f"uncertain: T={cell.duration:g} s, m={cell.payload:g} kg, {cell.objective}, "
+                    f"{m}: {' / '.join(v.by_seed)} over seeds {list(cell.seeds)}, planned "
+                    f"change {v.low_pct:+.1f}..{v.high_pct:+.1f} %{share}"
+                )
+        if len(lines) > MAX_UNCERTAIN_LINES:
+            more = len(lines) - MAX_UNCERTAIN_LINES
+            lines = [*lines[:MAX_UNCERTAIN_LINES], f"... and {more} more uncertain (see --json)"]
+        if lines:
+            lines.insert(0, "")
+        return lines
 
 
 def _none_if_nan(v: float) -> float | None:
@@ -260,6 +370,8 @@ def _none_if_nan(v: float) -> float | None:
 def _cell_text(cell: SweepCell, metric: str) -> str:
     if cell.status != "ok":
         return cell.status
+    if cell.paper_infeasible:
+        return "infeasible"
     v = cell.change_pct.get(metric, math.nan)
     if not math.isfinite(v):
         return "n/a"
@@ -297,7 +409,8 @@ class _CellJob:
     iterations: int
     timestep: float
     methods: tuple[str, ...]
-    check_seed: int | None
+    check_seeds: tuple[int, ...]
+    converge: bool = False
 
 
 def _failed(job: _CellJob, status: str, exc: Exception, started: float) -> SweepCell:
@@ -329,8 +442,11 @@ def _simulate_cell(job: _CellJob) -> tuple[SimulationResult, dict[str, str]]:
                 iterations=job.iterations,
                 timestep=job.timestep,
                 methods=methods,
+                converge=job.converge,
             )
             status.update({m: "ok" for m in res.runs})
+            # A method that failed inside the plan (its own error) while the others ran.
+            status.update({m: f.error for m, f in res.plan.method_errors.items()})
             return res, status
         except BioPlanError as exc:
             culprit = _failed_method(exc, methods)
@@ -343,10 +459,15 @@ def _simulate_cell(job: _CellJob) -> tuple[SimulationResult, dict[str, str]]:
 def _failed_method(exc: Exception, methods: list[str]) -> str | None:
     """The optional method whose own error ``exc`` is (None: the task itself failed)."""
     from app.planning.jerk_limited import JerkLimitedError
+    from app.planning.methods import PaperInfeasible
     from app.planning.optimal import SolverError
 
     if isinstance(exc, JerkLimitedError) and "jerk_limited" in methods:
         return "jerk_limited"
+    if isinstance(exc, PaperInfeasible) and "paper" in methods:
+        # Only the paper's family is infeasible: the others still run, unless nothing but the
+        # quintic (the reference) would be left.
+        return "paper" if set(methods) - {"quintic", "paper"} else None
     if isinstance(exc, SolverError):
         for name in ("human_optimal", "bound"):
             if name in methods:
@@ -354,34 +475,52 @@ def _failed_method(exc: Exception, methods: list[str]) -> str | None:
     return None
 
 
-def _check_run(
-    job: _CellJob, planned: dict[str, float]
-) -> tuple[tuple[str, ...], dict[str, float]]:
-    """Plan the paper's method again with the check seed; metrics whose verdict differs."""
-    from app.planning.planner import plan
-
-    if job.check_seed is None:
-        return (), {}
-    from app.planning.planner import PlanningError
+def _replan_paper(
+    job: _CellJob, seed: int, report_samples: int, bound: float | None
+) -> tuple[dict[str, float], float]:
+    """The paper's method planned again with ``seed`` on the cell's grid: its planned change per
+    metric [%] and its share of the achievable saving [%] against the cell's ``bound`` value
+    (NaN without a bound or a plan)."""
+    from app.planning.methods import BoundViolation, share_of_achievable_pct
+    from app.planning.planner import PlanningError, plan
 
     try:
         again = plan(
             _robot_with(job.payload),
             duration=job.duration,
             objective=job.objective,
-            seed=job.check_seed,
+            seed=seed,
             particles=job.particles,
             iterations=job.iterations,
+            report_samples=report_samples,
             methods=("quintic", "paper"),
+            safety=False,  # only its metrics are used; the cell's own plan is checked
         )
     except PlanningError:
-        # The check's swarm found no feasible plan where the cell's did: nothing converged.
-        return METRICS, {k: math.nan for k in METRICS}
+        # This seed's swarm found no feasible plan: its verdict is "n/a".
+        return {k: math.nan for k in METRICS}, math.nan
     std = scalar_metrics(again.standard.metrics)
     opt = scalar_metrics(again.methods["paper"].evaluated.metrics)
-    check = {k: pct_change(std[k], opt[k]) for k in METRICS}
-    unconverged = tuple(k for k in METRICS if classify(check[k]) != classify(planned[k]))
-    return unconverged, check
+    share = math.nan
+    if bound is not None:
+        values = again.objective_values
+        # A seed below the cell's certified bound: its share is not given.
+        with contextlib.suppress(BoundViolation):
+            share = share_of_achievable_pct(values["quintic"], values["paper"], bound)
+    return {k: pct_change(std[k], opt[k]) for k in METRICS}, share
+
+
+def _seed_runs(
+    job: _CellJob, planned: dict[str, float], share: float, report_samples: int,
+    bound: float | None,
+) -> tuple[list[dict[str, float]], list[float]]:  # fmt: skip
+    """Per seed (the cell's first, then the check seeds): planned changes and paper share."""
+    changes, shares = [planned], [share]
+    for seed in job.check_seeds:
+        c, s = _replan_paper(job, seed, report_samples, bound)
+        changes.append(c)
+        shares.append(s)
+    return changes, shares
 
 
 def _run_cell(job: _CellJob) -> SweepCell:
@@ -404,7 +543,17 @@ def _run_cell(job: _CellJob) -> SweepCell:
     paper = res.plan.methods.get("paper")
     popt = scalar_metrics(paper.evaluated.metrics) if paper is not None else {}
     planned = {k: pct_change(pstd[k], popt.get(k, math.nan)) for k in METRICS}
-    unconverged, check = _check_run(job, planned) if paper is not None else ((), {})
+    shares = res.plan.share_of_achievable_pct
+    bound = res.plan.objective_values.get("bound")
+    if "paper" in job.methods:
+        by_seed, share_by_seed = _seed_runs(
+            job, planned, shares.get("paper", math.nan), res.plan.standard.trajectory.t.size,
+            bound,
+        )  # fmt: skip
+        seeds = (job.seed, *job.check_seeds)
+    else:
+        by_seed, share_by_seed, seeds = [planned], [], ()
+    verdicts = certify_verdicts(by_seed) if seeds else {}
     optimized = scalar_metrics(res.optimized.metrics) if res.optimized is not None else {}
     return SweepCell(
         duration=job.duration,
@@ -423,8 +572,11 @@ def _run_cell(job: _CellJob) -> SweepCell:
         methods_change_pct=changes,
         share_of_achievable_pct=res.share_of_achievable_pct(),
         method_status=status,
-        unconverged=unconverged,
-        check_planned_change_pct=check,
+        unconverged=tuple(k for k in METRICS if k in verdicts and not verdicts[k].certain),
+        check_planned_change_pct=by_seed[1] if len(by_seed) > 1 else {},
+        seeds=seeds,
+        verdicts=verdicts,
+        paper_share_by_seed=tuple(share_by_seed),
     )
 
 
@@ -596,6 +748,8 @@ def run_sweep(
     workers: int | None = None,
     methods: Sequence[str] | None = None,
     check_seed: int | None = -1,
+    seeds: int = SWEEP_SEEDS,
+    converge: bool = False,
     executor: Any = LOCAL_EXECUTOR,
     progress: ProgressFn | None = None,
 ) -> SweepResult:
@@ -618,8 +772,13 @@ def run_sweep(
         timestep: simulation step [s].
         workers: processes in the pool.
         methods: methods per cell (None: quintic and paper; ``bioplan sweep`` asks for all).
-        check_seed: seed of the convergence check of the paper's PSO (-1: ``seed + 1``;
-            None: no check).
+        check_seed: the first check seed of the paper's PSO (-1: ``seed + 1``; None: no
+            check, one seed).
+        seeds: how many seeds the paper's PSO runs with per cell (>= 1): the cell's ``seed``,
+            then ``check_seed``, ``check_seed + 1``, ...; a verdict is certain only when all
+            agree (:func:`certify_verdicts`). The budget is stated in ``conditions``.
+        converge: refine every optimal-control result until its objective changes by less
+            than 0.1 % (``plan(converge=True)``; several times slower).
         executor: ``"local"`` (a process pool of ``workers`` processes), ``"dask://HOST:PORT"``
             (one task per cell on that Dask scheduler's workers; ``workers`` is ignored) or a
             ``distributed.Client`` (e.g. from inside a Dask task). ``conditions["executor"]``
@@ -644,10 +803,23 @@ def run_sweep(
     n_workers = min(2, os.cpu_count() or 1) if workers is None else int(workers)
     if n_workers < 1:
         raise SimulationError(f"workers must be >= 1, got {workers}")
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise SimulationError(f"seeds must be an integer >= 1, got {seeds!r}")
     check = None if check_seed is None else (int(seed) + 1 if check_seed == -1 else int(check_seed))
+    n_seeds = 1 if check is None else int(seeds)
+    checks = () if check is None else tuple(check + i for i in range(n_seeds - 1))
     jobs = [
         _CellJob(
-            d, p, o, int(seed), int(particles), int(iterations), float(timestep), chosen, check
+            d,
+            p,
+            o,
+            int(seed),
+            int(particles),
+            int(iterations),
+            float(timestep),
+            chosen,
+            checks,
+            bool(converge),
         )
         for o in objs
         for d in durs
@@ -687,7 +859,15 @@ def run_sweep(
         cells=cells,
         conditions={
             "seed": int(seed),
-            "check_seed": check,
+            "check_seed": checks[0] if checks else None,
+            "seeds": [int(seed), *checks] if "paper" in chosen else [],
+            "pso_budget": {
+                "particles": int(particles),
+                "iterations": int(iterations),
+                "seeds": n_seeds if "paper" in chosen else 0,
+                "certain_when": "every seed gives the same verdict",
+            },
+            "converge": bool(converge),
             "particles": int(particles),
             "iterations": int(iterations),
             "methods": list(chosen),

@@ -29,7 +29,9 @@ def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, Any, str]:
 
 
 def rows(path: Path) -> np.ndarray:
-    return np.loadtxt(path, delimiter=",", skiprows=1)
+    """The CSV's numbers: after its ``#`` record lines and its one header line."""
+    lines = [x for x in path.read_text().splitlines() if not x.startswith("#")]
+    return np.loadtxt(lines[1:], delimiter=",")
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +47,11 @@ def saved(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_plan_json_carries_joint_names_task_duration_and_motion(saved: Path) -> None:
     data = json.loads((saved / "plan.json").read_text())
     assert data["joint_names"] == ["shoulder_flexion", "elbow_flexion"]
-    assert data["task"] == {"start_deg": [0.0, 0.0], "goal_deg": pytest.approx([20.0, 150.0])}
+    task = data["task"]
+    assert task["start_deg"] == [0.0, 0.0] and task["goal_deg"] == pytest.approx([20.0, 150.0])
+    # a curl lifts the arm and its load: its potential energy change is the |ΔPE| floor
+    assert task["lifts"] is True
+    assert task["delta_pe_j"] == pytest.approx(data["floors"]["delta_potential"], rel=1e-9)
     assert data["duration"] == 1.0
     assert set(data["motion"]["methods"]) == {"quintic", "paper", "bound"}
 
@@ -162,12 +168,15 @@ def test_onboarding_flags_on_a_ur5(capsys: pytest.CaptureFixture[str], tmp_path:
     assert code == 0 and len(plain["joint_names"]) == 6
     assert plain["standard"]["electrical_energy"] is None  # no motor model: not modelled
     assert plain["improvement_pct"]["electrical_energy"] is None
-    code, locked, _ = run(capsys, *base, "--lock", "wrist_3_joint=30",
+    # The UR5's default task reaches below its mounting plane: the export must be allowed.
+    code, locked, _ = run(capsys, *base, "--lock", "wrist_3_joint=30", "--export-allow-unsafe",
                           "--export", str(tmp_path / "ur5.script"))  # fmt: skip
     assert code == 0 and "wrist_3_joint" not in locked["joint_names"]
     assert locked["motion"]["locks"] == {"wrist_3_joint": pytest.approx(math.radians(30.0))}
     lines = [x for x in (tmp_path / "ur5.script").read_text().splitlines() if "servoj(" in x]
-    assert lines[0].split("[")[1].split("]")[0].split(", ")[5] == repr(math.radians(30.0))
+    assert float(lines[0].split("[")[1].split("]")[0].split(", ")[5]) == pytest.approx(
+        math.radians(30.0), abs=1e-12
+    )  # a URScript number: 12 decimals
     roles_args = ["--shoulder-joint", "shoulder_pan_joint", "--elbow-joint", "shoulder_lift_joint"]
     code, roles, _ = run(capsys, *base, *roles_args, "--goal-deg", "30,-60,0,0,0,0")
     assert code == 0 and roles["motion"]["robot_spec"]["elbow_joint"] == "shoulder_lift_joint"
@@ -212,3 +221,21 @@ def test_help_shows_the_export_defaults(capsys: pytest.CaptureFixture[str]) -> N
     with pytest.raises(SystemExit):
         main(["export", "--help"])
     assert "script 500 Hz" in " ".join(capsys.readouterr().out.split())
+
+
+def test_a_refused_export_keeps_the_plan(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A plan whose ``--export`` is refused after planning (URScript for a six-joint arm that
+    is not a UR) still writes its ``--out`` JSON, says so, and exits 2 without the export;
+    forced, the export is made."""
+    out, script = tmp_path / "plan.json", tmp_path / "arm.script"
+    argv = ["plan", "--robot", "curtain_wall_6dof", *FAST, "--out", str(out)]
+    argv += ["--export", str(script)]
+    code, _, err = run(capsys, *argv)
+    assert code == 2 and not script.exists()
+    assert "--export-force" in err, err
+    assert f"the plan itself was written to {out}" in err
+    saved = json.loads(out.read_text())
+    assert set(saved["methods"]) == {"quintic", "paper"} and "motion" in saved
+    assert run(capsys, *argv, "--export-force")[0] == 0 and script.is_file()

@@ -38,16 +38,18 @@ def hostile(tmp_path_factory: pytest.TempPathFactory) -> Any:
 
 def _export(hostile: Any, fmt: str) -> str:
     robot, motion, _ = hostile
-    return export_bytes(motion, fmt, rate=RATE, robot=robot).decode()
+    # The hostile arm's joints are not a UR's: its URScript is written only when forced.
+    return export_bytes(motion, fmt, rate=RATE, robot=robot, force=fmt == "script").decode()
 
 
 def _urscript_structure(text: str) -> None:
-    """The program is one ``def ... end`` block; outside it only comments and blank lines."""
+    """The program is one ``def ... end`` block and its call; outside them only comments."""
     lines = text.splitlines()
     defs = [i for i, line in enumerate(lines) if line.startswith("def ")]
     assert [lines[i] for i in defs] == ["def bioplan_trajectory():"]
     end = lines.index("end")
-    outside = lines[: defs[0]] + lines[end + 1 :]
+    assert lines[end + 1 :] == ["bioplan_trajectory()"]  # the one call, after the def
+    outside = lines[: defs[0]]
     assert all(not x.strip() or x.startswith("#") for x in outside), outside
     inside = lines[defs[0] + 1 : end]
     assert all(x.startswith("  ") for x in inside)
@@ -59,7 +61,8 @@ def _urscript_structure(text: str) -> None:
 def test_urscript_has_one_top_level_statement(hostile: Any) -> None:
     text = _export(hostile, "script")
     _urscript_structure(text)
-    assert text.count("\n# ") + text.startswith("# ") == 2  # the two header comments
+    # the header comments: export, limits, safety, the forced non-UR note, joints
+    assert text.count("\n# ") + text.startswith("# ") == 5
     assert "\r" not in text
 
 
@@ -73,9 +76,14 @@ def _is_number(cell: str) -> bool:
 
 def test_csv_has_no_formula_cell_and_one_header_line(hostile: Any) -> None:
     text = _export(hostile, "csv")
-    rows = list(csv.reader(io.StringIO(text)))
+    lines = text.splitlines(keepends=True)
+    comments = [x for x in lines if x.startswith("#")]
+    assert lines[: len(comments)] == comments  # the export's record comes first
+    for line in comments:  # each one cell starting with "#", however hostile the names
+        assert next(csv.reader(io.StringIO(line))) == [line.rstrip("\n")]
+    rows = list(csv.reader(io.StringIO("".join(lines[len(comments) :]))))
     assert len(rows[0]) == 1 + 4 * len(JOINT_NAMES)  # no name split a cell or a row
-    assert len(rows) == 1 + 201 and text.count("\n") == 1 + 201
+    assert len(rows) == 1 + 201 and text.count("\n") == len(comments) + 1 + 201
     for row in rows:
         for cell in row:
             assert _is_number(cell) or not cell.startswith(("=", "+", "-", "@", "\t", "\r")), cell
@@ -110,9 +118,10 @@ def test_yaml_keys_are_the_messages_and_names_round_trip(hostile: Any) -> None:
 def test_mot_header_has_exactly_its_lines(hostile: Any) -> None:
     lines = _export(hostile, "mot").split("\n")
     end = lines.index("endheader")
-    assert end == 5
+    assert end == 7
     assert lines[0].startswith("bioplan_") and lines[0].endswith("_jerk_limited")
     assert lines[1:5] == ["version=1", "nRows=201", "nColumns=7", "inDegrees=yes"]
+    assert lines[5].startswith("bioplan_limits=") and lines[6].startswith("bioplan_safety=")
     labels = lines[end + 1].split("\t")
     assert len(labels) == 7 and labels[0] == "time"
     assert all(not x.startswith(("=", "+", "-", "@")) for x in labels)
@@ -135,11 +144,12 @@ def test_bioplan_export_writes_a_safe_urscript(
     saved = tmp_path / "plan.json"
     saved.write_text(json.dumps({"motion": motion.to_dict()}), encoding="utf-8")
     out = tmp_path / "arm.script"
-    assert main(["export", str(saved), "--out", str(out), "--rate", "100"]) == 0
+    assert main(["export", str(saved), "--out", str(out), "--rate", "100", "--force"]) == 0
     _urscript_structure(out.read_text())
     printed = capsys.readouterr().out
     assert printed.count("\n") == 1 and "popup" in printed  # the name, on one line
     csv_out = tmp_path / "arm.csv"
     assert main(["export", str(saved), "--out", str(csv_out), "--rate", "100"]) == 0
-    header = next(csv.reader(io.StringIO(csv_out.read_text())))
+    body = [x for x in csv_out.read_text().splitlines() if not x.startswith("#")]
+    header = next(csv.reader(io.StringIO(body[0])))
     assert all(not c.startswith(("=", "+", "-", "@")) for c in header)

@@ -256,9 +256,9 @@ def test_a_negative_gear_ratio_says_what_was_expected(tmp_path: Path) -> None:
 def test_electrical_metrics_are_not_modelled_without_motors() -> None:
     from app.cli._common import metrics_table
     from app.errors import BioPlanError
+    from app.jsonsafe import json_safe
     from app.planning import plan
     from app.planning.energy import electrical_power, energy_metrics, improvement_pct
-    from app.planning.jsonsafe import json_safe
 
     robot = load_robot(robot_file(UR5), payload=1.0)
     t = np.linspace(0.0, 1.0, 11)

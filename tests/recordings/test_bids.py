@@ -39,9 +39,12 @@ def _dataset(root: Path, *, with_bad: bool = False) -> Path:
     _copy(custom, stem, root / "sub-01/ses-pre/emg", "sub-01_ses-pre_task-holdWeight")
     _copy(custom, stem, root / "sub-01/ses-post/emg", "sub-01_ses-post_task-holdWeight_run-2")
     _copy(custom, stem, root / "sub-02/emg", "sub-02_task-curl")
-    if with_bad:  # the malformed EDF (255-byte fixed header) of the Multimodal example
+    if with_bad:  # the Multimodal example's EDF (255-byte fixed header), cut short
         multi = shared_file(MULTI + "sub-01_task-pullstand_emg.edf").parent
         _copy(multi, "sub-01_task-pullstand", root / "sub-03/emg", "sub-03_task-pullstand")
+        bad = root / "sub-03/emg/sub-03_task-pullstand_emg.edf"
+        bad.chmod(0o644)
+        bad.write_bytes(bad.read_bytes()[:-100])
     (root / "derivatives/sub-01/emg").mkdir(parents=True)  # derivatives are not raw data
     return root
 

@@ -46,12 +46,38 @@ def test_edf_without_sidecar_from_bytes(shared_data: Path) -> None:
     assert rec.channels["EMG1"].site is None  # no sidecar: the label alone names no muscle
 
 
-def test_edf_non_compliant_header_is_named(shared_data: Path) -> None:
+def _hand_parsed_multimodal(data: bytes) -> np.ndarray:
+    """The Multimodal EDF's samples [uV] parsed by hand as its README describes them: data
+    from byte 255 + 10 x 256, one record of 10 signals x 256 int16 samples, physical
+    -500..500 uV over digital -32768..32767."""
+    digital = np.frombuffer(data[255 + 10 * 256 :], dtype="<i2").reshape(10, 256)
+    return (digital.astype(float) + 32768.0) * (1000.0 / 65535.0) - 500.0
+
+
+def test_edf_255_byte_header_is_repaired_and_read(shared_data: Path) -> None:
+    """Issue 29: the BIDS example's 255-byte fixed header (a writer dropped one byte of the
+    patient field) is read with a stated repair; every sample equals the hand parse."""
     path = shared_file(MULTIMODAL)
+    rec = read_recording(path)
+    expected_uv = _hand_parsed_multimodal(path.read_bytes())
+    tsv = path.with_name("sub-01_task-pullstand_channels.tsv").read_text()
+    names = [line.split("\t")[0] for line in tsv.splitlines()[1:]]
+    assert list(rec.channels) == names  # the sidecar's names, joined after the repair
+    for i, ch in enumerate(rec.channels.values()):
+        assert ch.rate == 256.0 and ch.kind == "emg" and ch.unit == "V"
+        np.testing.assert_allclose(ch.data * 1e6, expected_uv[i], rtol=0, atol=1e-9)
+    assert rec.metadata["start_date"].startswith("2025-09-23 12:00:00")  # field read unshifted
+    notes = [w for w in rec.metadata["warnings"] if "255 bytes instead of 256" in w]
+    assert len(notes) == 1 and "one space inserted after the patient field" in notes[0]
+
+
+def test_edf_255_byte_header_refused_when_ambiguous(shared_data: Path) -> None:
+    """The same header on a truncated file: the shifted reading no longer matches the file
+    size, so it is not guessed at; the message names the 255-byte header."""
+    data = shared_file(MULTIMODAL).read_bytes()
     with pytest.raises(RecordingError) as err:
-        read_recording(path)
+        read_bytes(data[:-100], "sub-01_task-pullstand_emg.edf")
     text = str(err.value)
-    # README: the fixed header is 255 bytes instead of 256
     assert text.startswith("sub-01_task-pullstand_emg.edf: EDF header is not standard-compliant")
     assert "255 bytes instead of 256" in text
 
@@ -263,3 +289,18 @@ def test_mat_v73_written_with_h5py(tmp_path: Path) -> None:
     assert rec.metadata["mat_version"] == "7.3"
     assert ch.site == "biceps" and ch.rate == 2000.0 and ch.unit == "V"
     np.testing.assert_allclose(ch.data, biceps * 1e-6, rtol=1e-15)
+
+
+def test_edf_255_byte_header_mutated_raises_only_recording_error(shared_data: Path) -> None:
+    """The repair reads numbers from a shifted header: any byte of it changed gives a read or
+    a RecordingError naming the file, never another exception."""
+    data = shared_file(MULTIMODAL).read_bytes()
+    rng = np.random.default_rng(29)
+    for _ in range(150):
+        b = bytearray(data)
+        for at in rng.integers(0, 255 + 10 * 256, size=int(rng.integers(1, 4))):
+            b[int(at)] = int(rng.integers(0, 256))
+        try:
+            read_bytes(bytes(b), "sub-01_task-pullstand_emg.edf")
+        except RecordingError as exc:
+            assert str(exc).startswith("sub-01_task-pullstand_emg.edf"), exc

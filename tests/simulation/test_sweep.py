@@ -232,18 +232,20 @@ def test_script_without_main_guard_still_gets_its_sweep(tmp_path: Path) -> None:
 
 
 def test_convergence_check_marks_metrics_whose_verdict_changes(cw: Robot) -> None:
-    """The check re-plans the paper's method with the check seed; a metric is unconverged when
-    its verdict (saves / no difference / costs more) differs from the cell's planned one."""
-    from app.simulation.sweep import _CellJob, _check_run, _init_worker, classify
+    """The check re-plans the paper's method with each check seed; a metric is unconverged when
+    the seeds' verdicts (saves / no difference / costs more) differ from the cell's planned one."""
+    from app.simulation.sweep import _CellJob, _init_worker, _seed_runs, certify_verdicts, classify
 
     _init_worker(cw)
-    job = _CellJob(1.0, 4.0, "abs_work", 0, 10, 8, 1e-3, ("quintic", "paper"), 5)
+    job = _CellJob(1.0, 4.0, "abs_work", 0, 10, 8, 1e-3, ("quintic", "paper"), (5,))
     planned = {k: 50.0 for k in METRICS}  # "saves" everywhere
-    unconverged, check = _check_run(job, planned)
-    assert set(check) == set(METRICS)
-    assert unconverged == tuple(k for k in METRICS if classify(check[k]) != "saves")
-    same = _CellJob(1.0, 4.0, "abs_work", 0, 10, 8, 1e-3, ("quintic", "paper"), None)
-    assert _check_run(same, planned) == ((), {})
+    changes, shares = _seed_runs(job, planned, math.nan, 1001, None)
+    assert len(changes) == 2 and changes[0] is planned and set(changes[1]) == set(METRICS)
+    assert all(math.isnan(s) for s in shares)  # no bound: no share
+    uncertain = [k for k, v in certify_verdicts(changes).items() if not v.certain]
+    assert uncertain == [k for k in METRICS if classify(changes[1][k]) != "saves"]
+    same = _CellJob(1.0, 4.0, "abs_work", 0, 10, 8, 1e-3, ("quintic", "paper"), ())
+    assert _seed_runs(same, planned, 1.0, 1001, None) == ([planned], [1.0])
 
 
 def test_simulated_arrays_hold_every_method(cw: Robot) -> None:

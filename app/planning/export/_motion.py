@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.errors import BioPlanError
-from app.planning.jsonsafe import json_safe
+from app.jsonsafe import json_safe
 
 if TYPE_CHECKING:
     from app.planning.planner import EvaluatedTrajectory, PlanResult
@@ -212,6 +212,9 @@ class PlanMotion:
         default_method: the method exported when none is named (the optimised one).
         floors: the task's physical floors (JSON-ready).
         conditions: objective, payload, template and so on (JSON-ready), for the JSON export.
+        safety: the plan's collision and workspace check (its result's ``"safety"`` block, not
+            part of the motion block); None = not checked. The export refuses a method with a
+            contact unless told (``docs/export.md``).
     """
 
     robot: str
@@ -226,6 +229,7 @@ class PlanMotion:
     default_method: str
     floors: Mapping[str, Any] = field(default_factory=dict)
     conditions: Mapping[str, Any] = field(default_factory=dict)
+    safety: Mapping[str, Any] | None = None
 
     def method(self, name: str | None) -> MethodMotion:
         """The motion of method ``name`` (None: the default), or an ExportError listing them."""
@@ -388,6 +392,9 @@ def plan_motion(result: PlanResult, robot: Robot, *, default_method: str = "pape
         default_method: the method exported when none is named.
     """
     methods = {name: _method_motion(name, ev, robot) for name, ev in plan_methods(result).items()}
+    safety = getattr(result, "safety", None)
+    if safety is not None and not isinstance(safety, Mapping) and hasattr(safety, "to_dict"):
+        safety = safety.to_dict()
     return PlanMotion(
         robot=robot.name,
         robot_spec=dict(robot.spec),
@@ -406,4 +413,5 @@ def plan_motion(result: PlanResult, robot: Robot, *, default_method: str = "pape
             "template": result.template.source,
             "template_is_paper_default": result.template.is_paper_default,
         },
+        safety=dict(safety) if isinstance(safety, Mapping) else None,
     )

@@ -17,6 +17,7 @@ from app.planning.robots._loader import (
 from app.planning.robots._package import RobotPackage, open_robot_package, resolve_mesh
 from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import IDEAL_ACTUATOR, Payload, Robot, RobotError
+from app.planning.robots._user import missing_meshes
 
 __all__ = [
     "BUILTIN_ROBOTS",
@@ -33,6 +34,7 @@ __all__ = [
     "load_robot",
     "load_robot_spec",
     "locks_from_display",
+    "missing_meshes",
     "open_robot_package",
     "read_sidecar",
     "resolve_mesh",

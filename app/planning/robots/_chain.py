@@ -1,9 +1,12 @@
 """A serial chain of revolute joints, written out as a URDF and as an MJCF from one description.
 
 Both built-in robots are described once (``ChainSpec``) and both files are generated from that
-description, so the two engines see the same rigid bodies by construction. Rotor inertia,
-friction, damping and the payload are deliberately *not* written into either file: they are
-applied in code to both engines alike (see ``Robot.dynamics`` and ``Robot.mujoco_model``).
+description, so the two engines see the same rigid bodies by construction. Every shape is also
+the link's URDF ``<collision>`` geometry (the safety check, ``app.planning.safety``); in the
+MJCF the shapes stay contact-free (``contype="0" conaffinity="0"``), so simulation is unchanged.
+Rotor inertia, friction, damping and the payload are deliberately *not* written into either
+file: they are applied in code to both engines alike (see ``Robot.dynamics`` and
+``Robot.mujoco_model``).
 
 All link frames are parallel to the world frame at q = 0, which keeps inertias readable.
 """
@@ -20,7 +23,8 @@ __all__ = ["ChainLink", "ChainSpec", "Visual", "mjcf_text", "urdf_text"]
 
 @dataclass(frozen=True)
 class Visual:
-    """A display-only cylinder (or box) in a link's frame; never contributes mass.
+    """A cylinder (or box) in a link's frame, shown and checked for collisions (URDF
+    ``<visual>`` and ``<collision>``); never contributes mass nor MuJoCo contacts.
 
     Attributes:
         start, end: (3,) end points of the cylinder axis in the link frame [m] (box: the centre
@@ -123,7 +127,8 @@ def _cylinder_pose(visual: Visual) -> tuple[tuple[float, ...], tuple[float, ...]
     return centre, (0.0, round(pitch, 12), round(yaw, 12)), length
 
 
-def _urdf_visual(visual: Visual, indent: str) -> list[str]:
+def _urdf_shape(visual: Visual, indent: str) -> tuple[list[str], list[str]]:
+    """The ``<visual>`` and the ``<collision>`` element of one shape (the same geometry)."""
     if visual.box is not None:
         centre = tuple((a + b) / 2 for a, b in zip(visual.start, visual.end, strict=True))
         rpy: tuple[float, ...] = (0.0, 0.0, 0.0)
@@ -131,13 +136,29 @@ def _urdf_visual(visual: Visual, indent: str) -> list[str]:
     else:
         centre, rpy, length = _cylinder_pose(visual)
         geometry = f'<cylinder radius="{_num(visual.radius)}" length="{_num(length)}"/>'
-    return [
+    origin = f'{indent}  <origin xyz="{_vec(centre)}" rpy="{_vec(rpy)}"/>'
+    shown = [
         f"{indent}<visual>",
-        f'{indent}  <origin xyz="{_vec(centre)}" rpy="{_vec(rpy)}"/>',
+        origin,
         f"{indent}  <geometry>{geometry}</geometry>",
         f'{indent}  <material name="rgba_{_vec(visual.rgba).replace(" ", "_")}">'
         f'<color rgba="{_vec(visual.rgba)}"/></material>',
         f"{indent}</visual>",
+    ]
+    checked = [
+        f"{indent}<collision>",
+        origin,
+        f"{indent}  <geometry>{geometry}</geometry>",
+        f"{indent}</collision>",
+    ]
+    return shown, checked
+
+
+def _urdf_shapes(visuals: tuple[Visual, ...], indent: str) -> list[str]:
+    """Every shape's ``<visual>``, then every shape's ``<collision>``."""
+    pairs = [_urdf_shape(visual, indent) for visual in visuals]
+    return [line for shown, _ in pairs for line in shown] + [
+        line for _, checked in pairs for line in checked
     ]
 
 
@@ -148,8 +169,7 @@ def urdf_text(spec: ChainSpec) -> str:
         lines.append(f"<!-- {spec.comment} -->")
     lines.append(f'<robot name="{spec.name}">')
     lines.append(f'  <link name="{spec.base}">')
-    for visual in spec.base_visuals:
-        lines.extend(_urdf_visual(visual, "    "))
+    lines.extend(_urdf_shapes(spec.base_visuals, "    "))
     lines.append("  </link>")
     parent = spec.base
     for link in spec.links:
@@ -171,8 +191,7 @@ def urdf_text(spec: ChainSpec) -> str:
             f'iyy="{_num(iyy)}" iyz="{_num(iyz)}" izz="{_num(izz)}"/>',
             "    </inertial>",
         ]
-        for visual in link.visuals:
-            lines.extend(_urdf_visual(visual, "    "))
+        lines.extend(_urdf_shapes(link.visuals, "    "))
         lines.append("  </link>")
         parent = link.link
     lines.append("</robot>")

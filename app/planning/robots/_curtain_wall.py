@@ -212,7 +212,9 @@ def curtain_wall_chain(*, comment: str = "") -> ChainSpec:
             )
         )
     pedestal = (
-        Visual((0.0, 0.0, 0.0), (0.0, 0.0, 0.9), 0.12, _DARK),
+        # 0.08 m column: the hanging arm (its axis 0.15 m from J1's) clears it by 10 mm; a
+        # thicker one would put the default start pose in contact (app.planning.safety).
+        Visual((0.0, 0.0, 0.0), (0.0, 0.0, 0.9), 0.08, _DARK),
         Visual((0.0, 0.0, 0.02), (0.0, 0.0, 0.02), 0.0, _DARK, box=(0.6, 0.6, 0.04)),
     )
     return ChainSpec(

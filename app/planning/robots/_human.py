@@ -256,7 +256,9 @@ def human_arm_chain(seg: HumanArmSegments, *, comment: str = "") -> ChainSpec:
                 visuals=visuals,
             )
         )
-    trunk = Visual((0.0, 0.17, -0.26), (0.0, 0.17, -0.26), 0.0, shirt, box=(0.2, 0.3, 0.55))
+    # The trunk beside the arm's plane (y = 0), 15 mm from the upper arm: it is the arm's
+    # collision partner in the safety check, which a closer box would touch at rest.
+    trunk = Visual((0.0, 0.21, -0.26), (0.0, 0.21, -0.26), 0.0, shirt, box=(0.2, 0.3, 0.55))
     return ChainSpec(
         name="human_arm_2dof",
         base="trunk",

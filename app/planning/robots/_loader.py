@@ -232,6 +232,8 @@ def load_robot(
     locks: Mapping[str, float] | None = None,
     sidecar: str | Path | None = None,
     package_dirs: Sequence[str | Path] = (),
+    base_link: str | None = None,
+    tip_link: str | None = None,
 ) -> Robot:
     """A built-in robot by name, or a user robot from a URDF (+ MJCF) or an MJCF alone.
 
@@ -253,6 +255,11 @@ def load_robot(
         sidecar: motor, gear, payload, lock and role sidecar (YAML, ``docs/robots.md``); without
             motors the electrical metrics are reported as not modelled.
         package_dirs: folders searched for ``package://NAME/...`` mesh paths (viewer).
+        base_link, tip_link: the arm's base link (and end link) on a robot whose joints
+            branch (legs, a mobile base, two arms, a head; default: the sidecar's). Joints on
+            other branches are locked at zero (clipped into their limits): with the base fixed
+            they move nothing of the arm; the base's movable ancestors and the joints the arm
+            carries off its chain must be locked by the user (docs/robots.md).
 
     Returns:
         The robot. For a user robot: free joints in kinematic order from the root, limits from
@@ -267,7 +274,9 @@ def load_robot(
     """
     if payload is not None and not (math.isfinite(payload) and payload >= 0.0):
         raise RobotError(f"payload is {payload}: expected a finite mass >= 0 kg")
-    user_options = (shoulder_joint, elbow_joint, sidecar) + ((None,) if not locks else (locks,))
+    user_options = (shoulder_joint, elbow_joint, sidecar, base_link, tip_link) + (
+        (None,) if not locks else (locks,)
+    )
     if isinstance(name_or_file, str) and name_or_file in BUILTIN_ROBOTS:
         if mjcf is not None or any(v is not None for v in user_options):
             raise RobotError(
@@ -292,6 +301,8 @@ def load_robot(
         "locks": locks,
         "sidecar": None if sidecar is None else Path(sidecar),
         "package_dirs": tuple(Path(p) for p in package_dirs),
+        "base_link": base_link,
+        "tip_link": tip_link,
     }
     if suffix in (".xml", ".mjcf"):
         if mjcf is not None:
@@ -323,6 +334,8 @@ def load_robot_spec(spec: Mapping[str, Any]) -> Robot:
         "sidecar",
         "package_dirs",
         "mjcf_only",
+        "base_link",
+        "tip_link",
     }
     extra = sorted(set(spec) - known)
     if extra:

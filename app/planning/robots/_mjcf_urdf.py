@@ -28,6 +28,9 @@ FloatArray = NDArray[np.float64]
 
 #: URDF needs a speed limit; MJCF has none. Written as this value and read back as unlimited.
 UNLIMITED_SPEED = 1e6
+#: Effort written for a joint without a force limit: the sidecar's ``effort_limits`` must give
+#: one (``_user._effort_limits`` refuses it otherwise, naming the joint).
+UNLIMITED_EFFORT = 1e12
 
 
 def _num(value: float) -> str:
@@ -76,10 +79,7 @@ def _effort(model: Any, jid: int, file: str) -> float:
                 * float(model.actuator_gainprm[a, 0])
                 * float(np.abs(model.actuator_ctrlrange[a]).max())
             )
-    raise RobotError(
-        f"{file}: joint '{model.joint(jid).name}' has no force limit: expected "
-        "actuatorfrcrange on the joint or a motor with forcerange or ctrlrange"
-    )
+    return UNLIMITED_EFFORT  # refused at load unless the sidecar gives effort_limits
 
 
 def _body_joint(model: Any, body: int, file: str) -> int | None:
@@ -173,8 +173,9 @@ def urdf_from_mjcf(mjcf: Path) -> Path:
     try:
         model = mujoco.MjModel.from_xml_path(str(mjcf))
     except Exception as exc:  # mujoco reports parse and compile errors as ValueError
-        detail = " ".join(str(exc).split())
-        raise RobotError(f"{file}: {detail}: expected a valid MJCF model") from None
+        from app.planning.robots._mujoco import compile_error
+
+        raise RobotError(compile_error(file, exc)) from None
     joints = {b: _body_joint(model, b, file) for b in range(1, model.nbody)}
     if all(j is None for j in joints.values()):
         raise RobotError(f"{file}: no moving joint: expected at least two hinge joints")

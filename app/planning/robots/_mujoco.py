@@ -15,7 +15,7 @@ from app.planning.robots._types import Payload, RobotError
 if TYPE_CHECKING:
     import mujoco
 
-__all__ = ["build_mujoco_model", "combine_inertia"]
+__all__ = ["build_mujoco_model", "combine_inertia", "compile_error"]
 
 
 def combine_inertia(
@@ -61,6 +61,7 @@ def build_mujoco_model(
     armature: NDArray[np.float64] | None,
     motors: Sequence[MotorModel] | None,
     locks: Mapping[str, float] | None = None,
+    source: str | None = None,
 ) -> mujoco.MjModel:
     """Load ``mjcf_path`` through MjSpec, apply locks/payload/armature/friction, compile.
 
@@ -77,18 +78,20 @@ def build_mujoco_model(
             ``frictionloss``, or None for no friction.
         locks: joints removed from the model, their bodies fixed at the given values (name ->
             rad, or m for slide joints).
+        source: the user's file ``mjcf_path`` was made from (a URDF compiled through a
+            cached copy), named in errors instead of the cache file.
 
     Returns:
         The compiled model.
     """
     import mujoco
 
-    name = mjcf_path.name
+    name = mjcf_path.name if source is None else source
     try:
         spec = mujoco.MjSpec.from_file(str(mjcf_path))
         base_model = spec.compile()
     except Exception as exc:  # mujoco reports parse and compile errors as ValueError
-        raise RobotError(f"{name}: {_one_line(exc)}: expected a valid MJCF model") from exc
+        raise RobotError(compile_error(name, exc)) from exc
 
     if locks:
         _lock_joints(spec, base_model, locks, name)
@@ -145,7 +148,19 @@ def build_mujoco_model(
     try:
         return spec.compile()
     except Exception as exc:
-        raise RobotError(f"{name}: {_one_line(exc)}: expected a valid MJCF model") from exc
+        raise RobotError(compile_error(name, exc)) from exc
+
+
+def compile_error(name: str, exc: BaseException) -> str:
+    """MuJoCo's reason, for the user's file, with the fix when one is known."""
+    reason = _one_line(exc)
+    if "inertia must have positive eigenvalues" in reason or "inertia must satisfy" in reason:
+        return (
+            f"{name}: MuJoCo cannot compile it ({reason}): expected positive principal "
+            "inertias with A + B >= C on that link (fix its <inertial>, or give the URDF alone: "
+            "its MuJoCo copy raises such inertias to the smallest MuJoCo accepts and says so)"
+        )
+    return f"{name}: MuJoCo cannot compile it ({reason}): expected a valid MJCF model"
 
 
 def _lock_joints(spec: Any, model: Any, locks: Mapping[str, float], file: str) -> None:

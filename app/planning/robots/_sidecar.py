@@ -60,6 +60,13 @@ MOTOR_FIELDS: dict[str, tuple[str, float, bool, bool]] = {
 _TOP: tuple[str, ...] = ("robot", "shoulder_joint", "elbow_joint", "locks", "payload", "motors")
 #: Speed overrides, and identified parameters (``bioplan identify``; see ``_identified.py``).
 _TOP += ("velocity_limits", "links", "friction")
+#: Effort limits (an MJCF without ``actuatorfrcrange``) and the arm's chain on a robot with
+#: several branches (legs, a second arm, a head: docs/robots.md, onboarding rules).
+_TOP += ("effort_limits", "base_link", "tip_link")
+#: The workspace the safety check uses (``_obstacles.py``, ``app.planning.safety``).
+_TOP += ("obstacles", "mount_plane", "srdf")
+#: Actuator limits per joint: torque–speed envelope and RMS torque (``app.planning.actuators``).
+_TOP += ("actuators",)
 _PAYLOAD = ("mass", "body", "com", "size")
 
 
@@ -85,8 +92,14 @@ class Sidecar:
         payload: payload fields.
         motors: joint -> motor model (empty: motors not modelled).
         velocity_limits: joint -> speed limit [rad/s or m/s] overriding the model file's.
+        effort_limits: joint -> torque [Nm] or force [N] limit overriding the model file's.
+        base_link, tip_link: the arm's base and end link on a branched robot, or None.
         links: link -> identified ``LinkInertial`` replacing the URDF's inertial.
         friction: joint -> identified ``JointFriction`` (viscous, Coulomb, torque offset).
+        obstacles: fixed obstacles for the safety check (``Obstacle``, base frame).
+        mount_plane: the mounting plane's height and whether it is checked.
+        srdf: an SRDF whose disabled collision pairs the safety check honours (resolved
+            against the sidecar's folder), or None.
     """
 
     path: Path
@@ -97,8 +110,16 @@ class Sidecar:
     payload: SidecarPayload = field(default_factory=SidecarPayload)
     motors: Mapping[str, MotorModel] = field(default_factory=dict)
     velocity_limits: Mapping[str, float] = field(default_factory=dict)
+    effort_limits: Mapping[str, float] = field(default_factory=dict)
+    base_link: str | None = None
+    tip_link: str | None = None
     links: Mapping[str, Any] = field(default_factory=dict)
     friction: Mapping[str, Any] = field(default_factory=dict)
+    obstacles: tuple[Any, ...] = ()
+    mount_plane: Any = None
+    srdf: Path | None = None
+    # Actuator limits: joint -> {field: value} (``app.planning.actuators.ACTUATOR_FIELDS``).
+    actuators: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
 
 class _Fields:
@@ -151,7 +172,7 @@ class _Fields:
         if extra:
             prefix = f"{where}." if where else ""
             raise RobotError(
-                f"{self.file}: unknown field {one_line(prefix + extra[0], 120)}: expected one of "
+                f"{self.file}: unknown field {one_line(prefix + extra[0], 60)}: expected one of "
                 f"{', '.join(known)}"
             )
 
@@ -221,6 +242,10 @@ def read_sidecar(path: str | Path) -> Sidecar:
         name: fields.number(f"velocity_limits.{name}", value, lower=0.0, strict=True)
         for name, value in fields.mapping("velocity_limits", top.get("velocity_limits")).items()
     }
+    efforts = {
+        name: fields.number(f"effort_limits.{name}", value, lower=0.0, strict=True)
+        for name, value in fields.mapping("effort_limits", top.get("effort_limits")).items()
+    }
     motors = {
         name: _motor(fields, name, value)
         for name, value in fields.mapping("motors", top.get("motors")).items()
@@ -228,6 +253,12 @@ def read_sidecar(path: str | Path) -> Sidecar:
     from app.planning.robots._identified import read_identified
 
     links, friction = read_identified(fields, top)
+    from app.planning.robots._obstacles import read_workspace
+
+    obstacles, mount_plane, srdf = read_workspace(fields, top)
+    srdf_path = None if srdf is None else (file_path.resolve().parent / srdf).resolve()
+    if srdf_path is not None and not srdf_path.is_file():
+        raise fields.fail("srdf", srdf, "an SRDF file (a path from the sidecar's folder)")
     return Sidecar(
         path=file_path.resolve(),
         robot=fields.text("robot", top.get("robot")),
@@ -237,9 +268,33 @@ def read_sidecar(path: str | Path) -> Sidecar:
         payload=_payload(fields, top.get("payload")),
         motors=motors,
         velocity_limits=speeds,
+        effort_limits=efforts,
+        base_link=fields.text("base_link", top.get("base_link")),
+        tip_link=fields.text("tip_link", top.get("tip_link")),
         links=links,
         friction=friction,
+        obstacles=obstacles,
+        mount_plane=mount_plane,
+        srdf=srdf_path,
+        actuators=_actuators(fields, top.get("actuators")),
     )
+
+
+def _actuators(fields: _Fields, data: Any) -> dict[str, dict[str, float]]:
+    """The ``actuators`` block: per joint, numbers > 0 of known fields (checked further, with
+    the joint's motor, by ``app.planning.actuators.envelope_from_fields``)."""
+    from app.planning.actuators import ACTUATOR_FIELDS
+
+    out: dict[str, dict[str, float]] = {}
+    for joint, block in fields.mapping("actuators", data).items():
+        where = f"actuators.{joint}"
+        values = fields.mapping(where, block)
+        fields.unknown(where, values, tuple(ACTUATOR_FIELDS))
+        out[joint] = {
+            name: fields.number(f"{where}.{name}", value, lower=0.0, strict=True)
+            for name, value in values.items()
+        }
+    return out
 
 
 def _shown(value: Any) -> str:

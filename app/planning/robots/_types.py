@@ -359,4 +359,12 @@ class Robot:
             armature=self.armature if armature else None,
             motors=self.motors if friction else None,
             locks=self.locks,
+            source=self._model_source(),
         )
+
+    def _model_source(self) -> str | None:
+        """The user's URDF when the MuJoCo model is its cached copy (no MJCF of their own)."""
+        source = self.spec.get("source") if self.spec else None
+        if not isinstance(source, str) or self.spec.get("mjcf") or not source.endswith(".urdf"):
+            return None
+        return f"{Path(source).name} (MuJoCo's copy {Path(str(self.mjcf_path)).name})"

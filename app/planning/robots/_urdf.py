@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from app.planning.robots._types import RobotError
@@ -31,6 +31,9 @@ class UrdfJoint:
         velocity: speed limit [rad/s or m/s].
         effort: torque [Nm] or force [N] limit.
         mimic: (leader joint, multiplier, offset) for a ``<mimic>`` joint, else None.
+        limited: False for a joint without ``<limit>`` (a caster, a wheel): its limits are
+            unknown (position ±inf, speed and effort inf) and it must be locked or given
+            limits by a sidecar.
     """
 
     name: str
@@ -42,6 +45,7 @@ class UrdfJoint:
     velocity: float
     effort: float
     mimic: tuple[str, float, float] | None = None
+    limited: bool = True
 
     @property
     def unit(self) -> str:
@@ -58,12 +62,24 @@ class UrdfModel:
         joints: movable joints in file order.
         links: link names.
         meshes: every ``<mesh filename>`` of visuals and collisions, in file order.
+        parents: child link -> (joint name, parent link), for every joint (fixed ones too).
+        root: the root link.
     """
 
     name: str
     joints: tuple[UrdfJoint, ...]
     links: tuple[str, ...]
     meshes: tuple[str, ...]
+    parents: dict[str, tuple[str, str]] = field(default_factory=dict)
+    root: str = ""
+
+    def ancestors(self, link: str) -> list[str]:
+        """The joints from the root down to ``link`` (root first; fixed joints included)."""
+        out: list[str] = []
+        while link in self.parents:
+            joint, link = self.parents[link]
+            out.append(joint)
+        return out[::-1]
 
     def joint(self, name: str) -> UrdfJoint:
         for joint in self.joints:
@@ -136,11 +152,8 @@ def _mimic(file: str, name: str, element: ET.Element) -> tuple[str, float, float
 
 def _limits(file: str, name: str, kind: str, element: ET.Element) -> tuple[float, ...]:
     limit = element.find("limit")
-    if limit is None:
-        raise RobotError(
-            f"{file}: joint '{name}' has no <limit>: expected lower, upper, velocity and "
-            "effort" + (" (velocity and effort for continuous)" if kind == "continuous" else "")
-        )
+    if limit is None:  # a caster or a wheel: lockable; refused later if left free
+        return -math.inf, math.inf, math.inf, math.inf
     if kind == "continuous":
         lower, upper = -math.inf, math.inf
     else:
@@ -198,6 +211,7 @@ def _joint(file: str, element: ET.Element, links: list[str]) -> tuple[str, str, 
         velocity,
         effort,
         _mimic(file, name, element),
+        limited=element.find("limit") is not None,
     )
     return parent_link, child_link, joint
 
@@ -220,11 +234,13 @@ def parse_urdf(path: Path) -> UrdfModel:
         raise RobotError(f"{file}: duplicate link names: expected unique link names")
     movable: list[UrdfJoint] = []
     children: set[str] = set()
+    parents: dict[str, tuple[str, str]] = {}
     for element in root.findall("joint"):
-        _, child, joint = _joint(file, element, links)
+        parent, child, joint = _joint(file, element, links)
         if child in children:
             raise RobotError(f"{file}: link '{child}' is the child of two joints: expected a tree")
         children.add(child)
+        parents[child] = (element.get("name") or "", parent)
         if joint is not None:
             movable.append(joint)
     roots = [name for name in links if name not in children]
@@ -254,4 +270,6 @@ def parse_urdf(path: Path) -> UrdfModel:
         joints=tuple(movable),
         links=tuple(links),
         meshes=meshes,
+        parents=parents,
+        root=roots[0],
     )

@@ -30,7 +30,7 @@ from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import Payload, Robot, RobotError
 from app.planning.robots._urdf import UrdfJoint, UrdfModel, parse_urdf, read_xml
 
-__all__ = ["locks_from_display", "mujoco_ready_urdf", "user_robot"]
+__all__ = ["locks_from_display", "missing_meshes", "mujoco_ready_urdf", "user_robot"]
 
 #: Heuristic pitch pair: axes within this of horizontal and of parallel, anchors this far apart.
 _HORIZONTAL = 0.2
@@ -66,8 +66,34 @@ def locks_from_display(file: str | Path, values: Mapping[str, float]) -> dict[st
     return out
 
 
-def _resolve_locks(model: UrdfModel, file: str, locks: Mapping[str, float]) -> dict[str, float]:
-    """Checked locks (SI), with mimic joints of locked leaders added; refuses what cannot move."""
+def missing_meshes(robot: Robot) -> list[str]:
+    """The mesh references of a user URDF that resolve to no file (``package://`` paths
+    against the robot's package folders, relative ones against the URDF's folder), each once,
+    in file order: the viewer draws those links without their bodies. Empty for a built-in
+    robot or an MJCF alone (MuJoCo opens every file an MJCF names at load).
+    """
+    from app.planning.robots._package import resolve_mesh
+
+    source = robot.spec.get("source") if robot.spec else None
+    if not isinstance(source, str) or not source.lower().endswith(".urdf"):
+        return []
+    urdf = Path(source)
+    if not urdf.is_file():
+        return []
+    out: list[str] = []
+    for reference in parse_urdf(urdf).meshes:
+        if reference and reference not in out:
+            found = resolve_mesh(
+                reference, base_dir=urdf.parent, package_dirs=tuple(robot.package_dirs)
+            )
+            if found is None:
+                out.append(reference)
+    return out
+
+
+def _checked_locks(model: UrdfModel, file: str, locks: Mapping[str, float]) -> dict[str, float]:
+    """Locks (SI) of known joints within their limits (any finite value for a joint without
+    limits: a caster, a wheel, a continuous joint), with mimic joints of locked leaders added."""
     out: dict[str, float] = {}
     for name, value in locks.items():
         try:
@@ -89,24 +115,167 @@ def _resolve_locks(model: UrdfModel, file: str, locks: Mapping[str, float]) -> d
                 f"limits [{lo:g}, {hi:g}] {joint.unit}"
             )
         out[name] = float(value)
+    return _with_mimics(model, out)
+
+
+def _with_mimics(model: UrdfModel, locks: dict[str, float]) -> dict[str, float]:
+    out = dict(locks)
     for joint in model.joints:
         if joint.mimic is not None and joint.name not in out and joint.mimic[0] in out:
             leader, multiplier, offset = joint.mimic
             out[joint.name] = multiplier * out[leader] + offset
+    return out
+
+
+def _neutral(joint: UrdfJoint) -> float:
+    """A lock value for a joint that cannot move the arm (another branch): zero, clipped into
+    its limits."""
+    return float(min(max(0.0, joint.lower), joint.upper))
+
+
+def _branches(model: UrdfModel, free: Sequence[str]) -> list[list[str]]:
+    """The free joints as maximal serial runs: a run starts at a free joint whose nearest free
+    ancestor is none or has several free children, and follows single free children."""
+    free_set = set(free)
+    above: dict[str, str | None] = {}
+    for name in free:
+        chain = [j for j in model.ancestors(model.joint(name).child)[:-1] if j in free_set]
+        above[name] = chain[-1] if chain else None
+    below: dict[str | None, list[str]] = {}
+    for name in free:
+        below.setdefault(above[name], []).append(name)
+    heads = [n for n in free if above[n] is None or len(below.get(above[n], [])) > 1]
+    runs = []
+    for head in heads:
+        run = [head]
+        while len(below.get(run[-1], [])) == 1:
+            run.append(below[run[-1]][0])
+        runs.append(run)
+    return runs
+
+
+def _shown_runs(runs: Sequence[Sequence[str]], most: int = 8) -> str:
+    text = "; ".join(_run_text(r) for r in runs[:most])
+    return text + (f"; and {len(runs) - most} more" if len(runs) > most else "")
+
+
+def _run_text(run: Sequence[str]) -> str:
+    return run[0] if len(run) == 1 else f"{run[0]}…{run[-1]} ({len(run)} joints)"
+
+
+def _arm_chain(
+    model: UrdfModel, file: str, base: str, tip: str | None, locked: Mapping[str, float]
+) -> tuple[dict[str, float], list[tuple[str, str]]]:
+    """Joints off the arm named by its base link (and tip link): (automatic locks of the
+    joints on other branches, which cannot move the arm's links; the reasons of the joints the
+    user must lock: the base's movable ancestors place it, the joints the arm carries move
+    its load)."""
+    for role, link in (("base_link", base), ("tip_link", tip)):
+        if link is not None and link not in model.links:
+            raise RobotError(
+                f"{file}: {role} '{link}' is not a link: expected one of {_listing(model.links)}"
+            )
+    movable = set(model.joint_names)
+    above_base = [j for j in model.ancestors(base) if j in movable]
+    chain: list[str] = []
+    if tip is not None:
+        path = model.ancestors(tip)
+        if path[: len(model.ancestors(base))] != model.ancestors(base) or tip == base:
+            raise RobotError(
+                f"{file}: tip_link '{tip}' does not lie below base_link '{base}': expected a "
+                "link of the arm that the base carries"
+            )
+        chain = [j for j in path[len(model.ancestors(base)) :] if j in movable]
+    auto: dict[str, float] = {}
+    needed: list[tuple[str, str]] = []
     for joint in model.joints:
-        if joint.name in out:
+        name = joint.name
+        if name in locked:
+            continue
+        if name in above_base:
+            needed.append((name, f"joint '{name}' places the arm's base link '{base}'"))
+        elif not _below(model, joint.child, base):
+            auto[name] = _neutral(joint)  # another branch: it moves nothing of the arm's
+        elif chain and name not in chain:
+            if any(c in model.ancestors(joint.child) for c in chain):
+                needed.append((name, f"joint '{name}' is carried by the arm off its chain"))
+            else:
+                auto[name] = _neutral(joint)  # a sibling branch on the base link
+    return auto, needed
+
+
+def _below(model: UrdfModel, link: str, base: str) -> bool:
+    """Whether ``link`` is ``base`` or lies below it in the tree."""
+    while True:
+        if link == base:
+            return True
+        if link not in model.parents:
+            return False
+        link = model.parents[link][1]
+
+
+def _lock_hint(model: UrdfModel, names: Sequence[str]) -> str:
+    units = {model.joint(n).unit for n in names}
+    unit = "degrees" if units == {"deg"} else "metres" if units == {"m"} else "deg or m"
+    return " ".join(f"--lock {n}=VALUE" for n in names) + f", {unit}"
+
+
+def _resolve_locks(
+    model: UrdfModel,
+    file: str,
+    locks: Mapping[str, float],
+    *,
+    base_link: str | None = None,
+    tip_link: str | None = None,
+    car: Sidecar | None = None,
+) -> tuple[dict[str, float], dict[str, float]]:
+    """(every lock [SI], the automatic ones among them). Refuses, in one message, everything
+    that must be locked: unlocked prismatic, mimic and limitless joints, the base's movable
+    ancestors, joints the arm carries off its chain; and a robot whose free joints branch
+    (legs, two arms, a head) unless the arm's base link is named."""
+    out = _checked_locks(model, file, locks)
+    auto: dict[str, float] = {}
+    needed: list[tuple[str, str]] = []
+    if base_link is not None:
+        auto, reasons = _arm_chain(model, file, base_link, tip_link, out)
+        needed += reasons
+        out = _with_mimics(model, {**out, **auto})
+        auto = {k: v for k, v in out.items() if k not in locks}
+    given_limits = set(car.velocity_limits) & set(car.effort_limits) if car else set()
+    for joint in model.joints:
+        if joint.name in out or any(joint.name == n for n, _ in needed):
             continue
         if joint.mimic is not None:
-            raise RobotError(
-                f"{file}: joint '{joint.name}' mimics '{joint.mimic[0]}': expected both locked "
-                f"(--lock {joint.mimic[0]}=VALUE locks it too)"
-            )
-        if joint.kind == "prismatic":
-            raise RobotError(
-                f"{file}: joint '{joint.name}' is prismatic (a gripper?): expected it locked "
-                f"(--lock {joint.name}=VALUE, metres)"
-            )
-    return out
+            needed.append((joint.name, f"joint '{joint.name}' mimics '{joint.mimic[0]}'"))
+        elif joint.kind == "prismatic":
+            needed.append((joint.name, f"joint '{joint.name}' is prismatic (a gripper?)"))
+        elif not joint.limited and joint.name not in given_limits:
+            needed.append((joint.name, f"joint '{joint.name}' has no <limit>"))
+    free = [j.name for j in model.joints if j.name not in out and j.name not in dict(needed)]
+    runs = _branches(model, free)
+    if len(runs) > 1:  # the base link decides which locks are needed: ask for it first
+        bases = sorted({model.joint(run[0]).parent for run in runs})
+        advice = (
+            f"expected the arm's base link (--base-link LINK or sidecar base_link, e.g. one of "
+            f"{_listing(bases)}) and, if the arm branches, its tip link (--tip-link)"
+            if base_link is None or tip_link is None
+            else "expected locks for the branches off the arm"
+        )
+        raise RobotError(
+            f"{file}: the free joints branch into {len(runs)} chains "
+            f"({_shown_runs(runs)}): a legged, mobile or multi-arm robot "
+            f"plans one serial arm: {advice}"
+        )
+    if needed:
+        names = [n for n, _ in needed]
+        if len(needed) == 1:
+            what = f"expected it locked ({_lock_hint(model, names)})"
+            if not model.joint(names[0]).limited:
+                what += " or a <limit> with lower, upper, velocity and effort"
+        else:
+            what = f"expected them locked in one go ({_lock_hint(model, names)}; or sidecar locks)"
+        raise RobotError(f"{file}: " + "; ".join(r for _, r in needed) + ": " + what)
+    return out, auto
 
 
 def _pitch_pair(
@@ -204,20 +373,61 @@ def _default_task(q_min: Any, q_max: Any, shoulder: int, elbow: int) -> tuple[An
     return start, np.clip(goal, q_min, q_max)
 
 
-def mujoco_ready_urdf(urdf: Path) -> Path:
-    """A copy of ``urdf`` that MuJoCo's URDF compiler accepts: geometry stripped, every link kept.
+#: Smallest principal inertia MuJoCo is given, relative to the link's largest [-] (and at least
+#: ``_INERTIA_FLOOR`` kg m^2): a zero or round-off-negative one (a thin rod, a placeholder
+#: link) stops its compiler with "inertia must have positive eigenvalues".
+_INERTIA_RELATIVE = 1e-6
+_INERTIA_FLOOR = 1e-12
 
-    The simulation needs no geometry (contacts are off), and MuJoCo can read neither
-    ``package://`` mesh paths nor COLLADA files. ``fusestatic="false"`` keeps links behind fixed
-    joints as bodies, so a payload body keeps its name. Written once, content-addressed.
-    """
+
+def _repaired_inertia(link: ET.Element) -> str | None:
+    """Raise a link's principal inertias to positive values obeying the triangle inequality
+    (A + B >= C), in place; what was changed, or None when MuJoCo accepts it as it is."""
+    inertia = link.find("inertial/inertia")
+    if inertia is None:
+        return None
+    keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    try:
+        v = {k: float(inertia.get(k, "0")) for k in keys}
+    except ValueError:
+        return None
+    tensor = np.array(
+        [
+            [v["ixx"], v["ixy"], v["ixz"]],
+            [v["ixy"], v["iyy"], v["iyz"]],
+            [v["ixz"], v["iyz"], v["izz"]],
+        ]
+    )
+    values, axes = np.linalg.eigh(tensor)
+    if not np.all(np.isfinite(values)) or not np.any(values > 0):
+        return None  # an all-zero inertia (a point mass or a frame): MuJoCo accepts it
+    floor = max(_INERTIA_RELATIVE * float(values.max()), _INERTIA_FLOOR)
+    fixed = np.maximum(values, floor)
+    fixed[0] = max(fixed[0], fixed[2] - fixed[1])  # A + B >= C (sorted ascending)
+    if np.all(values >= floor) and values[0] + values[1] >= values[2] * (1 - 1e-9):
+        return None
+    new = axes @ np.diag(fixed) @ axes.T
+    for k, (i, j) in zip(keys, ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)), strict=True):
+        inertia.set(k, repr(float(new[i, j])))
+    shown = ", ".join(f"{x:.3g}" for x in values)
+    return (
+        f"{link.get('name')}: principal inertias [{shown}] kg m^2 raised to "
+        f"[{', '.join(f'{x:.3g}' for x in fixed)}]"
+    )
+
+
+def mujoco_ready(urdf: Path) -> tuple[Path, tuple[str, ...]]:
+    """:func:`mujoco_ready_urdf` and the inertia repairs it made (one line per link)."""
     from app.planning.robots._loader import write_cached
 
     root = read_xml(urdf, "URDF")
+    repairs = []
     for link in root.findall("link"):
         for tag in ("visual", "collision"):
             for element in link.findall(tag):
                 link.remove(element)
+        if (note := _repaired_inertia(link)) is not None:
+            repairs.append(note)
     for element in root.findall("mujoco"):
         root.remove(element)
     extension = ET.SubElement(root, "mujoco")
@@ -226,7 +436,22 @@ def mujoco_ready_urdf(urdf: Path) -> Path:
     compiler.set("discardvisual", "true")
     compiler.set("angle", "radian")
     text = ET.tostring(root, encoding="unicode")
-    return write_cached(text, urdf.stem + ".mujoco", ".urdf")
+    return write_cached(text, urdf.stem + ".mujoco", ".urdf"), tuple(repairs)
+
+
+def mujoco_ready_urdf(urdf: Path) -> Path:
+    """A copy of ``urdf`` that MuJoCo's URDF compiler accepts: geometry stripped, every link kept.
+
+    The simulation needs no geometry (contacts are off), and MuJoCo can read neither
+    ``package://`` mesh paths nor COLLADA files. ``fusestatic="false"`` keeps links behind fixed
+    joints as bodies, so a payload body keeps its name. A link inertia MuJoCo refuses (a zero
+    or negative principal inertia, or one breaking A + B >= C: a thin rod, a placeholder link)
+    is raised to the smallest it accepts (at least 1e-6 of the link's largest, the smallest one
+    raised until A + B >= C); the robot's
+    parameters list every such repair (Pinocchio keeps the file's values). Written once,
+    content-addressed.
+    """
+    return mujoco_ready(urdf)[0]
 
 
 def _payload(
@@ -257,14 +482,21 @@ def _sidecar_of(urdf: Path, model: UrdfModel, sidecar: Path | None) -> Sidecar |
 
 
 def _free_joints(
-    urdf: Path, model: UrdfModel, car: Sidecar | None, locks: Mapping[str, float] | None
-) -> tuple[dict[str, float], list[str], list[str]]:
-    """(all locks [SI], every movable joint in Pinocchio's order, the free ones)."""
+    urdf: Path,
+    model: UrdfModel,
+    car: Sidecar | None,
+    locks: Mapping[str, float] | None,
+    chain: tuple[str | None, str | None] = (None, None),
+) -> tuple[dict[str, float], list[str], list[str], dict[str, float]]:
+    """(all locks [SI], every movable joint in Pinocchio's order, the free ones, the automatic
+    locks of joints off the arm)."""
     from app.planning.dynamics import PinocchioDynamics
 
     display = dict(car.locks) if car is not None else {}
     merged = {**(locks_from_display(urdf, display) if display else {}), **dict(locks or {})}
-    all_locks = _resolve_locks(model, urdf.name, merged)
+    all_locks, auto = _resolve_locks(
+        model, urdf.name, merged, base_link=chain[0], tip_link=chain[1], car=car
+    )
     order = PinocchioDynamics.joint_order(urdf)
     free = [name for name in order if name not in all_locks]
     if len(free) < 2:
@@ -272,7 +504,21 @@ def _free_joints(
             f"{urdf.name}: {len(free)} free joint(s) {free}: expected at least two "
             "(human shoulder and elbow map onto two joints)"
         )
-    return all_locks, order, free
+    return all_locks, order, free, auto
+
+
+def _sidecar_limits(
+    joints: Sequence[UrdfJoint], car: Sidecar | None, field: str
+) -> dict[str, float]:
+    free = [j.name for j in joints]
+    values: dict[str, float] = dict(getattr(car, field)) if car is not None else {}
+    for name in values:
+        if name not in free:
+            raise RobotError(
+                f"{car.path.name if car else ''}: {field}.{name} is not a free joint: "
+                f"expected one of {_listing(free)}"
+            )
+    return values
 
 
 def _speed_limits(
@@ -281,18 +527,30 @@ def _speed_limits(
     """The file's speed limits, the sidecar's overrides; an MJCF's (it has none) unlimited."""
     from app.planning.robots._mjcf_urdf import UNLIMITED_SPEED
 
-    free = [j.name for j in joints]
-    speeds = dict(car.velocity_limits) if car is not None else {}
-    for name in speeds:
-        if name not in free:
-            raise RobotError(
-                f"{car.path.name if car else ''}: velocity_limits.{name} is not a free joint: "
-                f"expected one of {_listing(free)}"
-            )
+    speeds = _sidecar_limits(joints, car, "velocity_limits")
     default = [
         math.inf if mjcf_only and j.velocity == UNLIMITED_SPEED else j.velocity for j in joints
     ]
     return np.array([speeds.get(j.name, d) for j, d in zip(joints, default, strict=True)])
+
+
+def _effort_limits(
+    joints: Sequence[UrdfJoint], car: Sidecar | None, file: str
+) -> NDArray[np.float64]:
+    """The file's effort limits with the sidecar's overrides; an MJCF joint without a force
+    limit (no ``actuatorfrcrange``, no limited motor) needs the sidecar's."""
+    from app.planning.robots._mjcf_urdf import UNLIMITED_EFFORT
+
+    efforts = _sidecar_limits(joints, car, "effort_limits")
+    out = [efforts.get(j.name, j.effort) for j in joints]
+    missing = [j.name for j, v in zip(joints, out, strict=True) if v >= UNLIMITED_EFFORT]
+    if missing:
+        raise RobotError(
+            f"{file}: joint(s) {_listing(missing)} have no force limit: expected "
+            "actuatorfrcrange on the joint, a motor with forcerange or ctrlrange, or a sidecar "
+            f"with effort_limits ({', '.join(f'{n}: NM' for n in missing)}; docs/robots.md)"
+        )
+    return np.array(out)
 
 
 def user_robot(
@@ -306,11 +564,20 @@ def user_robot(
     sidecar: Path | None = None,
     package_dirs: Sequence[Path] = (),
     mjcf_only: bool = False,
+    base_link: str | None = None,
+    tip_link: str | None = None,
 ) -> Robot:
     """A robot from a user URDF; see :func:`app.planning.robots.load_robot` for the arguments."""
     model = parse_urdf(urdf)
     car = _sidecar_of(urdf, model, sidecar)
-    all_locks, order, free = _free_joints(urdf, model, car, locks)
+    base_link = base_link or (car.base_link if car else None)
+    tip_link = tip_link or (car.tip_link if car else None)
+    if tip_link is not None and base_link is None:
+        raise RobotError(
+            f"{urdf.name}: tip_link '{tip_link}' without base_link: expected both "
+            "(--base-link and --tip-link)"
+        )
+    all_locks, order, free, auto = _free_joints(urdf, model, car, locks, (base_link, tip_link))
     joints = [model.joint(name) for name in free]
     shoulder, elbow, how = _roles(
         urdf,
@@ -340,12 +607,12 @@ def user_robot(
         mjcf_path=(
             mjcf.resolve()
             if mjcf is not None and model_urdf == urdf
-            else mujoco_ready_urdf(model_urdf)
+            else mujoco_ready(model_urdf)[0]
         ),
         q_min=q_min,
         q_max=q_max,
         qd_max=_speed_limits(joints, car, mjcf_only),
-        tau_max=np.array([j.effort for j in joints]),
+        tau_max=_effort_limits(joints, car, (mjcf.name if mjcf_only and mjcf else urdf.name)),
         motors=motors,
         payload=body_payload,
         payload_body=body,
@@ -354,8 +621,9 @@ def user_robot(
         shoulder_joint=shoulder,
         elbow_joint=elbow,
         parameters=_parameters(
-            urdf, mjcf, mjcf_only, motor_source, body, payload_kind, how, all_locks
-        ),
+            urdf, mjcf, mjcf_only, motor_source, body, payload_kind, how, all_locks, auto
+        )
+        + _repair_rows(None if mjcf is not None and model_urdf == urdf else model_urdf),
         locks=all_locks,
         all_joint_names=tuple(order),
         package_dirs=tuple(package_dirs),
@@ -369,6 +637,8 @@ def user_robot(
             "sidecar": None if car is None else str(car.path),
             "package_dirs": [str(Path(p).resolve()) for p in package_dirs],
             **({"mjcf_only": True} if mjcf_only else {}),
+            **({"base_link": base_link} if base_link is not None else {}),
+            **({"tip_link": tip_link} if tip_link is not None else {}),
         },
     )
     if mjcf is not None:
@@ -376,6 +646,21 @@ def user_robot(
 
         check_same_robot(robot)
     return robot
+
+
+def _repair_rows(urdf: Path | None) -> tuple[dict[str, object], ...]:
+    """The inertia repairs of the MuJoCo copy of ``urdf`` (none with the user's own MJCF)."""
+    if urdf is None:
+        return ()
+    return tuple(
+        {
+            "name": "mujoco inertia repair",
+            "value": note,
+            "unit": "",
+            "source": "MuJoCo needs positive principal inertias with A + B >= C",
+        }
+        for note in mujoco_ready(urdf)[1]
+    )
 
 
 def _parameters(
@@ -387,6 +672,7 @@ def _parameters(
     payload_kind: str,
     how: str,
     locks: Mapping[str, float],
+    auto: Mapping[str, float] | None = None,
 ) -> tuple[dict[str, object], ...]:
     if mjcf_only:
         simulator = "MJCF (the URDF was generated from it)"
@@ -402,7 +688,6 @@ def _parameters(
         {"name": "shoulder/elbow", "value": how, "unit": "", "source": "load_robot"},
     ]
     for name, value in locks.items():
-        rows.append(
-            {"name": f"lock.{name}", "value": value, "unit": "rad or m", "source": "locked"}
-        )
+        source = "off the arm (no effect on it)" if auto and name in auto else "locked"
+        rows.append({"name": f"lock.{name}", "value": value, "unit": "rad or m", "source": source})
     return tuple(rows)
