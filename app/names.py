@@ -157,6 +157,9 @@ HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "none")
 #: Constant-jerk intervals of the optimal-control transcription by default
 #: (``app.planning.optimal.DEFAULT_INTERVALS``).
 OPTIMAL_INTERVALS = 40
+#: Seeds of the paper's PSO per sweep cell (``app.simulation.sweep.SWEEP_SEEDS``): a verdict is
+#: certain only when all agree.
+SWEEP_SEEDS = 3
 
 #: Muscle sites of the paper's EMG set-up, with their plot colours: hues at least 30 degrees
 #: from every phase colour (or nearly grey), so an onset bar never reads as a phase.

@@ -14,6 +14,7 @@ from app.api.routes import (
     poses,
     profiles,
     recordings,
+    robot_logs,
     robots,
     simulations,
     sweeps,
@@ -32,4 +33,6 @@ api_router.include_router(cohorts.router)
 api_router.include_router(jobs.router)
 api_router.include_router(jobs.events_router)
 api_router.include_router(robots.router)
+api_router.include_router(robot_logs.router)
+api_router.include_router(robot_logs.identifications)
 api_router.include_router(dashboard.router)

@@ -34,6 +34,7 @@ from app.names import (
     PHASE_BOUNDS_DEG,
     PSO_DEFAULTS,
     STANDARD_METHODS,
+    SWEEP_SEEDS,
     MethodInfo,
     MetricInfo,
     PhaseInfo,
@@ -56,7 +57,9 @@ else:
     MethodName = Literal[tuple(METHODS)]
     HumanConstraint = Literal[HUMAN_CONSTRAINTS]
     ReaderFormat = Literal[FORMATS]
-JobKind = Literal["analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort"]
+JobKind = Literal[
+    "analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify"
+]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
 #: ``WIDTHxHEIGHT`` in pixels (1 to 99999 each), or blank for none.
@@ -446,6 +449,15 @@ class SkeletonFrameInfo(BaseModel):
     frame: int = Field(description="0-based frame index in the video")
     time_s: float = Field(description="its time in the video [s]")
     url: str
+    person: int | None = Field(
+        default=None,
+        description="whom the skeleton is on: 0 the tracked person, 1, 2... someone or"
+        " something else the track jumped to, -1 unknown (None: not recorded)",
+    )
+    quality: float | None = Field(
+        default=None, description="the frame's detection quality, 0-1 (the better arm's score)"
+    )
+    note: str | None = Field(default=None, description="whom it shows, in words")
 
 
 class SkeletonFrames(BaseModel):
@@ -615,6 +627,12 @@ class _RobotTask(_Request):
         le=400,
         description="constant-jerk intervals of the optimal-control transcription",
     )
+    converge: bool = Field(
+        default=False,
+        description="refine every optimal-control result on meshes of 2N, 4N, ... intervals "
+        "until its objective changes by less than 0.1 % (evidence in solver.convergence); off "
+        "by default: it makes a plan several times slower",
+    )
 
 
 class PlanRequest(_RobotTask):
@@ -664,7 +682,19 @@ class SweepRequest(_Request):
         le=2**32 - 1,
         description="seed of the second PSO run that checks each cell's verdict (-1: seed + 1)",
     )
-    no_check: bool = Field(default=False, description="skip the convergence check")
+    no_check: bool = Field(default=False, description="skip the convergence check (one seed)")
+    seeds: int = Field(
+        default=SWEEP_SEEDS,
+        ge=1,
+        le=20,
+        description="seeds the paper's PSO runs with per cell (the cell's seed, then check_seed, "
+        "check_seed + 1, ...); a verdict is certain only when all agree",
+    )
+    converge: bool = Field(
+        default=False,
+        description="refine every optimal-control result until its objective changes by less "
+        "than 0.1 % (several times slower)",
+    )
 
 
 class ProfilesRequest(_Request):
@@ -940,3 +970,78 @@ class RobotInfo(BaseModel):
     package_dirs: list[str] | None = Field(
         default=None, description="folders package:// mesh paths resolve in (uploads)"
     )
+    missing_meshes: list[str] | None = Field(
+        default=None,
+        description="mesh references of the URDF that resolve to no file: the viewer draws "
+        "those links without bodies (upload a package zip holding them)",
+    )
+    default_task_safety: dict[str, Any] | None = Field(
+        default=None,
+        description="the safety check of the default task's quintic, run at upload: {ok "
+        "(null: not checked), checked, reason, min_clearance [m], duration [s], findings "
+        "(count), worst (the deepest finding: links, kind, obstacle, depth [m], "
+        "deepest_time [s]), summary}",
+    )
+    identified_from: dict[str, Any] | None = Field(
+        default=None,
+        description="a version identified from robot logs: {robot (the nominal one), log_ids, "
+        "job_id}; null for a robot as uploaded",
+    )
+
+
+# ------------------------------------------------------------------------------- robot logs
+
+
+class RobotLogOut(BaseModel):
+    """A stored robot log: what was read and how it compared with the robot's model at upload."""
+
+    id: int
+    robot: str = Field(description="the robot it was recorded on")
+    file: str
+    format: str = Field(description="ros2_bag, ur_rtde_csv or csv")
+    bytes: int
+    topic: str | None = None
+    label: str | None = None
+    created_at: datetime
+    samples: int
+    rate_hz: float = Field(description="[Hz] (resampled onto an even grid when uneven)")
+    duration_s: float = Field(description="[s]")
+    notes: list[str] = Field(description="repairs made while reading, how torque was obtained")
+    joint_names: list[str]
+    validation: dict[str, Any] = Field(
+        description="joints {name: {rms_measured, residual_rms [Nm], r2}}, abs_work {measured, "
+        "predicted} [J], filter, electrical_energy when currents and motors exist"
+    )
+
+
+class IdentifyRequest(_Request):
+    """Identify a robot's inertias and friction from stored logs of it (``bioplan identify``);
+    the result is stored as a new robot version beside the nominal one."""
+
+    log_ids: list[int] = Field(min_length=1, max_length=20, description="stored logs of one robot")
+    version: str | None = Field(
+        default=None,
+        pattern=ROBOT_NAME,
+        description="name of the identified robot (default: <robot>-identified[-k])",
+    )
+    validate_fraction: float = Field(
+        default=0.2, ge=0.0, lt=0.9, description="last fraction of each log held back"
+    )
+    cutoff_hz: float | None = Field(
+        default=None, gt=0, le=1000, description="zero-phase low-pass cutoff [Hz] (default 10)"
+    )
+    identify_payload: bool = Field(
+        default=False, description="identify a point payload instead of the last link's inertia"
+    )
+    label: str | None = Field(default=None, max_length=200)
+
+
+class IdentificationOut(BaseModel):
+    """An identification: the job, the robot and its new version's name and, once it
+    succeeded, the result (``bioplan identify --json``)."""
+
+    id: int
+    robot: str
+    version: str = Field(description="the robot the identified model is stored as")
+    job: Job
+    result: dict[str, Any] | None

@@ -18,6 +18,7 @@ from app.cli import (
     cohort,
     demo,
     export,
+    front,
     identify,
     plan,
     samples,
@@ -35,6 +36,7 @@ __all__ = ["build_parser", "main"]
 _COMMANDS = (
     *(plan, analyze, cohort, simulate, export, demo, samples, serve, submit),
     *(validate, identify),
+    front,
 )
 
 

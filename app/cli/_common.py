@@ -189,6 +189,17 @@ def add_onboarding_args(p: argparse.ArgumentParser) -> None:
         help="robot sidecar YAML: motors, gears, payload, locks (docs/robots.md; default: none, "
         "electrical metrics not modelled)",
     )
+    p.add_argument(
+        "--base-link",
+        default=None,
+        help="the arm's base link on a robot whose joints branch (legs, a mobile base, two arms): "
+        "joints on other branches are locked (default: the sidecar's; see docs/robots.md)",
+    )
+    p.add_argument(
+        "--tip-link",
+        default=None,
+        help="the arm's end link when the arm branches below its base (with --base-link)",
+    )
 
 
 def parse_locks(entries: Sequence[str]) -> dict[str, float]:
@@ -236,6 +247,8 @@ def load_robot(args: argparse.Namespace) -> Any:
         elbow_joint=getattr(args, "elbow_joint", None),
         locks=locks or None,
         sidecar=getattr(args, "sidecar", None),
+        base_link=getattr(args, "base_link", None),
+        tip_link=getattr(args, "tip_link", None),
     )
 
 
@@ -266,6 +279,18 @@ def add_export_args(p: argparse.ArgumentParser) -> None:
         "paper's method when planned, else the first planned of human_optimal, bound, "
         "jerk_limited)",
     )
+    p.add_argument(
+        "--export-force",
+        action="store_true",
+        help="write the export although it leaves the robot's limits (the file records it; "
+        "default: refuse, exit 2; as bioplan export --force)",
+    )
+    p.add_argument(
+        "--export-allow-unsafe",
+        action="store_true",
+        help="write the export although the safety check found a contact of its method (the "
+        "file records it; default: refuse, exit 2; as bioplan export --allow-unsafe)",
+    )
 
 
 def check_export_args(args: argparse.Namespace) -> None:
@@ -293,18 +318,29 @@ def attach_motion(args: argparse.Namespace, robot: Any, plan: Any, payload: dict
         plan: the ``PlanResult`` (for ``simulate``: the simulation's plan).
         payload: the command's JSON object (gets the ``motion`` block).
     """
-    from app.planning.export import plan_motion, write_export
+    from app.planning.export import ExportError, plan_motion, write_export
 
     motion = plan_motion(plan, robot)
     payload["motion"] = motion.to_dict()
     if getattr(args, "export", None):
-        write_export(
-            args.export,
-            motion,
-            method=args.export_method,
-            rate=args.export_rate,
-            robot=robot,
-        )
+        try:
+            write_export(
+                args.export,
+                motion,
+                method=args.export_method,
+                rate=args.export_rate,
+                robot=robot,
+                force=getattr(args, "export_force", False),
+                allow_unsafe=getattr(args, "export_allow_unsafe", False),
+            )
+        except ExportError as exc:  # name this command's flags, not bioplan export's
+            text = str(exc).replace("--allow-unsafe", "--export-allow-unsafe")
+            text = text.replace("--force", "--export-force")
+            out = getattr(args, "out", None)
+            if out:  # the plan took its time: keep it (bioplan export makes files from it)
+                write_out(out, json.dumps(payload, indent=2, allow_nan=False) + "\n")
+                text += f"; the plan itself was written to {out}"
+            raise CliError(f"--export {args.export}: {text}") from None
 
 
 def task_from_args(args: argparse.Namespace, robot: Any) -> Any:

@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from app.cli._common import CliError, floats, positive, progress_printer, write_out
+from app.jsonsafe import json_safe
 from app.names import MAX_VIDEO_SECONDS
-from app.planning.jsonsafe import json_safe
 
 
 def _muscle_map(pairs: Sequence[str] | None) -> dict[str, str] | None:

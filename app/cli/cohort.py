@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from app.cli._common import CliError
-from app.planning.jsonsafe import json_safe
+from app.jsonsafe import json_safe
 
 #: Annotation of an options field -> the argparse type of its flag.
 _TYPES: dict[str, Any] = {"float | None": float, "float": float, "int": int, "str": str}

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError, emit
+from app.cli._common import CliError, emit, floats
 
 
 def _read_result(path: str) -> dict[str, Any]:
@@ -26,14 +27,29 @@ def _read_result(path: str) -> dict[str, Any]:
     return data
 
 
+def _from_position(text: str | None, joints: tuple[str, ...]) -> list[float] | None:
+    """``--from-position`` (degrees, one per free joint) in radians, or None."""
+    if text is None:
+        return None
+    values = floats(text, "from-position")
+    if len(values) != len(joints):
+        raise CliError(
+            f"--from-position has {len(values)} angles: expected {len(joints)} in degrees, one "
+            f"per joint ({', '.join(joints)})"
+        )
+    return [math.radians(v) for v in values]
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from app.planning.export import (
         FORMATS,
         check_rate,
+        check_ros_options,
+        export_stream,
         format_of,
         motion_of_result,
         one_line,
-        write_export,
+        write_chunks,
     )
 
     fmt = args.format or format_of(args.out_file)
@@ -45,6 +61,8 @@ def cmd_export(args: argparse.Namespace) -> int:
             f"{args.format}: expected them to agree"
         )
     rate = check_rate(FORMATS[fmt].default_rate if args.rate is None else args.rate)
+    # before the result is read (its message names the option, not the result file)
+    check_ros_options(fmt, goal=args.goal, topic=args.topic, from_position=args.from_position)
     try:
         motion = motion_of_result(_read_result(args.result))
     except CliError:
@@ -52,7 +70,19 @@ def cmd_export(args: argparse.Namespace) -> int:
     except ValueError as exc:  # ExportError names the field; prefix the file
         raise CliError(f"{args.result}: {exc}") from None
     chosen = motion.method(args.method)
-    written = write_export(args.out_file, motion, fmt=fmt, method=chosen.name, rate=rate)
+    chunks = export_stream(
+        motion,
+        fmt,
+        method=chosen.name,
+        rate=rate,
+        force=args.force,
+        allow_unsafe=args.allow_unsafe,
+        goal=args.goal,
+        topic=args.topic,
+        from_position=_from_position(args.from_position, motion.joint_names),
+    )
+    written = write_chunks(args.out_file, chunks)
+    record = chunks.context
     size = written.stat().st_size
     payload = {
         "out": str(written),
@@ -63,11 +93,12 @@ def cmd_export(args: argparse.Namespace) -> int:
         "joint_names": list(motion.joint_names),
         "duration": motion.duration,
         "bytes": size,
+        "export": record.to_dict(),
     }
     text = (
         f"wrote {written} ({fmt}, {size} bytes): robot {one_line(motion.robot)}, "
         f"method {chosen.name}, "
-        f"{rate:g} Hz over {motion.duration:g} s"
+        f"{rate:g} Hz over {motion.duration:g} s; " + "; ".join(record.lines())
     )
     emit(args, payload, text)
     return 0
@@ -102,5 +133,40 @@ def register(sub: Any) -> None:
         help="planning method to export (default: the result's optimised one, paper)",
     )
     p.add_argument("--out", dest="out_file", required=True, help="file to write")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="write it although a sample leaves the robot's position, speed, acceleration or "
+        "torque limits (or a URScript for a robot that is not a UR); the file records what "
+        "was exceeded (default: refuse, exit 2)",
+    )
+    p.add_argument(
+        "--allow-unsafe",
+        action="store_true",
+        help="write a method the plan's collision check found in contact; the file records "
+        "the first contact (default: refuse, exit 2)",
+    )
+    p.add_argument(
+        "--goal",
+        action="store_true",
+        help="yaml: a control_msgs/action/FollowJointTrajectory goal (for ros2 action "
+        "send_goal) instead of the bare trajectory_msgs/msg/JointTrajectory",
+    )
+    p.add_argument(
+        "--topic",
+        default=None,
+        metavar="NAME",
+        help="yaml, mcap: the controller's topic (or action, with --goal), e.g. "
+        "/scaled_joint_trajectory_controller/joint_trajectory (default: /joint_trajectory; "
+        "goal: /joint_trajectory_controller/follow_joint_trajectory)",
+    )
+    p.add_argument(
+        "--from-position",
+        default=None,
+        metavar="DEG,...",
+        help="yaml, mcap: the arm's current joint positions [deg, one per joint]: the file "
+        "first moves from there to the plan's start (rest to rest, at most half the speed "
+        "and acceleration limits, at least 1 s)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(handler=cmd_export)

@@ -18,8 +18,9 @@ from app.cli._common import (
     progress_printer,
     task_from_args,
 )
+from app.jsonsafe import json_safe
 from app.names import METHODS, OBJECTIVES, PSO_DEFAULTS, STANDARD_METHODS
-from app.planning.jsonsafe import json_safe
+from app.planning.safety import safety_summary
 
 #: ``human_optimal``'s constraints (``app.planning.optimal.HUMAN_CONSTRAINTS``, without importing
 #: CasADi for ``--help``).
@@ -57,6 +58,13 @@ def add_method_args(p: argparse.ArgumentParser, *, transcription: bool = True) -
         type=int,
         default=DEFAULT_INTERVALS,
         help="constant-jerk intervals of the optimal-control transcription",
+    )
+    p.add_argument(
+        "--converge",
+        action="store_true",
+        help="refine every optimal-control result on meshes of 2N, 4N, ... intervals until its "
+        "objective changes by less than 0.1 %% (the evidence in solver.convergence); off by "
+        "default: it makes a plan about 3-6x slower (docs/planning.md)",
     )
 
 
@@ -96,6 +104,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         human_constraint=args.human_constraint,
         no_reversal=not args.allow_reversal,
         n_intervals=args.intervals,
+        converge=args.converge,
         progress=progress_printer(not args.json),
     )
     payload = json_safe(result.to_dict())
@@ -117,8 +126,28 @@ def _solver_line(name: str, solver: dict[str, Any] | None) -> str | None:
             f"{name}: IPOPT {solver['status']} in {solver['iterations']} iterations, "
             f"{solver['seconds']:.2f} s, {solver['n_intervals']} intervals, warm start "
             f"{solver['warm_start']}, human constraint {solver['human_constraint']}"
+            + _convergence_text(solver.get("convergence"))
         )
     return f"{name}: ruckig time-synchronised jerk-limited profile"
+
+
+def _convergence_text(conv: dict[str, Any] | None) -> str:
+    """The mesh-refinement evidence of one optimal-control result ('' without --converge)."""
+    if not conv:
+        return ""
+    steps = " -> ".join(
+        f"{s['n_intervals']}: {s['objective']:.6g}" if s.get("objective") is not None
+        else f"{s['n_intervals']}: failed"
+        for s in conv["sequence"]
+    )  # fmt: skip
+    change = conv.get("relative_change")
+    estimate = "n/a" if change is None else f"{100 * change:.3g} %"
+    state = "converged" if conv.get("converged") else "NOT converged"
+    return (
+        f"\n  mesh refinement (intervals: objective) {steps}; error estimate {estimate}, "
+        f"{state} (tolerance {100 * conv['tolerance']:g} %), final mesh "
+        f"{conv['final_intervals']} intervals"
+    )
 
 
 def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) -> str:
@@ -130,6 +159,17 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
         "methods: " + "; ".join(f"{n} = {METHODS[n].label}" for n in methods),
         metrics_table(list(methods.items()), payload["floors"]),
     ]
+    task = payload.get("task") or {}
+    if "delta_pe_j" in task:
+        lines.append(
+            f"task: {'lifts' if task['lifts'] else 'lowers'} the robot and payload "
+            f"(ΔPE {task['delta_pe_j']:+.2f} J)"
+        )
+    failed = payload.get("method_errors") or {}
+    if failed:  # each method's own error is among the warnings below
+        lines.append(
+            "failed: " + "; ".join(f"{n} ({f['kind']}, see warnings)" for n, f in failed.items())
+        )
     for name, m in methods.items():
         lo, hi = m["peak_velocity_span_deg"]
         if lo is not None and hi is not None and abs(hi - lo) > 1.0:
@@ -165,6 +205,7 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
     if args.export:
         method = args.export_method or payload["motion"]["default_method"]
         lines.append(f"trajectory ({method}) written to {args.export}")
+    lines.append(f"safety: {safety_summary(payload.get('safety'))}")
     lines += [f"warning: {w}" for w in payload["warnings"]]
     return "\n".join(lines)
 

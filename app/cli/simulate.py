@@ -21,8 +21,8 @@ from app.cli._common import (
     task_from_args,
 )
 from app.cli.plan import add_method_args, add_pso_args
+from app.jsonsafe import json_safe
 from app.names import OBJECTIVES, PSO_DEFAULTS, STANDARD_METHODS
-from app.planning.jsonsafe import json_safe
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -70,6 +70,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         iterations=args.iterations,
         methods=args.method.split(","),
         check_seed=None if args.no_check else args.check_seed,
+        seeds=args.seeds,
+        converge=args.converge,
         workers=args.workers,
         executor=args.executor,
         progress=progress_printer(not args.json),
@@ -80,7 +82,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def register(sub: Any) -> None:
     """Add ``simulate`` and ``sweep`` to the ``bioplan`` subcommands."""
-    from app.simulation.sweep import SWEEP_ITERATIONS, SWEEP_PARTICLES
+    from app.simulation.sweep import SWEEP_ITERATIONS, SWEEP_PARTICLES, SWEEP_SEEDS
 
     p = sub.add_parser("simulate", help="plan, then simulate every method in MuJoCo")
     add_robot_args(p)
@@ -112,9 +114,22 @@ def register(sub: Any) -> None:
         "--check-seed",
         type=int,
         default=-1,
-        help="seed of the second PSO run that checks each verdict (-1: seed + 1)",
+        help="first check seed of the paper's PSO (-1: seed + 1; the others follow it)",
     )
-    p.add_argument("--no-check", action="store_true", help="skip the convergence check")
+    p.add_argument(
+        "--seeds",
+        type=int,
+        default=SWEEP_SEEDS,
+        help="seeds the paper's PSO runs with per cell (the cell's --seed and the check seeds); "
+        "a verdict is certain only when all agree, otherwise marked '?' with its spread",
+    )
+    p.add_argument("--no-check", action="store_true", help="skip the convergence check (one seed)")
+    p.add_argument(
+        "--converge",
+        action="store_true",
+        help="refine every optimal-control result until its objective changes by less than "
+        "0.1 %% (several times slower; docs/planning.md)",
+    )
     p.add_argument("--particles", type=int, default=SWEEP_PARTICLES, help="PSO swarm per cell")
     p.add_argument("--iterations", type=int, default=SWEEP_ITERATIONS, help="PSO iterations")
     p.add_argument("--workers", type=int, default=None, help="processes (default: up to 2)")

@@ -32,11 +32,12 @@ from app.db.models import (
     RecordingFile,
     RecordingSession,
     ResultBlob,
+    RobotLogRecord,
     RobotRecord,
     SkeletonFrame,
     utcnow,
 )
-from app.planning.jsonsafe import json_safe
+from app.jsonsafe import json_safe
 
 logger = logging.getLogger(__name__)
 
@@ -326,6 +327,7 @@ def referenced_hashes(*, session: Session) -> set[str]:
     """SHA-256 of every blob some row refers to."""
     refs = set(session.scalars(select(RecordingFile.sha256)))
     refs |= set(session.scalars(select(ResultBlob.sha256)))
+    refs |= set(session.scalars(select(RobotLogRecord.sha256)))
     for column in (
         RobotRecord.urdf_sha256,
         RobotRecord.mjcf_sha256,
@@ -626,6 +628,63 @@ def delete_robot(*, session: Session, blobs: BlobStore, name: str) -> bool:
             if h
         }
         _delete_with_blobs(session, blobs, row, hashes)
+    return True
+
+
+# ---------------------------------------------------------------------------------- robot logs
+
+
+def create_robot_log(
+    *,
+    session: Session,
+    blobs: BlobStore,
+    robot: str,
+    file: tuple[str, bytes],
+    format: str,
+    topic: str | None,
+    summary: dict[str, Any],
+    label: str | None = None,
+) -> RobotLogRecord:
+    """Store a robot log (bytes by hash, row in one transaction: both or neither)."""
+    with blobs.lock:
+        row = RobotLogRecord(
+            robot=robot,
+            original_name=file[0][:255],
+            format=format,
+            size=len(file[1]),
+            sha256=blobs.put(file[1]),
+            topic=topic,
+            summary=json_safe(summary),
+            label=label,
+            created_at=utcnow(),
+        )
+        session.add(row)
+        try:
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+    return row
+
+
+def get_robot_log(*, session: Session, log_id: int) -> RobotLogRecord | None:
+    return session.get(RobotLogRecord, log_id)
+
+
+def list_robot_logs(*, session: Session, robot: str | None = None) -> list[RobotLogRecord]:
+    """Stored robot logs, newest first (of one robot when ``robot`` is given)."""
+    stmt = select(RobotLogRecord).order_by(RobotLogRecord.id.desc())
+    if robot is not None:
+        stmt = stmt.where(RobotLogRecord.robot == robot)
+    return list(session.scalars(stmt))
+
+
+def delete_robot_log(*, session: Session, blobs: BlobStore, log_id: int) -> bool:
+    with blobs.lock:
+        row = session.get(RobotLogRecord, log_id)
+        if row is None:
+            return False
+        _delete_with_blobs(session, blobs, row, {row.sha256})
     return True
 
 

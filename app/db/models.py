@@ -45,7 +45,7 @@ NAMING_CONVENTION = {
 #: Job states and the ones a job never leaves (one home: ``app.names``).
 JOB_STATES = _names.JOB_STATES
 TERMINAL_STATES = _names.TERMINAL_JOB_STATES
-JOB_KINDS = ("analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort")
+JOB_KINDS = ("analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify")
 #: What an uploaded file is to its session: a recording (read and analysed; also the landmarks
 #: extracted from a video), a sidecar of another file (BIDS ``_channels.tsv``/``_emg.json`` of an
 #: EDF: used when that file is read, never read on its own), or a video (turned into pose).
@@ -212,6 +212,30 @@ class RobotRecord(Base):
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
 
 
+class RobotLogRecord(Base):
+    """An uploaded robot log (what a real arm measured: joint positions, speeds, torques) of
+    one robot; its bytes live in the blob store under ``sha256``. Stored only after it was read,
+    matched to the robot's joints and validated against its model."""
+
+    __tablename__ = "robot_logs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    #: the robot (built-in or uploaded) the log was recorded on; no foreign key: built-ins
+    #: have no row.
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+    original_name: Mapped[str] = mapped_column(String(255))
+    format: Mapped[str] = mapped_column(String(32))
+    size: Mapped[int] = mapped_column(BigInteger)
+    sha256: Mapped[str] = mapped_column(String(64), index=True)
+    #: a ROS 2 bag's JointState topic, None for CSV logs or the bag's only one.
+    topic: Mapped[str | None] = mapped_column(String(200))
+    #: samples, rate [Hz], duration [s], notes, and the validation against the robot at upload
+    #: (joints, abs_work).
+    summary: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
+    label: Mapped[str | None] = mapped_column(String(200))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow, index=True)
+
+
 class JobRecord(Base):
     """A background job. Only the API process writes these rows."""
 
@@ -328,6 +352,20 @@ class Cohort(_ResultMixin, Base):
     job: Mapped[JobRecord] = relationship()
 
 
+class IdentificationRecord(_ResultMixin, Base):
+    """Inertias and friction identified from robot logs (``bioplan identify``); on success the
+    robot ``version`` (the nominal robot with the identified sidecar) is stored beside it."""
+
+    __tablename__ = "identifications"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+    #: the name the identified robot is stored under.
+    version: Mapped[str] = mapped_column(String(100))
+
+    job: Mapped[JobRecord] = relationship()
+
+
 class ResultBlob(Base):
     """A job result too large for its row, kept in the file store: the row's ``result`` holds
     ``{RESULT_BLOB_KEY: sha256, "bytes": n}`` and this row keeps the blob referenced (read back
@@ -352,7 +390,8 @@ RESULT_MODELS: dict[
     | type[Simulation]
     | type[Sweep]
     | type[Profiles]
-    | type[Cohort],
+    | type[Cohort]
+    | type[IdentificationRecord],
 ] = {
     "analysis": Analysis,
     "pose": PoseExtraction,
@@ -361,4 +400,5 @@ RESULT_MODELS: dict[
     "sweep": Sweep,
     "profiles": Profiles,
     "cohort": Cohort,
+    "identify": IdentificationRecord,
 }

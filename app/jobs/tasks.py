@@ -21,8 +21,8 @@ from typing import Any, overload
 import numpy as np
 
 from app.errors import BioPlanError, one_line
+from app.jsonsafe import json_safe
 from app.names import PSO_DEFAULTS
-from app.planning.jsonsafe import json_safe
 from app.progress import ProgressFn, no_progress, report
 
 TaskFn = Callable[[dict[str, Any], ProgressFn], dict[str, Any]]
@@ -356,9 +356,10 @@ def extract_pose_job(payload: dict[str, Any], progress: ProgressFn = no_progress
 
     Returns:
         ``{"result": {"source", "fps", "image_size", "frames", "frames_with_pose",
-        "warnings", "skeleton_frames"}, "landmarks": {"name", "data", "format", "metadata",
-        "channels"} (a parsed file, as the upload stores it), "skeletons": [{"frame", "time",
-        "jpeg"}]}``.
+        "warnings", "skeleton_frames", "skeletons": [{"frame", "time", "person", "quality",
+        "note"}]}, "landmarks": {"name", "data", "format", "metadata", "channels"} (a parsed
+        file, as the upload stores it), "skeletons": [{"frame", "time", "person", "quality",
+        "note", "jpeg"}]}``.
 
     Raises:
         RecordingError: no pose environment, a corrupt video, one longer than ``max_seconds``,
@@ -401,6 +402,9 @@ def _pose_output(extraction: Any) -> dict[str, Any]:
         "frames_with_pose": extraction.frames_with_pose,
         "warnings": list(extraction.warnings),
         "skeleton_frames": len(extraction.skeletons),
+        # whom each skeleton frame shows: the stored frames keep only the image, and the page
+        # must say when a skeleton is drawn on someone (or something) else
+        "skeletons": [_skeleton_label(s) for s in extraction.skeletons],
     }
     metadata = dict(parsed["metadata"])
     metadata["video"] = {k: summary[k] for k in ("source", "frames", "frames_with_pose")}
@@ -415,9 +419,20 @@ def _pose_output(extraction: Any) -> dict[str, Any]:
             "metadata": metadata,
             "channels": parsed["channels"],
         },
-        "skeletons": [
-            {"frame": s.frame, "time": s.time, "jpeg": s.jpeg} for s in extraction.skeletons
-        ],
+        "skeletons": [{**_skeleton_label(s), "jpeg": s.jpeg} for s in extraction.skeletons],
+    }
+
+
+def _skeleton_label(s: Any) -> dict[str, Any]:
+    """A skeleton frame's index, time [s] and whom it shows (``app.recordings.SkeletonFrame``:
+    person 0 = the tracked person, >0 another, -1 unknown; quality 0-1 or None; note)."""
+    quality = float(s.quality)
+    return {
+        "frame": int(s.frame),
+        "time": float(s.time),
+        "person": int(s.person),
+        "quality": quality if quality == quality else None,  # NaN: unknown
+        "note": str(s.note),
     }
 
 
@@ -500,6 +515,8 @@ def _load_uploaded(spec: dict[str, Any], files: dict[str, Any], payload: float |
         locks=locks or None,
         sidecar=files["sidecar"],
         package_dirs=files["package_dirs"],
+        base_link=spec.get("base_link"),
+        tip_link=spec.get("tip_link"),
     )
 
 
@@ -647,9 +664,52 @@ def describe_robot(spec: dict[str, Any], folder: Path | None = None) -> dict[str
                 "motors_modelled": bool(robot.motors_modelled),
                 "default_start_deg": np.degrees(np.asarray(robot.default_start, float)),
                 "default_goal_deg": np.degrees(np.asarray(robot.default_goal, float)),
+                "missing_meshes": _entry("app.planning.robots", "missing_meshes")(robot),
+                "default_task_safety": default_task_safety(robot),
             }
         )
     return described
+
+
+#: Duration of the default task's quintic checked at onboarding [s]; the path a quintic
+#: sweeps does not depend on its duration, only the times of the findings scale with it.
+DEFAULT_TASK_CHECK_S = 1.0
+
+
+def default_task_safety(robot: Any) -> dict[str, Any]:
+    """The safety check of the robot's default task (its quintic from the default start to the
+    default goal over ``DEFAULT_TASK_CHECK_S``), run before the robot is offered.
+
+    Returns:
+        ``{ok (None when not checked), checked, reason, min_clearance [m], duration [s],
+        findings (count), worst (the deepest finding's dict, or None), summary}``; ``worst``
+        holds ``links``, ``kind``, ``obstacle``, ``depth`` [m] and ``deepest_time`` [s].
+    """
+    quintic = _entry("app.planning.profiles", "quintic")
+    safety = _entry("app.planning.safety", "check_safety")
+    summary = _entry("app.planning.safety", "safety_summary")
+    trajectory = quintic(
+        np.asarray(robot.default_start, float),
+        np.asarray(robot.default_goal, float),
+        DEFAULT_TASK_CHECK_S,
+        n_samples=201,
+    )
+    try:
+        report = safety(robot, {"quintic": trajectory}).to_dict()
+    except BioPlanError as exc:  # e.g. a sidecar changed since: the robot is still offered
+        report = _entry("app.planning.safety", "not_checked")(f"not checked: {exc}").to_dict()
+    findings = list(report.get("findings") or [])
+    worst = max(findings, key=lambda f: float(f["depth"])) if findings else None
+    return {
+        "ok": report["ok"],
+        "checked": report["checked"],
+        "reason": report.get("reason"),
+        "min_clearance": report.get("min_clearance"),
+        "duration": DEFAULT_TASK_CHECK_S,
+        "findings": len(findings),
+        "worst": worst,
+        "summary": summary(report),
+    }
 
 
 # ---------------------------------------------------------------------------------- planning
@@ -689,7 +749,8 @@ def _arrays_of(result: Any) -> dict[str, Any] | None:
 
 def _method_options(payload: dict[str, Any]) -> dict[str, Any]:
     """The methods and their options (``methods``, ``human_constraint``, ``no_reversal``,
-    ``n_intervals``) of a job payload; absent keys keep the library's defaults."""
+    ``n_intervals``, ``converge``) of a job payload; absent keys keep the library's
+    defaults."""
     out: dict[str, Any] = {}
     if payload.get("methods") is not None:
         out["methods"] = [str(m) for m in payload["methods"]]
@@ -699,6 +760,8 @@ def _method_options(payload: dict[str, Any]) -> dict[str, Any]:
         out["no_reversal"] = bool(payload["no_reversal"])
     if payload.get("n_intervals") is not None:
         out["n_intervals"] = int(payload["n_intervals"])
+    if payload.get("converge") is not None:
+        out["converge"] = bool(payload["converge"])
     return out
 
 
@@ -723,7 +786,7 @@ def plan(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[st
     Payload: ``robot`` (spec), ``duration`` [s], ``payload`` [kg] or None, ``objective``,
     ``seed``, ``particles``, ``iterations``, ``n_samples``, ``peak_angle_deg``, ``start_deg``,
     ``goal_deg``, ``template`` (HumanTemplate dict or None), ``methods``,
-    ``human_constraint``, ``no_reversal``, ``n_intervals``.
+    ``human_constraint``, ``no_reversal``, ``n_intervals``, ``converge``.
 
     Returns:
         ``{"result": PlanResult.to_dict() + "motion", "arrays": PlanResult.arrays()}``; the
@@ -767,10 +830,11 @@ def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
 
     Payload: ``robot`` (spec), ``durations`` [s], ``payloads`` [kg], ``objectives``, ``seed``,
     ``particles``/``iterations`` (None: the sweep's defaults), ``methods``, ``check_seed``,
-    ``no_check``, ``workers`` (processes for the cells), and ``cell_executor``: set by the
-    runner to ``"dask"`` when the job runs on a Dask worker, so that every cell becomes a task
-    of its own on the cluster (submitted from this task through ``worker_client``); otherwise
-    the cells run in a local pool of ``workers`` processes. Progress is reported per cell.
+    ``no_check``, ``seeds``, ``converge``, ``workers`` (processes for the cells), and
+    ``cell_executor``: set by the runner to ``"dask"`` when the job runs on a Dask worker, so
+    that every cell becomes a task of its own on the cluster (submitted from this task through
+    ``worker_client``); otherwise the cells run in a local pool of ``workers`` processes.
+    Progress is reported per cell.
     """
     run_sweep = _entry("app.simulation", "run_sweep")
     budget = {k: int(payload[k]) for k in ("particles", "iterations") if payload.get(k)}
@@ -781,6 +845,10 @@ def sweep(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
         options["check_seed"] = None
     elif payload.get("check_seed") is not None:
         options["check_seed"] = int(payload["check_seed"])
+    if payload.get("seeds") is not None:
+        options["seeds"] = int(payload["seeds"])
+    if payload.get("converge") is not None:
+        options["converge"] = bool(payload["converge"])
     with robot_from_spec(payload["robot"]) as robot, _cell_executor(payload) as executor:
         result = run_sweep(
             robot=robot,
@@ -854,6 +922,177 @@ def profiles(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dic
     return {"result": json_safe(out)}
 
 
+# ------------------------------------------------------------------------------ robot logs
+
+#: Most bytes a bag's zip may unpack to.
+MAX_BAG_UNPACKED = 1 << 30
+
+
+def _bag_from_zip(data: bytes, folder: Path, name: str) -> Path:
+    """Unpack a zipped ROS 2 bag folder (``metadata.yaml`` and its ``.mcap``/``.db3`` files,
+    by base name only: no path of the archive is used) into ``folder``."""
+    import io
+    import zipfile
+
+    from app.recordings.types import RecordingError
+
+    expected = "a zip of a ROS 2 bag folder (metadata.yaml and its .mcap or .db3 files)"
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(data))
+    except zipfile.BadZipFile:
+        raise RecordingError("not a readable zip archive", file=name, expected=expected) from None
+    with archive:
+        members = [
+            i
+            for i in archive.infolist()
+            if not i.is_dir() and Path(i.filename).suffix.lower() in (".yaml", ".mcap", ".db3")
+        ]
+        if sum(i.file_size for i in members) > MAX_BAG_UNPACKED:
+            raise RecordingError(
+                f"unpacks to more than {MAX_BAG_UNPACKED} bytes", file=name, expected=expected
+            )
+        kept = [i for i in members if Path(i.filename).name == "metadata.yaml"]
+        if len(kept) != 1:
+            raise RecordingError(f"{len(kept)} metadata.yaml files", file=name, expected=expected)
+        folder.mkdir(parents=True, exist_ok=True)
+        for info in members:
+            base = Path(info.filename).name
+            if base != "metadata.yaml" and Path(info.filename).suffix.lower() == ".yaml":
+                continue
+            (folder / base).write_bytes(archive.read(info))
+    return folder
+
+
+def _read_log(log: dict[str, Any], folder: Path, topic: str | None) -> Any:
+    """The ``RobotLog`` of an uploaded log ``{"name", "data"}`` (written into ``folder``)."""
+    read_robot_log = _entry("app.recordings.robot_logs", "read_robot_log")
+    name = str(log["name"])
+    suffix = Path(name).suffix.lower()
+    folder.mkdir(parents=True, exist_ok=True)
+    if suffix == ".zip":
+        path = _bag_from_zip(log["data"], folder / "bag", name)
+    else:
+        # Under the user's base name, so the reader's messages name their file (in a folder of
+        # its own; the format is sniffed from the content, never from the name).
+        safe = Path(name).name
+        if safe in ("", ".", "..") or len(safe.encode("utf-8", "replace")) > 200:
+            safe = "log.csv"  # a name the file system may not take (too long in bytes)
+        path = folder / safe
+        path.write_bytes(log["data"])
+    robot_log = read_robot_log(path, topic=topic)
+    # Messages name the user's file, not the temporary one.
+    import dataclasses
+
+    return dataclasses.replace(robot_log, path=Path(name))
+
+
+#: Most points per curve of a validation's plotted series (a 20 s log at 1 kHz is 20 000).
+MAX_PLOT_POINTS = 2000
+
+
+def _series(validation: Any) -> dict[str, Any]:
+    """Measured and predicted torque [Nm] and power [W] per joint on at most
+    :data:`MAX_PLOT_POINTS` times [s] (every k-th sample: the series are low-passed already)."""
+    t = np.asarray(validation.t)
+    step = max(1, -(-t.size // MAX_PLOT_POINTS))
+    keep = slice(None, None, step)
+    measured, predicted = validation.measured[keep], validation.predicted[keep]
+    qd = validation.qd[keep]
+    return {
+        "t": t[keep],
+        "joints": list(validation.joint_names),
+        "measured": measured.T,
+        "predicted": predicted.T,
+        "power_measured": np.sum(np.abs(measured * qd), axis=1),
+        "power_predicted": np.sum(np.abs(predicted * qd), axis=1),
+    }
+
+
+def validate_log(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
+    """Measured against predicted joint torque of an uploaded robot log (``bioplan validate``).
+
+    Payload: ``robot`` (spec), ``payload`` [kg] or None, ``log`` (``{"name", "data"}``),
+    ``topic`` (a bag's JointState topic) or None, ``cutoff_hz`` [Hz] or None, ``plan`` (a
+    stored plan's ``motion`` block) or None, ``series`` (bool: add the plotted series).
+
+    Returns:
+        ``{"result": Validation.result (+ "series")}``.
+    """
+    validate = _entry("app.planning.validation", "validate")
+    options_type = _entry("app.planning.validation", "ValidateOptions")
+    cutoff = payload.get("cutoff_hz")
+    options = options_type() if cutoff is None else options_type(cutoff_hz=float(cutoff))
+    with (
+        robot_from_spec(payload["robot"], payload.get("payload")) as robot,
+        tempfile.TemporaryDirectory(prefix="bioplan-log-") as tmp,
+    ):
+        log = _read_log(payload["log"], Path(tmp) / "log", payload.get("topic"))
+        plan_path = None
+        if payload.get("plan") is not None:
+            import json
+
+            plan_path = Path(tmp) / "plan.json"
+            plan_path.write_text(json.dumps({"motion": payload["plan"]}), encoding="utf-8")
+        validation = validate(robot, log, options=options, plan=plan_path)
+        out: dict[str, Any] = dict(validation.result)
+        if payload.get("series"):
+            out["series"] = _series(validation)
+    return {"result": json_safe(out)}
+
+
+def identify_robot(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
+    """Identify a robot's link inertias and friction from uploaded logs (``bioplan identify``)
+    and describe the robot version that carries the identified sidecar.
+
+    Payload: ``robot`` (spec of an uploaded robot), ``logs`` (``[{"name", "data"}]``),
+    ``topic``, ``validate_fraction``, ``cutoff_hz``, ``identify_payload``, ``version`` (the new
+    robot's name).
+
+    Returns:
+        ``{"result": Identification.to_dict() + "version", "sidecar": YAML bytes,
+        "description": the new version's describe_robot}``.
+    """
+    import yaml
+
+    identify = _entry("app.planning.identification", "identify")
+    write_sidecar = _entry("app.planning.identification", "write_sidecar")
+    options_type = _entry("app.planning.identification", "IdentifyOptions")
+    options = options_type(
+        validate_fraction=float(payload.get("validate_fraction", 0.2)),
+        cutoff_hz=float(payload.get("cutoff_hz") or 10.0),
+        identify_payload=bool(payload.get("identify_payload", False)),
+    )
+    spec = payload["robot"]
+    report(progress, "read", 0, 3, fraction=0.0, message="reading the logs")
+    with robot_from_spec(spec) as robot, tempfile.TemporaryDirectory(prefix="bioplan-id-") as tmp:
+        logs = [
+            _read_log(log, Path(tmp) / str(i), payload.get("topic"))
+            for i, log in enumerate(payload["logs"])
+        ]
+        report(progress, "identify", 1, 3, fraction=0.2, message="identifying the parameters")
+        result = identify(robot, logs, options)
+        base: dict[str, Any] = {}
+        if spec.get("sidecar") is not None:
+            loaded = yaml.safe_load(spec["sidecar"].decode("utf-8")) or {}
+            base = {k: v for k, v in loaded.items() if k not in ("links", "friction")}
+        held = result.held_back
+        names = ", ".join(str(log["name"]) for log in payload["logs"])
+        comment = f"Identified by the BioPlan service from {names}"
+        if held:
+            residuals = ", ".join(f"{k} {v['residual_rms']:.3g}" for k, v in held.items())
+            comment += f"; held-back residual rms [Nm]: {residuals}"
+        sidecar_path = Path(tmp) / "identified.yaml"
+        write_sidecar(sidecar_path, robot, result, base=base, comment=comment)
+        sidecar = sidecar_path.read_bytes()
+    report(progress, "describe", 2, 3, fraction=0.9, message="loading the identified robot")
+    version = {**spec, "name": payload["version"], "sidecar": sidecar, "sidecar_member": None}
+    description = describe_robot(version)
+    out = json_safe(result.to_dict())
+    out["version"] = payload["version"]
+    report(progress, "done", 3, 3, message="identified")
+    return {"result": out, "sidecar": sidecar, "description": description}
+
+
 TASKS: dict[str, TaskFn] = {
     "analysis": analyse,
     "pose": extract_pose_job,
@@ -862,6 +1101,7 @@ TASKS: dict[str, TaskFn] = {
     "sweep": sweep,
     "profiles": profiles,
     "cohort": cohort,
+    "identify": identify_robot,
 }
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import csv
 import io
 from collections.abc import Sequence
+from dataclasses import MISSING, fields
 from typing import Any
 
 from sqlalchemy import select
@@ -243,3 +244,28 @@ def cohort_csv(result: dict[str, Any]) -> str:
                "; ".join(f"{k}: {v}" for k, v in missing.items())]
         )  # fmt: skip
     return buf.getvalue()
+
+
+def cohort_option_info() -> list[dict[str, Any]]:
+    """Every option of a comparison (``CohortOptions``) with its default, help, unit, choices,
+    range and JSON type, as ``GET /api/cohorts/options`` lists them."""
+    from app.analysis.cohort import CohortOptions
+
+    kinds = {"float | None": "number", "float": "number", "int": "integer", "str": "string"}
+    out = []
+    for f in fields(CohortOptions):
+        meta = f.metadata
+        out.append(
+            {
+                "name": f.name,
+                "default": None if f.default is MISSING else f.default,
+                "help": meta["help"],
+                "unit": meta.get("unit"),
+                "choices": list(meta["choices"]) if "choices" in meta else None,
+                "low": meta.get("low"),
+                "high": meta.get("high"),
+                "minimum": meta.get("minimum"),
+                "type": kinds.get(str(f.type), "string"),
+            }
+        )
+    return out

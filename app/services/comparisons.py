@@ -1,4 +1,5 @@
-"""Finished plans and simulations, read from the database as the viewer's ``Comparison``."""
+"""Finished plans and simulations, read from the database as the viewer's ``Comparison``, and
+what the dashboard shows of them: the Compare page's data and the HTML exports."""
 
 from __future__ import annotations
 
@@ -10,10 +11,14 @@ from sqlalchemy.orm import Session, sessionmaker, undefer
 
 from app.db.arrays import decode_arrays
 from app.db.models import RESULT_MODELS, JobRecord
+from app.errors import BioPlanError, without_paths
 from app.jobs.tasks import robot_from_spec
-from app.services.errors import ConflictError, NotFoundError
+from app.planning.export import public_result
+from app.services.errors import ConflictError, NotFoundError, ServiceError
 from app.services.robots import RobotCatalog
-from app.viewer.comparison import KINDS, Comparison, comparison_from_arrays
+from app.viewer.comparison import KINDS, Comparison, NothingToCompare, comparison_from_arrays
+from app.viewer.export import report_html, scene_html
+from app.viewer.scene import Layout, PreparedCache, PreparedComparison
 
 if TYPE_CHECKING:
     from app.planning.robots import Robot
@@ -81,11 +86,16 @@ class ComparisonLoader:
             arrays = decode_arrays(row.arrays)
             spec = self.robots.spec(session, row.robot)
         planned = list(result.get("methods") or ("quintic", "paper"))
+        failed = result.get("method_errors") or {}
         for method in methods or ():
             if method not in planned:
+                why = (
+                    f"failed in {kind} {result_id} ({failed[method].get('error')})"
+                    if isinstance(failed.get(method), dict)
+                    else f"was not planned in {kind} {result_id}"
+                )
                 raise NotFoundError(
-                    f"method '{method}' was not planned in {kind} {result_id}: expected two of "
-                    f"{', '.join(planned)}",
+                    f"method '{method}' {why}: expected two of {', '.join(planned)}",
                     field="methods",
                 )
         payload = (result.get("conditions") or {}).get("payload")
@@ -101,3 +111,42 @@ class ComparisonLoader:
             methods=methods,
             allowed_roots=None if folder is None else (folder,),
         )
+
+
+def prepare_comparison(
+    cache: PreparedCache, kind: str, result_id: int, pair: tuple[str, str] | None
+) -> PreparedComparison:
+    """A finished plan or simulation prepared for the viewer (``Services.comparisons``), with
+    methods ``pair`` shown as standard and optimised (None: the result's own pair).
+
+    Raises:
+        ConflictError: nothing to compare (field ``methods``), or no result yet.
+        NotFoundError: no such result or method.
+        ServiceError: the robot cannot be loaded (its name, never a server folder).
+    """
+    try:
+        return cache(kind, result_id, pair)
+    except NothingToCompare as exc:
+        raise ConflictError(str(exc), field="methods") from None
+    except ServiceError:
+        raise  # unknown result or method, no result yet: already the service's own answer
+    except BioPlanError as exc:
+        raise ServiceError(without_paths(exc)) from None
+
+
+def comparison_data(prepared: PreparedComparison, points: int) -> dict[str, Any]:
+    """The Compare page's data: summary (phases, metrics, floors), ``curves`` per joint with
+    ``points`` samples [SI units] and the public ``result``."""
+    c = prepared.comparison
+    out = c.summary()
+    out["curves"] = c.curves(points=points)
+    out["result"] = public_result(c.result)
+    return out
+
+
+def comparison_file(prepared: PreparedComparison, fmt: str, layout: Layout) -> str:
+    """A self-contained HTML file: ``scene`` (3-D animation, robots ``side_by_side`` or
+    ``ghost``) or ``report`` (curves and metrics)."""
+    if fmt == "scene":
+        return scene_html(prepared, layout=layout)
+    return report_html(prepared.comparison)

@@ -22,7 +22,7 @@ from app.config import Settings
 from app.db import crud
 from app.db.blobs import BlobStore
 from app.db.lock import DatabaseLock, DataDirLock, lock_data_dir, lock_database
-from app.db.session import make_engine, make_sessionmaker, upgrade
+from app.db.session import current_revision, make_engine, make_sessionmaker, upgrade
 from app.jobs.runner import JobRunner, make_runner
 from app.services import sandbox
 from app.services.broker import JobBroker, StreamLimits
@@ -117,6 +117,10 @@ class Services:
             self.viewer = viewer
             logger.info("3-D viewer at %s", viewer.url)
         return self.viewer
+
+    def database_revision(self) -> str | None:
+        """The migration the database is at (None: not migrated)."""
+        return current_revision(self.engine)
 
     def viewer_info(self) -> dict[str, Any]:
         """Where the viewer listens (``GET /api/viewer``); ``enabled`` is false without one."""

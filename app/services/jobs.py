@@ -38,7 +38,7 @@ from app.db.models import Analysis, JobRecord, utcnow
 from app.errors import BioPlanError, storage_problem, without_paths
 from app.jobs.runner import JobEvent, JobRunner
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
-from app.services import cohorts, recordings
+from app.services import cohorts, recordings, robot_logs
 from app.services.broker import JobBroker
 from app.services.errors import ConflictError, NotFoundError, ServiceError
 from app.services.limits import JobLimits
@@ -55,6 +55,7 @@ KIND_PATHS = {
     "sweep": "sweeps",
     "profiles": "profiles",
     "cohort": "cohorts",
+    "identify": "identifications",
 }
 
 #: Structured progress of a job that has not reported any yet.
@@ -114,6 +115,9 @@ def _about(kind: str, params: dict[str, Any]) -> str:
         groups = params.get("groups") or {}
         n = sum(len(ids) for ids in groups.values())
         return f"{len(groups)} groups ({', '.join(groups)}), {n} recordings"
+    if kind == "identify":
+        logs = len(params.get("log_ids") or ())
+        return f"{params.get('robot', '')}, {logs} log(s) -> {params.get('version', '')}"
     parts = [str(params.get("robot", ""))]
     if kind == "sweep":
         cells = len(params.get("durations") or ()) * len(params.get("payloads") or ())
@@ -414,6 +418,8 @@ class JobService:
             return recordings.analysis_payload(session, self.blobs, params)
         if job.kind == "cohort":
             return cohorts.cohort_payload(session, self.blobs, params)
+        if job.kind == "identify":
+            return robot_logs.identify_payload(session, self.blobs, self.robots, params)
         if job.kind == "pose":
             scratch = None if self.scratch_dir is None else str(self.scratch_dir)
             return recordings.pose_payload(
@@ -499,6 +505,18 @@ class JobService:
                     else:  # cancelled meanwhile (left as it is) or its video deleted
                         vanished = "its video was deleted before the landmarks were stored"
                         self._set_state(ev.job_id, "failed", error=vanished)
+                        return
+                elif job.kind == "identify":
+                    why = robot_logs.store_identification(
+                        session,
+                        self.blobs,
+                        self.robots,
+                        ev.job_id,
+                        out,
+                        inline_bytes=self.inline_result_bytes,
+                    )
+                    if why is not None:
+                        self._set_state(ev.job_id, "failed", error=f"not stored: {why}")
                         return
                 else:
                     crud.store_result(

@@ -4,19 +4,25 @@ A recording's detail names each file's role, its reader warnings (flat channels,
 implausible EMG rate with the one request that fixes it, a video's container and pose
 extraction, and marks channels that are flat or excluded, so a page can show all of it without
 running anything. An analysis' summary says where its template came from (lifts or the paper's
-default) and carries every warning, also when no lift was found.
+default) and carries every warning, also when no lift was found. Signals are decoded and
+min/max-downsampled here for plotting.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 from sqlalchemy.orm import Session
 
+from app.analysis.downsample import minmax_downsample
 from app.db import crud
+from app.db.arrays import decode_array
 from app.db.models import PoseExtraction, RecordingFile, RecordingSession
 from app.planning.human_template import HumanTemplate
+from app.services.errors import NotFoundError
 from app.services.jobs import job_to_dict
+from app.services.recordings import get_recording
 
 
 def summary(rec: RecordingSession) -> dict[str, Any]:
@@ -160,3 +166,72 @@ def analysis_summary(result: dict[str, Any] | None) -> dict[str, Any] | None:
         + [f"{f['file']}: {w}" for f in files for w in f["warnings"]],
         "settings": result["settings"],
     }
+
+
+def signals(
+    session: Session,
+    recording_id: int,
+    *,
+    channel_ids: list[int] | None,
+    names: list[str] | None,
+    points: int,
+    t0: float | None = None,
+    t1: float | None = None,
+) -> dict[str, Any]:
+    """A recording's signals for plotting, min/max-downsampled to at most ``points`` samples
+    per series, within ``[t0, t1]`` [s] when given.
+
+    Returns ``{"recording_id", "points", "channels"}``; each channel has its id, name, file,
+    kind, unit, ``n_samples`` (stored), ``n_points`` (returned) and ``series`` (one per column
+    of a multi-column channel: ``label`` value or x/y/z/w, ``t`` [s], ``y``; non-finite
+    samples as NaN).
+
+    Raises:
+        NotFoundError: no such recording, or channel ids or names it does not have.
+    """
+    get_recording(session, recording_id)  # NotFoundError when there is none
+    chans = crud.get_channels(session=session, recording_id=recording_id, channel_ids=channel_ids)
+    if channel_ids:
+        missing = sorted(set(channel_ids) - {c.id for c in chans})
+        if missing:
+            raise NotFoundError(f"recording {recording_id} has no channels {missing}")
+    if names:
+        chans = [c for c in chans if c.name in set(names)]
+        missing_names = sorted(set(names) - {c.name for c in chans})
+        if missing_names:
+            raise NotFoundError(f"recording {recording_id} has no channels named {missing_names}")
+    out = []
+    for c in chans:
+        data = np.asarray(decode_array(c.data), dtype=np.float64)
+        if c.time is not None:
+            t = np.asarray(decode_array(c.time), dtype=np.float64)
+        else:
+            t = c.start + np.arange(c.n_samples, dtype=np.float64) / c.rate
+        keep = np.ones(t.shape, dtype=bool)
+        if t0 is not None:
+            keep &= t >= t0
+        if t1 is not None:
+            keep &= t <= t1
+        columns = data.reshape(data.shape[0], -1)
+        labels = ["value"] if columns.shape[1] == 1 else ["x", "y", "z", "w"][: columns.shape[1]]
+        if len(labels) < columns.shape[1]:
+            labels = [f"c{i}" for i in range(columns.shape[1])]
+        series = []
+        for j, label in enumerate(labels):
+            col = columns[keep, j]
+            col = np.where(np.isfinite(col), col, np.nan)
+            ts, ys = minmax_downsample(t[keep], col, points)
+            series.append({"label": label, "t": ts.tolist(), "y": ys.tolist()})
+        out.append(
+            {
+                "channel_id": c.id,
+                "name": c.name,
+                "file": c.file.original_name,
+                "kind": c.kind,
+                "unit": c.unit,
+                "n_samples": c.n_samples,
+                "n_points": max((len(s["t"]) for s in series), default=0),
+                "series": series,
+            }
+        )
+    return {"recording_id": recording_id, "points": points, "channels": out}

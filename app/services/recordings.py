@@ -22,6 +22,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -30,10 +31,18 @@ from sqlalchemy.orm import Session
 
 from app.db import crud
 from app.db.blobs import BlobStore
-from app.db.models import Analysis, JobRecord, RecordingFile, RecordingSession
+from app.db.models import (
+    Analysis,
+    JobRecord,
+    PoseExtraction,
+    RecordingFile,
+    RecordingSession,
+    SkeletonFrame,
+)
 from app.errors import BioPlanError
 from app.jobs.tasks import parse_recording
 from app.names import MAX_VIDEO_SECONDS, SKELETON_FRAMES
+from app.recordings.video import find_pose_python
 from app.services.errors import ConflictError, NotFoundError, ParseLimitError, ServiceError
 from app.services.sandbox import read_untrusted
 
@@ -318,6 +327,7 @@ def store_recording(
     if not any(u.role in ("recording", "video") for u in uploads):
         raise ServiceError("the upload holds sidecars only: send the recordings", field="files")
     parsed = parse_session(uploads, options, max_video_seconds=max_video_seconds)
+    meta, options = _condition_from_names(uploads, meta, options)
     rec = crud.create_recording(
         session=session,
         blobs=blobs,
@@ -325,6 +335,25 @@ def store_recording(
         files=parsed,
     )
     return _loaded(session, rec.id)
+
+
+def _condition_from_names(
+    uploads: Sequence[Upload], meta: dict[str, Any], options: dict[str, Any]
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The condition named by the files (``app.recordings.CONDITION_RULE``) when the user gave
+    none; where it came from is kept in ``options["condition_from"]`` for the page."""
+    if meta.get("condition"):
+        return meta, options
+    from app.recordings import condition_from_files
+
+    found = condition_from_files(
+        [u.name for u in uploads if u.role in ("recording", "video")],
+        {name: data for u in uploads for name, data in u.sidecars.items()},
+    )
+    if found is None:
+        return meta, options
+    condition, where = found
+    return {**meta, "condition": condition}, {**options, "condition_from": where}
 
 
 def _loaded(session: Session, recording_id: int) -> RecordingSession:
@@ -424,6 +453,8 @@ def update_recording(
     _check_excluded(rec, options.get("exclude_channels"))
     reread = any(key in changes for key in READER_OPTIONS)
     reparsed = _reparse(rec, options, blobs) if reread else {}
+    if "condition" in changes:  # the user's own now, not the file names'
+        options.pop("condition_from", None)
     values: dict[str, Any] = {k: changes[k] for k in _META_FIELDS if k in changes}
     if changes.get("session") is not None:
         values["session_mode"] = changes["session"]
@@ -597,6 +628,38 @@ def pose_payload(
     }
 
 
+def skeleton_frame_list(session: Session, recording_id: int) -> list[dict[str, Any]]:
+    """The recording's skeleton frames (``GET /api/recordings/{id}/frames``), each with whom it
+    shows as its pose extraction decided (person 0 = the tracked person, >0 someone or
+    something else, -1 unknown; quality 0-1; note in words), None where the extraction
+    predates these labels."""
+    jobs = crud.pose_jobs(session=session, recording_id=recording_id)
+    labels: dict[tuple[int, int], dict[str, Any]] = {}
+    for file_id, job in jobs.items():
+        row = session.get(PoseExtraction, job.id)
+        for s in ((row.result or {}).get("skeletons") or []) if row is not None else []:
+            labels[(file_id, int(s["frame"]))] = s
+    out = []
+    for k, (frame, video) in enumerate(
+        crud.skeleton_frames(session=session, recording_id=recording_id)
+    ):
+        label = labels.get((frame.file_id, frame.frame), {})
+        out.append(
+            {
+                "k": k,
+                "file_id": frame.file_id,
+                "video": video,
+                "frame": frame.frame,
+                "time_s": frame.time,
+                "url": f"/api/recordings/{recording_id}/frames/{k}.jpg",
+                "person": label.get("person"),
+                "quality": label.get("quality"),
+                "note": label.get("note"),
+            }
+        )
+    return out
+
+
 def store_pose(session: Session, blobs: BlobStore, job_id: int, output: dict[str, Any]) -> bool:
     """Store a pose job's output (landmarks file, skeleton frames, result) and mark the job
     succeeded, all in one transaction.
@@ -625,3 +688,97 @@ def store_pose(session: Session, blobs: BlobStore, job_id: int, output: dict[str
         result=output["result"],
     )
     return stored is not None
+
+
+# ------------------------------------------------------------------------------------ reads
+
+
+def list_recordings(
+    session: Session,
+    *,
+    limit: int,
+    offset: int,
+    subject: str | None = None,
+    task: str | None = None,
+    format: str | None = None,
+    q: str | None = None,
+    created_after: datetime | None = None,
+    created_before: datetime | None = None,
+) -> tuple[list[dict[str, Any]], int]:
+    """A page of recording summaries, newest first, and how many match in all (``q``: text in
+    names and notes; dates in UTC)."""
+    return crud.list_recording_summaries(
+        session=session,
+        limit=limit,
+        offset=offset,
+        subject=subject,
+        task=task,
+        format=format,
+        q=q,
+        created_after=created_after,
+        created_before=created_before,
+    )
+
+
+def active_pose_jobs(session: Session, recording_id: int) -> list[JobRecord]:
+    """The recording's pose jobs still queued or running."""
+    jobs = crud.pose_jobs(session=session, recording_id=recording_id).values()
+    return [j for j in jobs if j.state in ("queued", "running")]
+
+
+def skeleton_frame(session: Session, recording_id: int, k: int) -> SkeletonFrame:
+    """Frame ``k`` of :func:`skeleton_frame_list` (its JPEG not loaded).
+
+    Raises:
+        NotFoundError: the recording has no frame ``k``.
+    """
+    frames = crud.skeleton_frames(session=session, recording_id=recording_id)
+    if k >= len(frames):
+        raise NotFoundError(f"recording {recording_id} has {len(frames)} skeleton frame(s)")
+    return frames[k][0]
+
+
+def skeleton_jpeg(session: Session, recording_id: int, k: int, frame_id: int) -> bytes:
+    """The JPEG of frame ``k`` (``frame_id``, from :func:`skeleton_frame`).
+
+    Raises:
+        NotFoundError: the frame was replaced since (a new pose extraction).
+    """
+    jpeg = crud.skeleton_jpeg(session=session, frame_id=frame_id)
+    if jpeg is None:  # pragma: no cover - replaced between two statements
+        raise NotFoundError(f"frame {k} of recording {recording_id} was just replaced")
+    return jpeg
+
+
+def raw_file(
+    session: Session, blobs: BlobStore, recording_id: int, file_id: int
+) -> tuple[str, bytes]:
+    """An uploaded file's name and bytes, byte for byte.
+
+    Raises:
+        NotFoundError: the recording has no such file.
+    """
+    f = session.get(RecordingFile, file_id)
+    if f is None or f.session_id != recording_id:
+        raise NotFoundError(f"recording {recording_id} has no file {file_id}")
+    return f.original_name, blobs.get(f.sha256)
+
+
+def delete_recording(session: Session, blobs: BlobStore, recording_id: int) -> None:
+    """Delete a recording with its files, landmarks and skeleton frames (cancel its pose jobs
+    first: :func:`active_pose_jobs`).
+
+    Raises:
+        NotFoundError: no such recording.
+    """
+    if not crud.delete_recording(session=session, blobs=blobs, recording_id=recording_id):
+        raise NotFoundError(f"recording {recording_id} does not exist")
+
+
+def pose_environment_problem() -> str | None:
+    """Why this machine cannot turn videos into pose (None: it can)."""
+    try:
+        find_pose_python()
+    except BioPlanError as exc:
+        return str(exc)
+    return None

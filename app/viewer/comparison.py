@@ -75,6 +75,9 @@ class Comparison:
         methods: the planning methods whose trajectories the arrays hold (``app.names.METHODS``
             order); the dicts above hold them under their names too. Empty for results stored
             before methods existed (only ``standard`` and ``optimized``).
+        obstacles: the sidecar's obstacles the plan was checked against (base frame, SI:
+            ``name``, ``kind`` box/cylinder/plane, ``position``, ``rpy`` [rad], ``size``,
+            ``radius``, ``length``, ``normal``); drawn translucent.
         human: the recorded lift replayed on this comparison's time grid, or None.
         human_note: why there is no human (or what was assumed for it); shown in the viewer.
         template: where the human template came from and what its angle is
@@ -111,6 +114,7 @@ class Comparison:
     human: HumanReplay | None = None
     human_note: str = ""
     template: dict[str, Any] = field(default_factory=dict)
+    obstacles: tuple[dict[str, Any], ...] = ()
 
     @property
     def choices(self) -> tuple[str, ...]:
@@ -421,7 +425,23 @@ def comparison_from_arrays(
         allowed_roots=allowed_roots,
         locks=dict(robot.locks),
         methods=planned,
+        obstacles=workspace_obstacles(robot),
     )
+
+
+def workspace_obstacles(robot: Robot) -> tuple[dict[str, Any], ...]:
+    """The robot's sidecar obstacles as plain data (``Comparison.obstacles``); none when it
+    has no sidecar or the sidecar can no longer be read (the viewer then draws none)."""
+    import dataclasses
+
+    from app.errors import BioPlanError
+    from app.planning.safety import default_scene
+
+    try:
+        scene = default_scene(robot)
+    except BioPlanError:
+        return ()
+    return tuple(dataclasses.asdict(o) for o in scene.obstacles)
 
 
 def default_methods(arrays: Mapping[str, Any]) -> tuple[str, str]:

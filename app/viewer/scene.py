@@ -62,6 +62,17 @@ PAYLOAD_COLOR = (120, 170, 200)
 PHASE_COLORS = {phase.name: rgb(phase.colour) for phase in PHASES}
 #: The ghost robot over the solid one: clearly visible, still see-through.
 GHOST_OPACITY = 0.6
+#: Colour of a contact marker and of the mounting plane's outline (the safety check's).
+CONTACT_COLOR = (220, 40, 40)
+#: Radius of the sphere marking a link in contact [m].
+CONTACT_RADIUS = 0.035
+#: The mounting plane: colour, opacity and thickness [m] of the translucent slab drawn on it.
+MOUNT_PLANE_COLOR = (200, 120, 60)
+MOUNT_PLANE_OPACITY = 0.25
+MOUNT_PLANE_THICKNESS = 0.004
+#: The sidecar's obstacles: colour and opacity.
+OBSTACLE_COLOR = (150, 150, 165)
+OBSTACLE_OPACITY = 0.35
 #: End-effector trace: a thin tube of at most this many rings of TRACE_SIDES vertices [m].
 TRACE_SAMPLES = 120
 TRACE_SIDES = 6
@@ -94,6 +105,8 @@ class PreparedComparison:
     Attributes:
         link_paths: link -> names from the root link down to it.
         meshes: visual meshes in their link frames.
+        missing_meshes: visual mesh references of the URDF that resolve to no file (their
+            links are drawn without bodies; the viewer says so).
         joint_wxyz, joint_position: label -> joint -> (T, 4) / (T, 3) pose of the joint's child
             link in its parent link's frame.
         payload_path: label -> (T, 3) world position of the payload's centre [m].
@@ -120,6 +133,7 @@ class PreparedComparison:
         # service's memory- and time-limited child process), never in the server itself.
         read = mesh_reader or (lambda fn, *args: fn(*args))
         self.meshes = read(load_link_meshes, source, tuple(package_dirs), allowed_roots)
+        self.missing_meshes = _unresolved_meshes(urdf, source, package_dirs, allowed_roots)
         names = tuple(comparison.joint_names)
         held = dict(locks or {})
         # Joints that actually turn in either trajectory (J1 of a planar curl does not).
@@ -169,6 +183,39 @@ class PreparedComparison:
         #: frame sends (a revolute joint's frame turns but never moves its origin).
         self.animated = {label: self._animated(label) for label in self.labels}
         self.human = self._prepare_human()
+        #: the plan's safety check (``app.planning.safety``): ``{}`` when it has none.
+        self.safety = safety_of(comparison.result)
+        #: label -> its method's contacts: (first sample index, finding dict, label text).
+        self.contacts = {label: self._contacts(label) for label in self.labels}
+
+    def method_of(self, label: str) -> str:
+        """The planned method a trajectory label shows (``standard``/``optimized`` are the
+        comparison's ``shown`` pair)."""
+        if label in LABELS:
+            return self.comparison.shown[LABELS.index(label)]
+        return label
+
+    def _contacts(self, label: str) -> list[tuple[int, dict[str, Any], str]]:
+        method = self.method_of(label)
+        out = []
+        for finding in self.safety.get("findings") or []:
+            if finding.get("method") != method:
+                continue
+            links = [link for link in finding.get("links") or [] if link in self.link_paths]
+            if not links:
+                continue  # a link the viewer's URDF does not draw
+            index = self.comparison.index_at(float(finding.get("time", 0.0)))
+            out.append((index, {**finding, "links": links}, contact_text(finding)))
+        return out
+
+    @property
+    def mount_plane_height(self) -> float | None:
+        """The mounting plane the plan was checked against [m, base frame], or None (not
+        checked, or the check had no plane)."""
+        if self.safety.get("checked") is not True:
+            return None
+        height = self.safety.get("mount_plane_height")
+        return None if height is None else float(height)
 
     def _animated(self, label: str) -> list[tuple[str, str]]:
         """(joint, "wxyz" | "position") pairs that change along one trajectory."""
@@ -236,6 +283,79 @@ class PreparedComparison:
                 out.append((phase, self.payload_path[label][i]))
                 previous = phase
         return out
+
+
+def rpy_to_wxyz(rpy: Sequence[float]) -> tuple[float, float, float, float]:
+    """Quaternion (w, x, y, z) of URDF roll, pitch, yaw [rad] (fixed x, y, z axes)."""
+    half = 0.5 * np.asarray(rpy, np.float64)
+    cr, cp, cy = np.cos(half)
+    sr, sp, sy = np.sin(half)
+    return (
+        float(cr * cp * cy + sr * sp * sy),
+        float(sr * cp * cy - cr * sp * sy),
+        float(cr * sp * cy + sr * cp * sy),
+        float(cr * cp * sy - sr * sp * cy),
+    )
+
+
+def z_to_wxyz(normal: FloatArray) -> tuple[float, float, float, float]:
+    """Quaternion (w, x, y, z) of a rotation taking the z axis to the unit ``normal``."""
+    n = np.asarray(normal, np.float64)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = helper - float(helper @ n) * n
+    x /= np.linalg.norm(x)
+    rotation = np.column_stack([x, np.cross(n, x), n])
+    w, qx, qy, qz = (float(v) for v in matrices_to_wxyz(rotation[None])[0])
+    return w, qx, qy, qz
+
+
+def safety_of(result: Mapping[str, Any]) -> dict[str, Any]:
+    """The safety check stored with a plan's result or a simulation's plan, or ``{}``."""
+    safety = result.get("safety")
+    if not isinstance(safety, Mapping):
+        plan = result.get("plan")
+        safety = plan.get("safety") if isinstance(plan, Mapping) else None
+    return dict(safety) if isinstance(safety, Mapping) else {}
+
+
+def contact_text(finding: Mapping[str, Any]) -> str:
+    """A contact's label: ``contact: wrist_2_link – mount plane, 422 mm deep at t=0.51 s``."""
+    links = list(finding.get("links") or ["?"])
+    if finding.get("kind") == "self":
+        what = f"{links[0]} – {links[-1]}"
+    else:
+        what = f"{links[0]} – {finding.get('obstacle') or 'obstacle'}"
+    depth = 1000.0 * float(finding.get("depth", float("nan")))
+    return (
+        f"contact: {what}, {depth:.0f} mm deep at "
+        f"t={float(finding.get('deepest_time', float('nan'))):.2f} s "
+        f"(from t={float(finding.get('time', float('nan'))):.2f} s)"
+    )
+
+
+def _unresolved_meshes(
+    urdf: Any,
+    source: str | Path,
+    package_dirs: Sequence[Path],
+    allowed_roots: Sequence[Path] | None,
+) -> list[str]:
+    """Visual mesh references of a yourdfpy URDF that resolve to no (allowed) file, once each."""
+    from app.planning.robots import resolve_mesh
+
+    base = Path(source).parent if isinstance(source, Path) else None
+    out: list[str] = []
+    for link in urdf.robot.links:
+        for visual in link.visuals:
+            mesh = getattr(visual.geometry, "mesh", None)
+            name = getattr(mesh, "filename", None)
+            if not name or name in out:
+                continue
+            found = resolve_mesh(
+                name, base_dir=base, package_dirs=package_dirs, allowed_roots=allowed_roots
+            )
+            if found is None:
+                out.append(name)
+    return out
 
 
 def _link_corners(meshes: Sequence[LinkMesh]) -> dict[str, FloatArray]:
@@ -419,6 +539,11 @@ class ComparisonScene:
         self._names: dict[str, Any] = {}
         self._lamps: dict[str, Any] = {}
         self._traces: dict[str, list[Any]] = {slot: [] for slot in LABELS}
+        #: slot -> (first contact index, its marker and label handles, shown now).
+        self._contacts: dict[str, list[tuple[int, list[Any]]]] = {slot: [] for slot in LABELS}
+        self._contact_shown: dict[str, list[bool]] = {slot: [] for slot in LABELS}
+        self.mount_plane: dict[str, Any] = {}
+        self.obstacles: dict[str, list[Any]] = {}
         self._phase: dict[str, str] = {}
         #: the phase of each robot (and the human) at the pose shown.
         self.phases_now: dict[str, str] = {}
@@ -483,6 +608,9 @@ class ComparisonScene:
                     self._static_ghost.append(handle)
         self._add_payload(scene, slot)
         self._add_trace(scene, slot)
+        self._add_contacts(scene, slot)
+        self._add_mount_plane(scene, slot)
+        self._add_obstacles(scene, slot)
         c = prepared.comparison
         body = self._link_node(slot, c.payload_body)
         com = tuple(float(v) for v in c.payload_com)
@@ -567,6 +695,114 @@ class ComparisonScene:
                 )
             )
 
+    def _add_mount_plane(self, scene: Any, slot: str) -> None:
+        """The mounting plane the plan was checked against: a translucent slab in the slot's
+        base frame, its top face at the plane's height, over the robot's reach."""
+        height = self.prepared.mount_plane_height
+        if height is None:
+            return
+        lo, hi = union([self.prepared.bounds[label] for label in self.prepared.labels])
+        size = 2.0 * max(float(np.max(np.abs(lo[:2]))), float(np.max(np.abs(hi[:2]))), 0.2)
+        self.mount_plane[slot] = scene.add_box(
+            f"{ROOT}/{slot}/mount_plane",
+            color=MOUNT_PLANE_COLOR,
+            dimensions=(size, size, MOUNT_PLANE_THICKNESS),
+            opacity=MOUNT_PLANE_OPACITY,
+            position=(0.0, 0.0, height - 0.5 * MOUNT_PLANE_THICKNESS),
+        )
+        if slot == "optimized":  # overlaid, one plane is enough
+            self._static_ghost.append(self.mount_plane[slot])
+
+    def _add_obstacles(self, scene: Any, slot: str) -> None:
+        """The sidecar's obstacles, translucent, in the slot's base frame (a plane as a slab
+        on its free side's boundary, over the robot's reach)."""
+        reach = max(self.prepared.reach, 0.5)
+        for k, obstacle in enumerate(self.prepared.comparison.obstacles):
+            node = f"{ROOT}/{slot}/obstacle_{k}"
+            position = np.asarray(obstacle["position"], np.float64)
+            common = {"color": OBSTACLE_COLOR, "opacity": OBSTACLE_OPACITY}
+            if obstacle["kind"] == "box":
+                handle = scene.add_box(
+                    node,
+                    dimensions=tuple(float(v) for v in obstacle["size"]),
+                    wxyz=rpy_to_wxyz(obstacle["rpy"]),
+                    position=tuple(float(v) for v in position),
+                    **common,
+                )
+            elif obstacle["kind"] == "cylinder":
+                handle = scene.add_cylinder(
+                    node,
+                    radius=float(obstacle["radius"]),
+                    height=float(obstacle["length"]),
+                    wxyz=rpy_to_wxyz(obstacle["rpy"]),
+                    position=tuple(float(v) for v in position),
+                    **common,
+                )
+            else:  # a half-space: the slab's top face on the plane, nearest the base
+                normal = np.asarray(obstacle["normal"], np.float64)
+                normal = normal / np.linalg.norm(normal)
+                foot = float(position @ normal) * normal  # the plane's point nearest the base
+                centre = foot - 0.5 * MOUNT_PLANE_THICKNESS * normal
+                handle = scene.add_box(
+                    node,
+                    dimensions=(2.0 * reach, 2.0 * reach, MOUNT_PLANE_THICKNESS),
+                    wxyz=z_to_wxyz(normal),
+                    position=tuple(float(v) for v in centre),
+                    **common,
+                )
+            self.obstacles.setdefault(slot, []).append(handle)
+            if slot == "optimized":  # overlaid, one set is enough
+                self._static_ghost.append(handle)
+
+    def _add_contacts(self, scene: Any, slot: str) -> None:
+        """The contacts of the slot's method: a red sphere on every link involved and a label
+        saying what touches what, how deep and when; shown from the first contact on
+        (replaced when the slot changes method: not in the playback loop)."""
+        for _, handles in self._contacts[slot]:
+            for handle in handles:
+                handle.remove()
+        self._contacts[slot] = []
+        self._contact_shown[slot] = []
+        for k, (index, finding, text) in enumerate(self.prepared.contacts[self.shown[slot]]):
+            handles = []
+            for m, link in enumerate(finding["links"]):
+                handles.append(
+                    scene.add_icosphere(
+                        f"{self._link_node(slot, link)}/contact_{k}_{m}",
+                        radius=CONTACT_RADIUS,
+                        color=CONTACT_COLOR,
+                        opacity=0.8,
+                        visible=False,
+                    )
+                )
+            handles.append(
+                scene.add_label(
+                    f"{self._link_node(slot, finding['links'][0])}/contact_{k}_label",
+                    text,
+                    font_screen_scale=0.8,
+                    anchor="top-left",
+                    visible=False,
+                )
+            )
+            self._contacts[slot].append((index, handles))
+            self._contact_shown[slot].append(False)
+
+    def contacts_shown(self, slot: str) -> list[str]:
+        """The contact labels of a slot visible at the pose shown."""
+        texts = [text for _, _, text in self.prepared.contacts[self.shown[slot]]]
+        return [text for text, shown in zip(texts, self._contact_shown[slot], strict=True) if shown]
+
+    def _show_contacts(self, index: int) -> None:
+        """Markers of contacts that began at or before sample ``index`` visible, the others
+        hidden; a message only when one changes."""
+        for slot in LABELS:
+            for k, (first, handles) in enumerate(self._contacts[slot]):
+                visible = index >= first
+                if self._contact_shown[slot][k] != visible:
+                    self._contact_shown[slot][k] = visible
+                    for handle in handles:
+                        handle.visible = visible
+
     def set_methods(self, solid: str, ghost: str) -> None:
         """Show trajectory ``solid`` on the solid robot and ``ghost`` on the ghost (names of
         ``prepared.labels``); recolours the ghost and redraws the traces, no new robot."""
@@ -581,6 +817,7 @@ class ComparisonScene:
             self.shown[slot] = name
         for slot in changed:
             self._add_trace(self.target.scene, slot)
+            self._add_contacts(self.target.scene, slot)
             self._names[slot].text = slot_name(slot, self.shown[slot])
             self._phase.pop(slot, None)
         if "optimized" in changed:
@@ -625,6 +862,7 @@ class ComparisonScene:
                     source = p.joint_wxyz if prop == "wxyz" else p.joint_position
                     setattr(frames[joint], prop, source[label][joint][index])
         self.index = index
+        self._show_contacts(index)
         phases = {slot: p.phases[self.shown[slot]][index] for slot in LABELS}
         for slot, phase in phases.items():
             # Labels change only at a phase boundary: no message per frame.

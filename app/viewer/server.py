@@ -507,9 +507,39 @@ def _add_gui(
     return handles
 
 
+def _safety_text(scene: ComparisonScene) -> str:
+    """The plan's safety check in one paragraph: every method's first contact (marked in red
+    on its links from then on), or the smallest clearance, or why it was not checked."""
+    prepared = scene.prepared
+    safety = prepared.safety
+    if not safety:
+        return ""
+    if safety.get("checked") is not True:
+        return "**Safety:** " + markdown_text(str(safety.get("reason") or "not checked"))
+    firsts = [(label, contacts[0][2]) for label, contacts in prepared.contacts.items()
+              if contacts and label in prepared.comparison.choices]  # fmt: skip
+    if not firsts:
+        clearance = safety.get("min_clearance")
+        shown = "n/a" if clearance is None else f"{1000 * float(clearance):.1f} mm"
+        return f"**Safety:** no contact (min clearance {shown})."
+    lines = [f"{markdown_text(trajectory_label(label))}: {markdown_text(text)}"
+             for label, text in firsts]  # fmt: skip
+    return "**Unsafe** (contacts marked in red from their first time on):  \n" + "  \n".join(lines)
+
+
 def _details(gui: Any, scene: ComparisonScene, solid: str, ghost: str) -> dict[str, Any]:
     c = scene.prepared.comparison
     gui.add_markdown(f"**{markdown_text(c.title)}**")
+    missing = scene.prepared.missing_meshes
+    if missing:  # those links are drawn without their bodies
+        gui.add_markdown(
+            f"**{len(missing)} mesh file(s) missing:** "
+            + markdown_text(", ".join(missing[:3]) + (", …" if len(missing) > 3 else ""))
+            + ". Their links are drawn without bodies: add the robot as a zip with its meshes."
+        )
+    safety = _safety_text(scene)
+    if safety:
+        gui.add_markdown(safety)
     handles = {
         "speed": gui.add_dropdown("Speed", tuple(_SPEED_NAMES), initial_value="1x"),
         "layout": gui.add_dropdown("Layout", tuple(_LAYOUT_NAMES), initial_value="side by side"),

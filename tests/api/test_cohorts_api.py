@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from app.planning.jsonsafe import json_safe
+from app.jsonsafe import json_safe
 from app.services.demo import synthetic_curls_csv
 from tests.utils.api import TestClient, assert_problem, make_client, read_sse, wait_job
 from tests.utils.data import SHARED_DATA

@@ -55,6 +55,7 @@ def test_the_wheel_holds_the_pages_the_migrations_and_the_licence(wheel: Path) -
         if name.startswith(("app/frontend/", "app/db/migrations/")):
             assert name in files, name
     assert "app/frontend/index.html" in files and "app/db/migrations/env.py" in files
+    assert "app/py.typed" in files  # PEP 561: the library's annotations reach its users
     with zipfile.ZipFile(wheel) as z:
         meta = next(n for n in z.namelist() if n.endswith(".dist-info/METADATA"))
         text = z.read(meta).decode()

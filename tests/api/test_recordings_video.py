@@ -144,6 +144,16 @@ def test_video_to_pose_to_analysis_end_to_end(api: TestClient, video: Path) -> N
         == 304
     )
     assert_problem(api.get(f"/api/recordings/{rid}/frames/{len(listed)}.jpg"), 404)
+    # Whom each frame shows (two people are in the video): what the pose quality module
+    # decides from the stored landmarks, frame by frame.
+    from app.recordings.video import _frame_quality
+
+    quality = _frame_quality(api.get(f"/api/recordings/{rid}/files/{marks['id']}").content)
+    assert quality is not None and quality.n_persons >= 1
+    for f in listed:
+        assert f["person"] == int(quality.person[f["frame"]])
+        assert f["quality"] == pytest.approx(float(quality.score[f["frame"]]), abs=1e-12)
+        assert f["note"].startswith("the tracked person" if f["person"] == 0 else "not the")
 
     # The landmarks are analysed as soon as they are stored, like an uploaded MediaPipe file.
     deadline = time.monotonic() + 60

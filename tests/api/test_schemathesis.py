@@ -79,12 +79,19 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
         "recording_ids": "not beside groups",
         "options.subject_pattern": "a regular expression that compiles",
     },
+    "POST /api/robot-logs": {
+        "file": "a log's content must be a readable robot log of the robot's joints",
+    },
     "GET /api/viewer/recordings/{recording_id}/analysis": {"t1": "not before t0"},
     "GET /api/plans/{plan_id}/trajectory": {
         "rate": "a rate the format's controller takes (URScript: 500 Hz / a whole number), "
         "and rate x duration samples within BIOPLAN_MAX_EXPORT_SAMPLES",
         "format": "a format the planned robot can run (URScript: a six-joint UR arm)",
         "samples": "not beside rate; (samples - 1) / duration a rate the format takes",
+        "from_position": "one angle per joint of the planned robot, within its limits; "
+        "yaml and mcap only",
+        "topic": "yaml and mcap only",
+        "goal": "yaml only",
     },
 }
 UNSTATED_RULES["GET /api/simulations/{simulation_id}/trajectory"] = UNSTATED_RULES[

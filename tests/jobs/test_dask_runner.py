@@ -27,7 +27,7 @@ def cluster() -> Iterator[Any]:
         threads_per_worker=1,
         processes=True,
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address=":0",  # any free port: other test processes may hold 8787
         silence_logs=40,
     ) as c:
         yield c

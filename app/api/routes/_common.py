@@ -1,4 +1,5 @@
-"""Helpers shared by the result routers (analyses, plans, simulations, sweeps)."""
+"""HTTP-only helpers shared by the routers: path and query types, documented answers, the
+export download; what they read comes from ``app.services``."""
 
 from __future__ import annotations
 
@@ -6,22 +7,15 @@ from datetime import UTC, datetime
 from pathlib import PurePosixPath
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-import numpy as np
 from fastapi import Path, Query, Response
 from pydantic import BeforeValidator, Field
-from sqlalchemy import func, select
-from sqlalchemy.orm import Session, undefer
+from sqlalchemy.orm import Session
 
 from app.api.errors import ApiError
 from app.api.schemas import Problem
-from app.db import crud
-from app.db.arrays import decode_arrays
-from app.db.models import RESULT_MODELS, JobRecord
-from app.errors import BioPlanError, without_paths
 from app.names import METHODS
-from app.planning.export import public_result
-from app.planning.jsonsafe import json_safe
-from app.services import RobotCatalog, job_to_dict
+from app.services import RobotCatalog
+from app.services.results import export_file
 
 #: Ids in paths: positive and within a 32-bit integer, so no database overflows.
 IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
@@ -45,109 +39,6 @@ PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
         (429, "too many requests: waiting jobs or open event streams at their cap (Retry-After)"),
     )
 }
-
-
-def get_result_row(session: Session, kind: str, result_id: int, *, arrays: bool = False) -> Any:
-    model: Any = RESULT_MODELS[kind]
-    stmt = select(model).where(model.id == result_id)
-    if arrays:
-        stmt = stmt.options(undefer(model.arrays))
-    row = session.scalars(stmt).first()
-    if row is None:
-        raise ApiError(404, f"{kind} {result_id} does not exist")
-    return row
-
-
-def job_of(session: Session, result_id: int) -> dict[str, Any]:
-    job = session.get(JobRecord, result_id, populate_existing=True)
-    if job is None:  # pragma: no cover - rows cascade with their job
-        raise ApiError(404, f"job {result_id} does not exist")
-    return job_to_dict(job)
-
-
-def result_out(session: Session, kind: str, result_id: int) -> dict[str, Any]:
-    row = get_result_row(session, kind, result_id)
-    job = job_of(session, row.id)
-    return {
-        "id": row.id,
-        "robot": getattr(row, "robot", ""),
-        "label": job["label"],
-        "job": job,
-        "result": public_result(row.result),
-    }
-
-
-def relabel(session: Session, kind: str, result_id: int, label: str | None) -> dict[str, Any]:
-    """Give a plan or simulation the user's short name (None: none); returns it as shown."""
-    get_result_row(session, kind, result_id)  # 404 when there is none
-    crud.update_job(session=session, job_id=result_id, only_if_active=False, label=label)
-    return result_out(session, kind, result_id)
-
-
-def list_results(
-    session: Session,
-    kind: str,
-    *,
-    limit: int,
-    offset: int,
-    state: str | None = None,
-    robot: str | None = None,
-    recording_id: int | None = None,
-) -> tuple[list[dict[str, Any]], int]:
-    model: Any = RESULT_MODELS[kind]
-    stmt = select(model, JobRecord).join(JobRecord, JobRecord.id == model.id)
-    count = select(func.count(model.id)).join(JobRecord, JobRecord.id == model.id)
-    if state is not None:
-        stmt, count = stmt.where(JobRecord.state == state), count.where(JobRecord.state == state)
-    if robot is not None and hasattr(model, "robot"):
-        stmt, count = stmt.where(model.robot == robot), count.where(model.robot == robot)
-    if recording_id is not None and hasattr(model, "recording_id"):
-        mine = model.recording_id == recording_id
-        stmt, count = stmt.where(mine), count.where(mine)
-    rows = session.execute(stmt.order_by(model.id.desc()).limit(limit).offset(offset)).all()
-    items = []
-    for row, job in rows:
-        items.append(
-            {
-                "id": row.id,
-                "robot": getattr(row, "robot", ""),
-                "recording_id": getattr(row, "recording_id", None),
-                "template": getattr(row, "template", None),
-                "label": job.label,
-                "job": job_to_dict(job),
-                "result": public_result(row.result),
-            }
-        )
-    return items, int(session.scalar(count) or 0)
-
-
-def arrays_out(
-    session: Session, kind: str, result_id: int, *, points: int, names: list[str] | None
-) -> dict[str, Any]:
-    """Stored arrays decimated to at most ``points`` samples along the time axis."""
-    row = get_result_row(session, kind, result_id, arrays=True)
-    if row.arrays is None:
-        state = job_of(session, result_id)["state"]
-        raise ApiError(409, f"{kind} {result_id} has no arrays (job state {state})")
-    arrays = decode_arrays(row.arrays)
-    if names:
-        unknown = sorted(set(names) - set(arrays))
-        if unknown:  # as a recording's missing channels: not in this result
-            raise ApiError(
-                404,
-                f"{kind} {result_id} has no arrays {unknown} (expected some of {sorted(arrays)})",
-                field="name",
-            )
-        arrays = {k: arrays[k] for k in names}
-    n = max((a.shape[0] for a in arrays.values() if a.ndim >= 1), default=0)
-    # Trajectories are smooth: an even stride keeps their shape (no spikes to preserve).
-    idx = np.unique(np.linspace(0, n - 1, min(points, n)).round().astype(int)) if n else None
-    out: dict[str, list[Any]] = {}
-    for key, arr in arrays.items():
-        if idx is not None and arr.ndim >= 1 and arr.shape[0] == n:
-            arr = arr[idx]
-        out[key] = json_safe(np.atleast_1d(arr).tolist())
-    return {"id": result_id, "points": 0 if idx is None else len(idx), "arrays": out}
 
 
 #: Media type of each export format (``app.planning.export.FORMATS``).
@@ -198,14 +89,52 @@ SamplesQuery = Annotated[
         "also caps what a rate may ask for (fewer for robots of more than six joints)",
     ),
 ]
-
-
-def _export_field(message: str) -> str | None:
-    """The request field an ``ExportError`` is about (its message names it)."""
-    for needle, name in (("method", "method"), ("rate", "rate"), ("format", "format")):
-        if needle in message:
-            return name
-    return None
+ForceQuery = Annotated[
+    bool,
+    Query(
+        description="export although a sample leaves the robot's limits (position, speed, "
+        "stated acceleration, torque) or a URScript for a robot that is not a UR; the file "
+        "records what was exceeded (default: 409)"
+    ),
+]
+AllowUnsafeQuery = Annotated[
+    bool,
+    Query(
+        description="export a method the plan's collision check found in contact; the file "
+        "records the first contact (default: 409)"
+    ),
+]
+GoalQuery = Annotated[
+    bool,
+    Query(
+        description="yaml: a control_msgs/action/FollowJointTrajectory goal instead of the "
+        "bare trajectory_msgs/msg/JointTrajectory"
+    ),
+]
+#: A ROS 2 name (``app.planning.export`` refuses anything else).
+ROS_NAME_PATTERN = r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$"
+#: Decimal numbers separated by commas (degrees).
+_NUMBER = r"\s*[-+]?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?\s*"
+DEGREES_LIST_PATTERN = rf"^{_NUMBER}(,{_NUMBER})*$"
+TopicQuery = Annotated[
+    str | None,
+    Query(
+        max_length=256,
+        pattern=ROS_NAME_PATTERN,
+        description="yaml, mcap: the controller's topic (or action, with goal), e.g. "
+        "/scaled_joint_trajectory_controller/joint_trajectory (default: /joint_trajectory; "
+        "goal: /joint_trajectory_controller/follow_joint_trajectory)",
+    ),
+]
+FromPositionQuery = Annotated[
+    str | None,
+    Query(
+        max_length=1024,
+        pattern=DEGREES_LIST_PATTERN,
+        description="yaml, mcap: the arm's current joint positions [deg], comma separated, one "
+        "per joint: the file first approaches the plan's start from there",
+    ),
+]
 
 
 def trajectory_out(
@@ -219,72 +148,37 @@ def trajectory_out(
     method: str | None,
     samples: int | None = None,
     max_samples: int | None = None,
+    force: bool = False,
+    allow_unsafe: bool = False,
+    goal: bool = False,
+    topic: str | None = None,
+    from_position: str | None = None,
 ) -> Response:
-    """A stored plan's or simulation's export file, streamed (``export_stream``'s chunks).
-
-    ``samples`` (instead of ``rate``) asks for that many samples over the motion; the file
-    holds at most ``max_samples`` (``Settings.max_export_samples``), else a 422 naming
-    ``samples`` or ``rate``, before anything is sampled."""
+    """A stored plan's or simulation's export file, streamed as an attachment
+    (``app.services.results.export_file``: its refusals are 404, 409 and 422 naming the
+    field)."""
     from fastapi.responses import StreamingResponse
 
-    from app.jobs.tasks import robot_from_spec
-    from app.planning.export import (
-        check_export_size,
-        export_sample_limit,
-        export_stream,
-        motion_of_result,
+    out = export_file(
+        session,
+        robots,
+        kind,
+        result_id,
+        fmt=fmt,
+        rate=rate,
+        method=method,
+        samples=samples,
+        max_samples=max_samples,
+        force=force,
+        allow_unsafe=allow_unsafe,
+        goal=goal,
+        topic=topic,
+        from_position=from_position,
     )
-
-    row = get_result_row(session, kind, result_id)
-    if row.result is None:
-        state = job_of(session, result_id)["state"]
-        raise ApiError(409, f"{kind} {result_id} has no result (job state {state})")
-    if "motion" not in row.result:
-        raise ApiError(
-            409, f"{kind} {result_id} was stored without its motion block: plan it again"
-        )
-    planned = row.result["motion"].get("methods") or {}
-    if method is not None and method not in planned:  # not in this result, as a missing array
-        raise ApiError(
-            404,
-            f"method '{method}' is not in {kind} {result_id}: expected one of {', '.join(planned)}",
-            field="method",
-        )
-    try:
-        motion = motion_of_result(row.result)
-        if samples is not None:
-            if rate is not None:
-                raise ApiError(422, "give rate or samples, not both", field="samples")
-            joints = len(motion.joint_names)
-            limit = None if max_samples is None else export_sample_limit(joints, max_samples)
-            if limit is not None and samples > limit:
-                raise ApiError(
-                    422,
-                    f"samples {samples} exceeds the limit {limit} for {joints} joints "
-                    "(BIOPLAN_MAX_EXPORT_SAMPLES)",
-                    field="samples",
-                )
-            rate = (samples - 1) / motion.duration
-        check_export_size(motion, fmt, rate, max_samples)
-    except BioPlanError as exc:
-        field = "samples" if samples is not None else _export_field(str(exc))
-        raise ApiError(422, str(exc), field=field) from None
-    spec = robots.spec(session, row.robot)
-    payload = motion.conditions.get("payload")
-    try:
-        with robot_from_spec(spec, None if payload is None else float(payload)) as robot:
-            chunks = export_stream(
-                motion, fmt, method=method, rate=rate, robot=robot, max_samples=max_samples
-            )
-    except BioPlanError as exc:  # a robot file gone or changed: its name, not its folder
-        text = without_paths(exc)
-        raise ApiError(422, text, field=_export_field(text)) from None
-    chosen = method or row.result["motion"]["default_method"]
-    filename = f"{kind}-{result_id}-{chosen}.{fmt}"  # each format's extension is its name
     return StreamingResponse(
-        chunks,
+        out.chunks,
         media_type=EXPORT_MEDIA_TYPES[fmt],
-        headers={"Content-Disposition": f'attachment; filename="{filename}"'},
+        headers={"Content-Disposition": f'attachment; filename="{out.filename}"'},
     )
 
 

@@ -8,16 +8,11 @@ from fastapi import APIRouter, Query, Response
 
 from app.api.deps import JobsDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
-from app.api.routes._common import (
-    PROBLEM_RESPONSES,
-    IdPath,
-    get_result_row,
-    job_of,
-    list_results,
-)
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.schemas import AnalysisOut, AnalysisRequest, Job, JobState, Page
 from app.services.recording_views import analysis_summary
 from app.services.recordings import analysis_params
+from app.services.results import get_result_row, job_of, list_results
 
 router = APIRouter(prefix="/api/analyses", tags=["analyses"], responses=PROBLEM_RESPONSES)
 

@@ -4,24 +4,17 @@ options a comparison takes (from ``CohortOptions``)."""
 from __future__ import annotations
 
 import contextlib
-from dataclasses import MISSING, fields
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
 
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
-from app.api.routes._common import (
-    PROBLEM_RESPONSES,
-    IdPath,
-    get_result_row,
-    job_of,
-    list_results,
-)
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.schemas import CohortOptionInfo, CohortOut, CohortRequest, Job, JobState, Page
-from app.db import crud
-from app.services.cohorts import cohort_csv, cohort_params
+from app.services.cohorts import cohort_csv, cohort_option_info, cohort_params
 from app.services.errors import ConflictError
+from app.services.results import delete_job, get_result_row, job_of, list_results
 
 router = APIRouter(prefix="/api/cohorts", tags=["cohorts"], responses=PROBLEM_RESPONSES)
 
@@ -44,26 +37,7 @@ def submit_cohort(
 @router.get("/options", response_model=list[CohortOptionInfo])
 def cohort_options() -> list[dict[str, Any]]:
     """Every option of a comparison with its default, help, unit, choices and range."""
-    from app.analysis.cohort import CohortOptions
-
-    kinds = {"float | None": "number", "float": "number", "int": "integer", "str": "string"}
-    out = []
-    for f in fields(CohortOptions):
-        meta = f.metadata
-        out.append(
-            {
-                "name": f.name,
-                "default": None if f.default is MISSING else f.default,
-                "help": meta["help"],
-                "unit": meta.get("unit"),
-                "choices": list(meta["choices"]) if "choices" in meta else None,
-                "low": meta.get("low"),
-                "high": meta.get("high"),
-                "minimum": meta.get("minimum"),
-                "type": kinds.get(str(f.type), "string"),
-            }
-        )
-    return out
+    return cohort_option_info()
 
 
 def _out(item: dict[str, Any]) -> dict[str, Any]:
@@ -115,6 +89,6 @@ def delete_cohort(services: ServicesDep, session: SessionDep, cohort_id: IdPath)
     if job_of(session, cohort_id)["state"] in ("queued", "running"):
         with contextlib.suppress(ConflictError):  # it ended meanwhile
             services.jobs.cancel(cohort_id)
-    if not crud.delete_job(session=session, blobs=services.blobs, job_id=cohort_id):
+    if not delete_job(session, services.blobs, cohort_id):
         raise ApiError(404, f"cohort {cohort_id} does not exist")
     return Response(status_code=204)

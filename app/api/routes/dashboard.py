@@ -20,13 +20,8 @@ from fastapi.responses import FileResponse
 from app.api.deps import ServicesDep
 from app.api.errors import ApiError
 from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath
-from app.errors import BioPlanError, without_paths
 from app.names import METHODS
-from app.planning.export import public_result
-from app.services import ServiceError, Services
-from app.viewer.comparison import NothingToCompare
-from app.viewer.export import report_html, scene_html
-from app.viewer.scene import PreparedComparison
+from app.services.comparisons import comparison_data, comparison_file, prepare_comparison
 
 router = APIRouter(prefix="/api/viewer", tags=["viewer"], responses=PROBLEM_RESPONSES)
 
@@ -107,21 +102,6 @@ def method_pair(methods: str | None) -> tuple[str, str] | None:
     return a, b
 
 
-def _prepared(
-    services: Services, kind: str, result_id: int, methods: str | None
-) -> PreparedComparison:
-    """The prepared comparison; a result with nothing to compare is a 409 naming ``methods``
-    and a robot that cannot be loaded a 422 whose text names no server folder."""
-    try:
-        return services.comparisons(kind, result_id, method_pair(methods))
-    except NothingToCompare as exc:
-        raise ApiError(409, str(exc), field="methods") from None
-    except ServiceError:
-        raise  # unknown result or method (404), no result yet (409): the service's own answer
-    except BioPlanError as exc:
-        raise ApiError(422, without_paths(exc)) from None
-
-
 @router.get("/comparisons/{kind}/{result_id:int}", response_model=dict[str, Any])
 def comparison(
     services: ServicesDep,
@@ -134,10 +114,7 @@ def comparison(
     and where the 3-D viewer shows it. ``methods=a,b`` shows any two planned methods as
     ``standard`` (a) and ``optimized`` (b); ``summary.methods`` says which."""
     pair = method_pair(methods)
-    c = _prepared(services, kind, result_id, methods).comparison
-    out = c.summary()
-    out["curves"] = c.curves(points=points)
-    out["result"] = public_result(c.result)
+    out = comparison_data(prepare_comparison(services.comparisons, kind, result_id, pair), points)
     viewer = services.viewer
     out["viewer"] = (
         {
@@ -178,11 +155,8 @@ def export(
     methods: MethodsQuery = None,
 ) -> Response:
     """A file that opens without the server: the recorded 3-D comparison, or the report."""
-    prepared = _prepared(services, kind, result_id, methods)
-    if format == "scene":
-        page = scene_html(prepared, layout=layout)
-    else:
-        page = report_html(prepared.comparison)
+    prepared = prepare_comparison(services.comparisons, kind, result_id, method_pair(methods))
+    page = comparison_file(prepared, format, layout)
     name = f"bioplan-{kind}-{result_id}-{format}.html"
     return Response(
         page,

@@ -21,10 +21,10 @@ from app.api.deps import JobsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.schemas import Job, JobKind, JobState, JobSummary, Page, Problem
-from app.db import crud
 from app.names import TERMINAL_JOB_STATES
-from app.services import ALL_JOBS, Services, Subscription, job_summary, job_to_dict
+from app.services import ALL_JOBS, Services, Subscription, job_summary
 from app.services.broker import StreamRefused, StreamTicket
+from app.services.results import job_page
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], responses=PROBLEM_RESPONSES)
 #: Streams about many jobs at once (the dashboard's job drawer).
@@ -55,11 +55,9 @@ def list_jobs(
     kind: JobKind | None = None,
     state: JobState | None = None,
 ) -> dict[str, Any]:
-    items, total = crud.list_jobs(
-        session=session, limit=limit, offset=offset, kind=kind, state=state
-    )
+    items, total = job_page(session, limit=limit, offset=offset, kind=kind, state=state)
     return {
-        "items": [job_to_dict(j) for j in items],
+        "items": items,
         "total": total,
         "limit": limit,
         "offset": offset,

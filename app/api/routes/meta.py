@@ -7,14 +7,13 @@ import shutil
 import time
 from typing import Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Request
 from sqlalchemy import text
 
 from app import __version__, names
 from app.api.deps import ServicesDep
 from app.api.schemas import Health, Meta, Version, ViewerInfo
 from app.config import Settings
-from app.db.session import current_revision
 from app.services.robots import data_usage
 
 router = APIRouter(prefix="/api", tags=["service"])
@@ -69,7 +68,7 @@ def _disk(settings: Settings) -> dict[str, Any] | None:
 def version(services: ServicesDep) -> dict[str, Any]:
     return {
         "version": __version__,
-        "database_revision": current_revision(services.engine),
+        "database_revision": services.database_revision(),
         "python": platform.python_version(),
     }
 
@@ -80,6 +79,36 @@ def meta() -> dict[str, Any]:
     phases with bounds and colours, planning methods, muscle colours, PSO defaults, job states.
     """
     return names.as_json()
+
+
+#: The request bodies whose fields the pages fill, by the pages' name for them.
+_FORMS = {
+    "plan": "PlanRequest",
+    "simulation": "SimulationRequest",
+    "sweep": "SweepRequest",
+    "analysis": "AnalysisRequest",
+    "recording_patch": "RecordingPatch",
+    "upload": "Body_upload_recording_api_recordings_post",
+}
+_BOUNDS = ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum")
+
+
+@router.get("/caps", response_model=dict[str, dict[str, dict[str, float]]])
+def caps(request: Request) -> dict[str, dict[str, dict[str, float]]]:
+    """The numeric bounds of the fields the pages fill, as this server enforces them
+    (``BIOPLAN_MAX_*`` included): form -> field -> ``minimum``/``maximum``/``exclusive...``.
+    The pages show each cap beside its field, so a value is not refused unannounced."""
+    schemas = request.app.openapi().get("components", {}).get("schemas", {})
+    out: dict[str, dict[str, dict[str, float]]] = {}
+    for form, schema in _FORMS.items():
+        fields = {}
+        for name, prop in schemas.get(schema, {}).get("properties", {}).items():
+            options = [prop, *prop.get("anyOf", [])]
+            bounds = {b: float(o[b]) for o in options for b in _BOUNDS if b in o}
+            if bounds:
+                fields[name] = bounds
+        out[form] = fields
+    return out
 
 
 @router.get("/viewer", response_model=ViewerInfo)

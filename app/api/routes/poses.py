@@ -9,10 +9,9 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query
 
 from app.api.deps import SessionDep
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath, get_result_row, job_of
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.schemas import JobState, Page, PoseOut
-from app.db import crud
-from app.services import job_to_dict
+from app.services.results import get_result_row, job_of, pose_page
 
 router = APIRouter(prefix="/api/poses", tags=["recordings"], responses=PROBLEM_RESPONSES)
 
@@ -38,10 +37,10 @@ def list_poses(
     ] = None,
 ) -> dict[str, Any]:
     """Pose extractions, newest first; filter by job state and by recording."""
-    rows, total = crud.list_pose_extractions(
-        session=session, limit=limit, offset=offset, state=state, recording_id=recording_id
+    rows, total = pose_page(
+        session, limit=limit, offset=offset, state=state, recording_id=recording_id
     )
-    items = [_out(row, job_to_dict(job)) for row, job in rows]
+    items = [_out(row, job) for row, job in rows]
     return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 

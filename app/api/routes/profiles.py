@@ -9,8 +9,9 @@ from fastapi import APIRouter, Query, Response
 
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath, list_results, result_out
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.schemas import Job, JobState, Page, ProfilesRequest, ResultOut, left_out
+from app.services.results import list_results, result_out
 
 router = APIRouter(prefix="/api/profiles", tags=["profiles"], responses=PROBLEM_RESPONSES)
 

@@ -9,13 +9,11 @@ import json
 import re
 from typing import Annotated, Any, get_args
 
-import numpy as np
 from fastapi import APIRouter, File, Form, Path, Query, Request, Response, UploadFile
 from pydantic import Field, TypeAdapter
 from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
-from app.analysis.downsample import minmax_downsample
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import (
@@ -41,11 +39,6 @@ from app.api.schemas import (
     SkeletonFrames,
     blank_label_is_none,
 )
-from app.db import crud
-from app.db.arrays import decode_array
-from app.db.models import RecordingFile, RecordingSession
-from app.errors import BioPlanError
-from app.recordings.video import find_pose_python
 from app.services import (
     ConflictError,
     Services,
@@ -53,15 +46,27 @@ from app.services import (
     job_to_dict,
     store_recording,
 )
-from app.services.recording_views import recording_detail
+from app.services.recording_views import recording_detail, signals
+from app.services.recordings import (
+    active_pose_jobs,
+    is_video_upload,
+    pose_environment_problem,
+    raw_file,
+    rerun_params,
+    skeleton_frame,
+    skeleton_frame_list,
+    skeleton_jpeg,
+    update_recording,
+    videos_without_pose,
+)
+from app.services.recordings import (
+    delete_recording as delete_stored,
+)
 from app.services.recordings import (
     get_recording as get_stored,
 )
 from app.services.recordings import (
-    is_video_upload,
-    rerun_params,
-    update_recording,
-    videos_without_pose,
+    list_recordings as list_stored,
 )
 
 router = APIRouter(prefix="/api/recordings", tags=["recordings"], responses=PROBLEM_RESPONSES)
@@ -215,7 +220,7 @@ def upload_recording(
             max_video_seconds=services.settings.max_video_seconds,
         )
     services.recordings_cache.invalidate()
-    pose = _submit_pose(services, rec, videos_without_pose(rec))
+    pose = _submit_pose(services, rec.id, [f.id for f in videos_without_pose(rec)])
     return _detail(session, rec.id, pose_jobs=pose)
 
 
@@ -224,24 +229,23 @@ def _require_pose_environment(services: Services) -> None:
     Dask workers have their own environment and report it in the job)."""
     if services.settings.executor != "local":
         return
-    try:
-        find_pose_python()
-    except BioPlanError as exc:
-        raise ApiError(503, f"videos cannot be turned into pose on this server: {exc}") from None
+    problem = pose_environment_problem()
+    if problem is not None:
+        raise ApiError(503, f"videos cannot be turned into pose on this server: {problem}")
 
 
 def _submit_pose(
-    services: Services, rec: RecordingSession, videos: list[RecordingFile]
+    services: Services, recording_id: int, video_ids: list[int]
 ) -> list[dict[str, Any]]:
-    """One pose-extraction job per video."""
+    """One pose-extraction job per video (file ids)."""
     return [
         services.jobs.submit(
             kind="pose",
-            params={"recording_id": rec.id, "video_file_id": f.id},
-            resource={"recording_id": rec.id, "video_file_id": f.id},
+            params={"recording_id": recording_id, "video_file_id": file_id},
+            resource={"recording_id": recording_id, "video_file_id": file_id},
             bounded=False,  # the request was admitted (check_room) before it stored anything
         )
-        for f in videos
+        for file_id in video_ids
     ]
 
 
@@ -277,8 +281,8 @@ async def list_recordings(
 
         def compute() -> bytes:
             with services.sessions() as session:
-                items, total = crud.list_recording_summaries(
-                    session=session,
+                items, total = list_stored(
+                    session,
                     limit=limit,
                     offset=offset,
                     subject=subject,
@@ -296,18 +300,11 @@ async def list_recordings(
     return Response(body, media_type="application/json")
 
 
-def _get(session: SessionDep, recording_id: int) -> RecordingSession:
-    rec = crud.get_recording(session=session, recording_id=recording_id)
-    if rec is None:
-        raise ApiError(404, f"recording {recording_id} does not exist")
-    return rec
-
-
 @router.get("/{recording_id:int}", response_model=RecordingDetail)
 def get_recording(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
     """Files (role, warnings, rate check, a video's pose extraction) and channels (flat,
     excluded), the session mode and the options in use."""
-    return recording_detail(session, _get(session, recording_id))
+    return recording_detail(session, get_stored(session, recording_id))
 
 
 @router.patch(
@@ -353,15 +350,11 @@ def restart_pose(
 ) -> dict[str, Any]:
     """A pose job for every video of the recording (after a failure or a cancel; a success
     replaces the landmarks and skeleton frames). 409 while one is queued or running."""
-    rec = _get(session, recording_id)
-    videos = [f for f in rec.files if f.role == "video"]
+    rec = get_stored(session, recording_id)
+    videos = [f.id for f in rec.files if f.role == "video"]
     if not videos:
         raise ApiError(409, f"recording {recording_id} has no video", field="recording_id")
-    active = [
-        j
-        for j in crud.pose_jobs(session=session, recording_id=recording_id).values()
-        if j.state in ("queued", "running")
-    ]
+    active = active_pose_jobs(session, recording_id)
     if active:
         raise ConflictError(
             f"the pose of recording {recording_id} is being extracted (job {active[0].id})",
@@ -369,28 +362,14 @@ def restart_pose(
         )
     _require_pose_environment(services)
     services.jobs.check_room(len(videos))
-    return _detail(session, recording_id, pose_jobs=_submit_pose(services, rec, videos))
+    return _detail(session, recording_id, pose_jobs=_submit_pose(services, rec.id, videos))
 
 
 @router.get("/{recording_id:int}/frames", response_model=SkeletonFrames)
 def list_frames(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
     """The video frames with the detected skeleton drawn (a few per video), to check the fit."""
-    _get(session, recording_id)
-    frames = crud.skeleton_frames(session=session, recording_id=recording_id)
-    return {
-        "recording_id": recording_id,
-        "frames": [
-            {
-                "k": k,
-                "file_id": frame.file_id,
-                "video": video,
-                "frame": frame.frame,
-                "time_s": frame.time,
-                "url": f"/api/recordings/{recording_id}/frames/{k}.jpg",
-            }
-            for k, (frame, video) in enumerate(frames)
-        ],
-    }
+    get_stored(session, recording_id)
+    return {"recording_id": recording_id, "frames": skeleton_frame_list(session, recording_id)}
 
 
 @router.get(
@@ -405,18 +384,13 @@ def get_frame(
     k: Annotated[int, Path(ge=0, le=10000)],
 ) -> Response:
     """Frame ``k`` of the list, with the skeleton drawn."""
-    _get(session, recording_id)
-    frames = crud.skeleton_frames(session=session, recording_id=recording_id)
-    if k >= len(frames):
-        raise ApiError(404, f"recording {recording_id} has {len(frames)} skeleton frame(s)")
-    frame = frames[k][0]
+    get_stored(session, recording_id)
+    frame = skeleton_frame(session, recording_id, k)
     etag = f'"{frame.sha256[:32]}"'
     headers = {"ETag": etag, "Cache-Control": "no-cache"}
     if request.headers.get("if-none-match") == etag:
         return Response(status_code=304, headers=headers)
-    jpeg = crud.skeleton_jpeg(session=session, frame_id=frame.id)
-    if jpeg is None:  # pragma: no cover - replaced between two statements
-        raise ApiError(404, f"frame {k} of recording {recording_id} was just replaced")
+    jpeg = skeleton_jpeg(session, recording_id, k, frame.id)
     return Response(jpeg, media_type="image/jpeg", headers=headers)
 
 
@@ -434,52 +408,9 @@ def get_signals(
     t1: Annotated[float | None, Query(description="window end [s]")] = None,
 ) -> dict[str, Any]:
     """Signals for plotting, min/max-downsampled to at most ``points`` samples per series."""
-    _get(session, recording_id)
-    chans = crud.get_channels(session=session, recording_id=recording_id, channel_ids=channel)
-    if channel:
-        missing = sorted(set(channel) - {c.id for c in chans})
-        if missing:
-            raise ApiError(404, f"recording {recording_id} has no channels {missing}")
-    if name:
-        chans = [c for c in chans if c.name in set(name)]
-        missing_names = sorted(set(name) - {c.name for c in chans})
-        if missing_names:
-            raise ApiError(404, f"recording {recording_id} has no channels named {missing_names}")
-    out = []
-    for c in chans:
-        data = np.asarray(decode_array(c.data), dtype=np.float64)
-        if c.time is not None:
-            t = np.asarray(decode_array(c.time), dtype=np.float64)
-        else:
-            t = c.start + np.arange(c.n_samples, dtype=np.float64) / c.rate
-        keep = np.ones(t.shape, dtype=bool)
-        if t0 is not None:
-            keep &= t >= t0
-        if t1 is not None:
-            keep &= t <= t1
-        columns = data.reshape(data.shape[0], -1)
-        labels = ["value"] if columns.shape[1] == 1 else ["x", "y", "z", "w"][: columns.shape[1]]
-        if len(labels) < columns.shape[1]:
-            labels = [f"c{i}" for i in range(columns.shape[1])]
-        series = []
-        for j, label in enumerate(labels):
-            col = columns[keep, j]
-            col = np.where(np.isfinite(col), col, np.nan)
-            ts, ys = minmax_downsample(t[keep], col, points)
-            series.append({"label": label, "t": ts.tolist(), "y": ys.tolist()})
-        out.append(
-            {
-                "channel_id": c.id,
-                "name": c.name,
-                "file": c.file.original_name,
-                "kind": c.kind,
-                "unit": c.unit,
-                "n_samples": c.n_samples,
-                "n_points": max((len(s["t"]) for s in series), default=0),
-                "series": series,
-            }
-        )
-    return {"recording_id": recording_id, "points": points, "channels": out}
+    return signals(
+        session, recording_id, channel_ids=channel, names=name, points=points, t0=t0, t1=t1
+    )
 
 
 @router.get(
@@ -491,12 +422,10 @@ def get_raw_file(
     services: ServicesDep, session: SessionDep, recording_id: IdPath, file_id: IdPath
 ) -> Response:
     """The uploaded file, byte for byte."""
-    f = session.get(RecordingFile, file_id)
-    if f is None or f.session_id != recording_id:
-        raise ApiError(404, f"recording {recording_id} has no file {file_id}")
-    quoted = f.original_name.encode("ascii", "replace").decode().replace('"', "'")
+    name, data = raw_file(session, services.blobs, recording_id, file_id)
+    quoted = name.encode("ascii", "replace").decode().replace('"', "'")
     return Response(
-        services.blobs.get(f.sha256),
+        data,
         media_type="application/octet-stream",
         headers={"Content-Disposition": f'attachment; filename="{quoted}"'},
     )
@@ -506,14 +435,11 @@ def get_raw_file(
 def delete_recording(services: ServicesDep, session: SessionDep, recording_id: IdPath) -> Response:
     """Delete a recording with its files, landmarks and skeleton frames; its pose jobs still
     queued or running are cancelled first (their workers stop; nothing of them is stored)."""
-    for job in crud.pose_jobs(session=session, recording_id=recording_id).values():
-        if job.state in ("queued", "running"):
-            with contextlib.suppress(ConflictError):  # it ended meanwhile
-                services.jobs.cancel(job.id)
-    deleted = crud.delete_recording(
-        session=session, blobs=services.blobs, recording_id=recording_id
-    )
-    services.recordings_cache.invalidate()
-    if not deleted:
-        raise ApiError(404, f"recording {recording_id} does not exist")
+    for job in active_pose_jobs(session, recording_id):
+        with contextlib.suppress(ConflictError):  # it ended meanwhile
+            services.jobs.cancel(job.id)
+    try:
+        delete_stored(session, services.blobs, recording_id)
+    finally:
+        services.recordings_cache.invalidate()
     return Response(status_code=204)

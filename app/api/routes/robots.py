@@ -100,6 +100,14 @@ def upload_robot(
         list[str] | None,
         Form(description="NAME=VALUE, repeatable: joints held fixed [deg, or m if prismatic]"),
     ] = None,
+    base_link: Annotated[
+        str | None,
+        Form(max_length=200, description="the arm's base link on a legged or multi-arm robot"),
+    ] = None,
+    tip_link: Annotated[
+        str | None,
+        Form(max_length=200, description="the arm's end link when it branches below its base"),
+    ] = None,
     urdf_member: Member = None,
     mjcf_member: Member = None,
     sidecar_member: Member = None,
@@ -122,6 +130,8 @@ def upload_robot(
                 "shoulder_joint": shoulder_joint,
                 "elbow_joint": elbow_joint,
                 "locks": parse_locks(lock or []),
+                "base_link": base_link,
+                "tip_link": tip_link,
                 "urdf_member": urdf_member,
                 "mjcf_member": mjcf_member,
                 "sidecar_member": sidecar_member,

@@ -6,24 +6,25 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
 
+from app.api.checks import check_task
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, SettingsDep, WriteAccess
 from app.api.routes._common import (
     EXPORT_RESPONSES,
     MAX_POINTS,
     PROBLEM_RESPONSES,
+    AllowUnsafeQuery,
     ArrayNames,
+    ForceQuery,
     FormatQuery,
+    FromPositionQuery,
+    GoalQuery,
     IdPath,
     MethodQuery,
     RateQuery,
     SamplesQuery,
-    arrays_out,
-    list_results,
-    relabel,
-    result_out,
+    TopicQuery,
     trajectory_out,
 )
-from app.api.routes.plans import check_task
 from app.api.schemas import (
     ArraysOut,
     Job,
@@ -34,6 +35,7 @@ from app.api.schemas import (
     SimulationRequest,
     left_out,
 )
+from app.services.results import list_results, relabel, result_arrays, result_out
 
 router = APIRouter(prefix="/api/simulations", tags=["simulations"], responses=PROBLEM_RESPONSES)
 
@@ -89,7 +91,7 @@ def get_simulation_arrays(
     points: Annotated[int, Query(ge=2, le=MAX_POINTS)] = 500,
     name: ArrayNames = None,
 ) -> dict[str, Any]:
-    return arrays_out(session, "simulation", simulation_id, points=points, names=name)
+    return result_arrays(session, "simulation", simulation_id, points=points, names=name)
 
 
 @router.get(
@@ -106,9 +108,16 @@ def get_simulation_trajectory(
     rate: RateQuery = None,
     method: MethodQuery = None,
     samples: SamplesQuery = None,
+    force: ForceQuery = False,
+    allow_unsafe: AllowUnsafeQuery = False,
+    goal: GoalQuery = False,
+    topic: TopicQuery = None,
+    from_position: FromPositionQuery = None,
 ) -> Response:
     """One method's trajectory as a file (``bioplan export``): csv, json, yaml (ROS 2
-    JointTrajectory), mcap (rosbag2), script (URScript) or mot (OpenSim); ``docs/export.md``."""
+    JointTrajectory), mcap (rosbag2), script (URScript) or mot (OpenSim); ``docs/export.md``.
+    A file past the robot's limits or into a contact is refused (409) unless ``force`` /
+    ``allow_unsafe``, which the file records."""
     return trajectory_out(
         session,
         robots,
@@ -119,4 +128,9 @@ def get_simulation_trajectory(
         method=method,
         samples=samples,
         max_samples=settings.max_export_samples,
+        force=force,
+        allow_unsafe=allow_unsafe,
+        goal=goal,
+        topic=topic,
+        from_position=from_position,
     )

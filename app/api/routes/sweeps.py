@@ -7,8 +7,9 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query, Response
 
 from app.api.deps import ServicesDep, SessionDep, WriteAccess
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath, list_results, result_out
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.schemas import Job, JobState, Page, ResultOut, SweepRequest
+from app.services.results import list_results, result_out
 
 router = APIRouter(prefix="/api/sweeps", tags=["sweeps"], responses=PROBLEM_RESPONSES)
 
