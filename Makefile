@@ -9,6 +9,8 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
+# TypeScript for the dashboard's JavaScript type check (package.json, pinned in package-lock.json).
+NODE_STAMP := node_modules/.installed
 
 export PYTHON
 
@@ -36,7 +38,17 @@ $(TSTAMP): $(STAMP) pyproject.toml $(LOCK)
 	@touch $@
 
 install: $(STAMP)
-install-test: $(TSTAMP) $(POSE_STAMP)
+install-test: $(TSTAMP) $(POSE_STAMP) $(NODE_STAMP)
+
+# `npm ci` installs exactly package-lock.json's TypeScript into node_modules/ (remade when the
+# lock changes). Node and npm come from Debian, installed here when missing, like the browser.
+$(NODE_STAMP): package.json package-lock.json
+	@command -v npm >/dev/null || { \
+	  echo "==> installing Debian's nodejs and npm for the JavaScript type check (make lint)"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nodejs npm; }
+	@echo "==> installing TypeScript from package-lock.json (npm ci)"
+	@npm ci --no-audit --no-fund
+	@touch $@
 
 # Remade when its pins change (the main environment only has to exist: its bioplan makes it).
 $(POSE_STAMP): $(POSE_LOCK) | $(STAMP)
@@ -78,9 +90,11 @@ run: $(STAMP) pose-env-or-warn
 
 # ---- checks ---------------------------------------------------------------------------------
 
-lint: $(TSTAMP)
+# ruff on the Python; tsc --checkJs on the dashboard's JavaScript (tsconfig.json, docs/dashboard.md).
+lint: $(TSTAMP) $(NODE_STAMP)
 	$(VENV)/bin/ruff check app tests benchmarks
 	$(VENV)/bin/ruff format --check app tests benchmarks
+	node node_modules/typescript/bin/tsc -p tsconfig.json
 
 typecheck: $(TSTAMP)
 	$(VENV)/bin/mypy app
@@ -88,7 +102,7 @@ typecheck: $(TSTAMP)
 # The suite runs on every core (at most 4 workers; PYTEST_WORKERS=0 runs it in one process):
 # each test file stays on one worker in order, the browser tests together (tests/conftest.py).
 PYTEST_WORKERS ?= auto
-pytest: $(TSTAMP) $(POSE_STAMP) browser
+pytest: $(TSTAMP) $(POSE_STAMP) $(NODE_STAMP) browser
 	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --maxprocesses 4 --dist loadgroup
 
 test: $(POSE_STAMP) lint typecheck pytest
@@ -97,4 +111,4 @@ bench: $(TSTAMP) $(POSE_STAMP)
 	$(PY) benchmarks/run_all.py
 
 clean:
-	rm -rf $(VENV) $(POSE_ENV) .tools .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(POSE_ENV) .tools .mypy_cache .pytest_cache .ruff_cache node_modules

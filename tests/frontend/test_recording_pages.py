@@ -163,6 +163,16 @@ def test_a_video_becomes_pose_with_skeleton_frames(live_server: Server, page: An
     page.wait_for_selector("#skeleton-frames img", timeout=600_000)
     assert page.locator("#skeleton-frames img").count() >= 3
     assert "pose in" in page.inner_text("#pose-note")
+    # Whom each frame shows (two people are in the video), as the pose extraction decided.
+    rid = int(page.url.rsplit("/", 1)[-1])
+    listed = live_server.get(f"/api/recordings/{rid}/frames")["frames"]
+    labels = page.eval_on_selector_all(
+        "#skeleton-frames .person-label", "ls => ls.map(l => [l.dataset.person, l.innerText])"
+    )
+    assert [int(p) for p, _ in labels] == [f["person"] for f in listed]
+    for (_, text), f in zip(labels, listed, strict=True):
+        assert text.startswith(f["note"]), text
+        assert "· quality 0." in text or "· quality 1" in text, text
     assert not page.inner_text(".page-head .muted.small").startswith("0 s")
     screenshot(page, "video-skeletons")
 

@@ -22,6 +22,7 @@ export class ApiError extends Error {
   }
 }
 
+/** @returns {Record<string, string>} */
 function authHeaders() {
   const t = token();
   return t ? { Authorization: `Bearer ${t}` } : {};
@@ -38,9 +39,16 @@ async function problemOf(response) {
   return { status: response.status, title: response.statusText, detail: `HTTP ${response.status}` };
 }
 
-/** GET/POST/DELETE JSON; throws ApiError with the server's message. */
+/**
+ * GET/POST/DELETE JSON; throws ApiError with the server's message.
+ * @param {string} path
+ * @param {{ method?: string, body?: unknown, signal?: AbortSignal }} [options] `body` is sent as JSON
+ * @returns {Promise<any>} the JSON answer (null for 204)
+ */
 export async function api(path, { method = "GET", body, signal } = {}) {
+  /** @type {Record<string, string>} */
   const headers = { Accept: "application/json", ...authHeaders() };
+  /** @type {RequestInit} */
   const init = { method, headers, signal };
   if (body !== undefined) {
     headers["Content-Type"] = "application/json";

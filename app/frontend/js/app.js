@@ -11,17 +11,18 @@ const routes = [
   { re: /^#\/recordings\/?$/, page: "recordings", load: () => import("./recordings.js") },
   { re: /^#\/plan\/?(?:\?(.*))?$/, page: "plan", load: () => import("./plan.js") },
   { re: /^#\/cohort(?:\/(\d+))?\/?$/, page: "cohort", load: () => import("./cohort.js") },
+  { re: /^#\/validate(?:\/(\d+))?\/?$/, page: "validate", load: () => import("./validate.js") },
   // Query: ?methods=a,b (the pair shown), ?sweep=ID (that sweep's heat maps).
   { re: /^#\/?compare(?:\/(plan|simulation)\/(\d+))?\/?(?:\?(.*))?$/, page: "compare", load: () => import("./compare.js") },
 ];
 
-const main = document.getElementById("app");
+const main = /** @type {HTMLElement} */ (document.getElementById("app"));
 let current = null; // the page's cleanup function
 let drawerMounted = false;
 
 async function route() {
   const hash = location.hash || "#/recordings";
-  const match = routes.map((r) => [r, hash.match(r.re)]).find(([, m]) => m);
+  const match = /** @type {[typeof routes[number], RegExpMatchArray] | undefined} */ (routes.map((r) => [r, hash.match(r.re)]).find(([, m]) => m));
   if (current) {
     try {
       current();
@@ -30,7 +31,7 @@ async function route() {
     }
     current = null;
   }
-  document.querySelectorAll(".tabs a").forEach((a) => a.classList.toggle("active", match && a.dataset.page === match[0].page));
+  /** @type {NodeListOf<HTMLAnchorElement>} */ (document.querySelectorAll(".tabs a")).forEach((a) => a.classList.toggle("active", match && a.dataset.page === match[0].page));
   clear(main);
   if (!match) {
     main.append(banner("error", `No page at ${hash}.`));
@@ -48,7 +49,8 @@ async function route() {
     for (const [k, v] of Object.entries({ "--std": colours().standard, "--opt": colours().optimized })) {
       document.documentElement.style.setProperty(k, v);
     }
-    const mod = await r.load();
+    // Every page module renders into `main` from the route's captured groups.
+    const mod = /** @type {{ render: (main: HTMLElement, args: string[]) => Promise<any> }} */ (await r.load());
     current = (await mod.render(main, m.slice(1))) || null;
   } catch (err) {
     main.append(banner("error", `This page could not be shown: ${messageOf(err)}`));
@@ -58,8 +60,8 @@ async function route() {
 
 let active = 0; // jobs the drawer sees queued or running (its stream is live; health is polled)
 async function status() {
-  const dot = document.getElementById("status-dot");
-  const text = document.getElementById("status-text");
+  const dot = /** @type {HTMLElement} */ (document.getElementById("status-dot"));
+  const text = /** @type {HTMLElement} */ (document.getElementById("status-text"));
   try {
     const [health, viewer] = await Promise.all([api("/api/health"), api("/api/viewer")]);
     dot.className = `dot ${health.status === "ok" ? "ok" : "bad"}`;
@@ -72,7 +74,7 @@ async function status() {
   }
 }
 
-const tokenButton = document.getElementById("token-button");
+const tokenButton = /** @type {HTMLButtonElement} */ (document.getElementById("token-button"));
 tokenButton.hidden = !token();
 tokenButton.addEventListener("click", () => {
   const value = prompt("API token for writes (BIOPLAN_API_TOKEN); empty to forget it:", token());

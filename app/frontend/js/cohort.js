@@ -37,7 +37,7 @@ function optionInput(o) {
 function optionValues(options) {
   const out = {};
   for (const o of options) {
-    const raw = document.getElementById(`opt-${o.name}`).value.trim();
+    const raw = /** @type {HTMLInputElement | HTMLSelectElement} */ (document.getElementById(`opt-${o.name}`)).value.trim();
     if (o.choices || o.type === "string") out[o.name] = raw;
     else out[o.name] = raw === "" ? null : Number(raw);
   }
@@ -92,11 +92,11 @@ async function formPage(main, stops) {
     if (mode.value === "condition") {
       out.group_by = "condition";
       // Oldest first: the groups come in the order their first recording does.
-      out.recording_ids = [...tbody.querySelectorAll("input.group-pick:checked")].map((c) => Number(c.dataset.id)).sort((x, y) => x - y);
+      out.recording_ids = [.../** @type {NodeListOf<HTMLInputElement>} */ (tbody.querySelectorAll("input.group-pick:checked"))].map((c) => Number(c.dataset.id)).sort((x, y) => x - y);
       return out;
     }
     const groups = {};
-    for (const s of tbody.querySelectorAll("select.group-pick")) if (s.value) (groups[s.value] ||= []).push(Number(s.dataset.id));
+    for (const s of /** @type {NodeListOf<HTMLSelectElement>} */ (tbody.querySelectorAll("select.group-pick"))) if (s.value) (groups[s.value] ||= []).push(Number(s.dataset.id));
     out.groups = groups;
     return out;
   }
@@ -178,15 +178,15 @@ async function resultPage(main, id, stops) {
   const groups = Object.keys(r.groups);
   const colour = Object.fromEntries(groups.map((g, i) => [g, PALETTE[i % PALETTE.length]]));
   head.append(h("div", { class: "actions" }, h("a", { class: "button", id: "cohort-csv", href: `/api/cohorts/${id}/csv`, download: `cohort-${id}.csv` }, "Download CSV (one row per recording)")));
-  if (out.label) head.querySelector("h1").append(` “${out.label}”`);
+  if (out.label) /** @type {HTMLElement} */ (head.querySelector("h1")).append(` “${out.label}”`);
   body.append(
     h("p", { class: "small muted" }, `${groups.map((g) => `${g}: ${r.groups[g].n} recording(s)`).join(" · ")}. ${r.subject_rule}.`),
     ...r.pairings.map((p) => h("p", { class: "small" }, `${p.groups[0]} vs ${p.groups[1]}: ${p.why}`)),
     groupCard(r, groups),
     testsCard(r),
-    plotsCard(r, groups, colour),
+    plotsCard(r),
     orderCard(r, groups),
-    r.warnings.length ? h("details", { class: "card" }, h("summary", {}, `${r.warnings.length} warning(s) from the analysis`), h("ul", {}, r.warnings.map((w) => h("li", { class: "small" }, w)))) : null);
+    r.warnings.length ? h("details", { class: "card" }, h("summary", {}, `${r.warnings.length} warning(s) from the analysis`), h("ul", {}, r.warnings.map((w) => h("li", { class: "small" }, w)))) : "");
   drawPlots(r, groups, colour);
 }
 
@@ -229,7 +229,7 @@ function testsCard(r) {
     h("p", { class: "small muted" }, `* adjusted p < ${c.alpha}. Effects: the first group minus the second.`));
 }
 
-function plotsCard(r, groups) {
+function plotsCard(r) {
   const measures = Object.keys(r.units);
   return h("section", { class: "card" }, h("h2", {}, "Per recording, per group"),
     h("p", { class: "small muted" }, "Each point is one recording; the box is its group's median and quartiles."),

@@ -10,6 +10,11 @@ import { names } from "./names.js";
 import { draw, layout, phaseLabels, phaseLegend, phaseShapes, plotly } from "./plots.js";
 import { banner, fmt, h, messageOf, pct, when } from "./ui.js";
 
+/** @typedef {import("./types").ComparisonView} ComparisonView */
+/** @typedef {import("./types").PlanResult} PlanResult */
+/** @typedef {import("./types").Safety} Safety */
+/** @typedef {import("./types").TrajectoryCurves} TrajectoryCurves */
+
 // Older results name their floors after the physics only (ΔPE, ΔPE/T).
 const LEGACY_FLOOR_KEYS = { abs_work: "delta_potential", pos_work: "delta_potential", peak_power: "min_peak_power" };
 const FLOOR_TEXT = {
@@ -24,6 +29,11 @@ const EXPORT_FORMATS = [
 ];
 const CURVES = ["qd", "tau", "power", "energy"];
 
+/**
+ * A method's name, label and colour (grey for one the server does not name).
+ * @param {string} name
+ * @returns {{ name: string, label: string, colour: string, description?: string }}
+ */
 export function methodInfo(name) {
   return names.methods.find((m) => m.name === name) || { name, label: name, colour: "#6b7280" };
 }
@@ -88,6 +98,11 @@ function jointPower(t, tau, qd, j) {
 
 /** Curves of every planned method: the shown pair's, plus those of the others (fetched as
  * further pairs, since one answer carries two). */
+/**
+ * @param {string} base the comparison's URL
+ * @param {ComparisonView} data
+ * @returns {Promise<Record<string, TrajectoryCurves>>} by method name
+ */
 async function allCurves(base, data) {
   const out = { [data.methods.standard]: data.curves.standard, [data.methods.optimized]: data.curves.optimized };
   const rest = data.planned.filter((m) => !(m in out));
@@ -179,6 +194,7 @@ export async function render(main, [kindArg, idArg, query]) {
   main.append(viewerCard(kind, id, data, pair), exportCard(kind, id, data, pair));
 }
 
+/** @param {ComparisonView} data */
 function factsCard(data) {
   const result = data.result;
   const cond = result.conditions || {};
@@ -191,13 +207,37 @@ function factsCard(data) {
       fact("objective", cond.objective || "–"),
       fact("methods planned", data.planned.map((m) => methodInfo(m).label).join(", ")),
       fact("human template", templateSource(data.template || {}, result), "template-source"),
+      result.safety ? fact("safety", safetyText(result.safety), "plan-safety") : null,
     ),
     h("p", { class: "small", id: "template-angle", style: "margin:8px 0 0" }, (data.template || {}).angle_text || ""),
     warnings.length ? h("details", { class: "small", style: "margin-top:8px" }, h("summary", {}, `${warnings.length} warning(s)`), h("ul", {}, warnings.map((w) => h("li", {}, w)))) : null,
   );
 }
 
+/**
+ * The plan's collision and workspace check in one line (docs/robots.md): ok with the smallest
+ * clearance, the first contact, or why it was not checked (never "ok" then).
+ * @param {Safety} safety the plan result's `safety` block
+ * @returns {string}
+ */
+export function safetyText(safety) {
+  if (safety.checked !== true) return safety.reason || "not checked";
+  const findings = safety.findings || [];
+  // No clearance when no pair was near (as the server's summary: n/a, never "0 mm").
+  const clearance = safety.min_clearance === null ? "n/a" : `${fmt(1000 * safety.min_clearance, 3)} mm`;
+  if (safety.ok === true || !findings.length) return `ok, min clearance ${clearance}`;
+  const f = findings[0];
+  const links = (f.links || []).join(" and ");
+  const what = f.kind === "self" ? `${links} touch` : `${links} into ${f.obstacle}`;
+  const more = findings.length > 1 ? ` (+${findings.length - 1} more)` : "";
+  return `UNSAFE: ${methodInfo(f.method).label}, ${what} at ${fmt(f.time, 3)} s, ${fmt(1000 * f.depth, 3)} mm deep${more}`;
+}
+
 /** Where the template came from, in the card itself: the paper's default or whose lifts. */
+/**
+ * @param {{ source?: string }} template
+ * @param {PlanResult} result
+ */
 function templateSource(template, result) {
   if (template.source) return template.source;
   const target = result.target_peak_velocity_angle_deg ?? (result.conditions || {}).target_peak_velocity_angle_deg;
@@ -215,6 +255,13 @@ function methodHead(name) {
 }
 
 /** One row per metric, one column per method; the floor beside; below-floor values flagged. */
+/**
+ * @param {string} kind "plan" or "simulation"
+ * @param {PlanResult} result
+ * @param {string[]} planned the methods, in column order
+ * @param {string[]} jointNames
+ * @param {number} tolerance relative: within it a value is at its floor
+ */
 function metricsCard(kind, result, planned, jointNames, tolerance) {
   const floors = result.floors || {};
   const side = (name) => (result.methods && result.methods[name]) || (name === "quintic" ? result.standard : name === "paper" ? result.optimized : null);
@@ -222,6 +269,7 @@ function metricsCard(kind, result, planned, jointNames, tolerance) {
   const rows = names.metrics.filter((m) => !m.per_joint).map((m) => {
     const [floor, floorKey] = floorOf(floors, m);
     const cells = planned.map((name) => {
+      /** @type {Partial<import("./types").MethodResult>} */
       const s = side(name) || {};
       const value = s[m.name];
       const change = name === "quintic" ? null : (s.improvement_pct || {})[m.name];
@@ -269,6 +317,12 @@ function metricsCard(kind, result, planned, jointNames, tolerance) {
   );
 }
 
+/**
+ * @param {PlanResult} result
+ * @param {string[]} planned
+ * @param {string[]} jointNames
+ * @param {(name: string) => import("./types").MethodResult | null | undefined} side a method's result
+ */
 function torqueTable(result, planned, jointNames, side) {
   const reference = (side("quintic") || result.standard).peak_torque;
   const joints = jointNames || reference.map((_, i) => `J${i + 1}`);
@@ -288,6 +342,12 @@ function torqueTable(result, planned, jointNames, side) {
   );
 }
 
+/**
+ * @param {HTMLElement} card
+ * @param {ComparisonView} data
+ * @param {Record<string, TrajectoryCurves>} curvesOf by method name
+ * @param {string[]} pair the two methods in the viewer
+ */
 async function drawCurves(card, data, curvesOf, pair) {
   const jointNames = data.curves.joint_names;
   let joint = data.elbow_joint;
@@ -333,9 +393,15 @@ async function drawCurves(card, data, curvesOf, pair) {
 }
 
 /** The robots' elbow velocity over its peak, with the recorded human's lift on the same grid. */
+/**
+ * @param {HTMLElement} card
+ * @param {ComparisonView} data
+ * @param {Record<string, TrajectoryCurves>} curvesOf by method name
+ */
 async function drawHuman(card, data, curvesOf) {
   const t = data.curves.t;
   const human = data.curves.human;
+  /** @type {Partial<NonNullable<ComparisonView["human"]>>} */
   const info = data.human || {};
   const div = h("div", { class: "plot", id: "plot-human" });
   const traces = data.planned.map((m) => ({
@@ -356,6 +422,12 @@ async function drawHuman(card, data, curvesOf) {
   }));
 }
 
+/**
+ * @param {string} kind
+ * @param {number} id
+ * @param {ComparisonView} data
+ * @param {string[]} pair
+ */
 function viewerCard(kind, id, data, pair) {
   const select = (sid, value) => h("select", { id: sid, "aria-label": sid === "method-a" ? "Solid robot" : "Ghost robot" },
     data.planned.map((m) => h("option", { value: m, selected: m === value }, methodInfo(m).label)));
@@ -401,6 +473,7 @@ async function download(url, button, status) {
   status.textContent = "";
   status.className = "small muted";
   try {
+    /** @type {Record<string, string>} */
     const headers = token() ? { Authorization: `Bearer ${token()}` } : {};
     const response = await fetch(url, { headers });
     if (!response.ok) {
@@ -428,6 +501,12 @@ async function download(url, button, status) {
   }
 }
 
+/**
+ * @param {string} kind
+ * @param {number} id
+ * @param {ComparisonView} data
+ * @param {string[]} pair
+ */
 function exportCard(kind, id, data, pair) {
   const format = h("select", { id: "export-format", "aria-label": "Export format" }, EXPORT_FORMATS.map(([v, l]) => h("option", { value: v }, l)));
   const method = h("select", { id: "export-method", "aria-label": "Method to export" },

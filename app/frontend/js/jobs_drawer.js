@@ -14,7 +14,7 @@ const POLL_SECONDS = 5;
 /** Seconds before a refused job stream is tried again (polling meanwhile). */
 const RETRY_STREAM_SECONDS = 60;
 
-const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", simulation: "Simulation", sweep: "Sweep", profiles: "Profiles", cohort: "Cohort" };
+const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", simulation: "Simulation", sweep: "Sweep", profiles: "Profiles", cohort: "Cohort", identify: "Identify robot" };
 
 /** Where a finished job's result is shown in the dashboard (null: nowhere). */
 export function resultLink(job) {
@@ -22,6 +22,7 @@ export function resultLink(job) {
   if ((job.kind === "analysis" || job.kind === "pose") && job.recording_id) return [`#/recordings/${job.recording_id}`, "Recording"];
   if (job.kind === "sweep") return [`#/compare?sweep=${job.id}`, "Heat maps"];
   if (job.kind === "cohort") return [`#/cohort/${job.id}`, "Groups and tests"];
+  if (job.kind === "identify") return ["#/validate", "Validate"];
   return null;
 }
 

@@ -5,7 +5,9 @@
 
 import { api } from "./api.js";
 
-export const names = {};
+/** Filled by `loadNames()` before any page renders. */
+export const names = /** @type {import("./types").Meta} */ ({});
+/** @type {Promise<import("./types").Meta> | null} */
 let loading = null;
 
 /** Fetch the shared names once; resolves with `names`. */

@@ -6,7 +6,7 @@ import { names } from "./names.js";
 import { colours, draw, layout } from "./plots.js";
 import { robotUploadCard } from "./robot_upload.js";
 import { sweepFormCard } from "./sweep_form.js";
-import { DEG, banner, clear, fmt, h, inFormWords, messageOf, pct, tag } from "./ui.js";
+import { DEG, banner, clear, clearFieldErrors, fmt, h, messageOf, pct, showCaps, showFormErrors, tag } from "./ui.js";
 
 /** The plan form's labels of the request's fields, for the server's messages. */
 const PLAN_WORDS = {
@@ -82,7 +82,7 @@ export async function render(main, [query]) {
   }));
 
   // ---- form --------------------------------------------------------------------------
-  const robotOption = (r) => h("option", { value: r.name, selected: params.get("robot") === r.name }, `${r.name}${r.builtin ? "" : " (uploaded)"}`);
+  const robotOption = (r) => h("option", { value: r.name, selected: params.get("robot") === r.name }, `${r.name}${r.builtin ? "" : r.identified_from ? ` (identified from ${r.identified_from.robot})` : " (uploaded)"}`);
   const robot = h("select", { id: "robot" }, robots.map(robotOption));
   const kind = h("select", { id: "kind" },
     h("option", { value: "simulation" }, "plan + MuJoCo simulation"),
@@ -147,7 +147,7 @@ export async function render(main, [query]) {
   showRobot();
 
   function angles(end) {
-    const inputs = [...jointsBody.querySelectorAll(`input[data-end="${end}"]`)];
+    const inputs = [.../** @type {NodeListOf<HTMLInputElement>} */ (jointsBody.querySelectorAll(`input[data-end="${end}"]`))];
     if (inputs.every((x) => x.value.trim() === "")) return null;
     // A partly filled task takes the curl task's value for the rest (as the API does).
     return inputs.map((x) => (x.value.trim() === "" ? null : Number(x.value)));
@@ -166,7 +166,7 @@ export async function render(main, [query]) {
       iterations: num(iterations) ?? pso.iterations,
       peak_angle_deg: num(peak),
       template_analysis_id: template.value ? Number(template.value) : null,
-      methods: methodBoxes.map((l) => l.querySelector("input")).filter((x) => x.checked).map((x) => x.value),
+      methods: methodBoxes.map((l) => /** @type {HTMLInputElement} */ (l.querySelector("input"))).filter((x) => x.checked).map((x) => x.value),
       human_constraint: humanConstraint.value,
       start_deg: angles("start"),
       goal_deg: angles("goal"),
@@ -180,6 +180,9 @@ export async function render(main, [query]) {
 
   const submit = h("button", { class: "primary", type: "submit", id: "submit-plan" }, "Plan");
   const formError = h("div", {});
+  // Refusals beside their fields, and each field's cap as this server enforces it (issue 29).
+  const capped = { duration, payload, particles, iterations, seed, peak_angle_deg: peak };
+  showCaps("plan", { duration, payload, particles, iterations, peak_angle_deg: peak });
   const form = h("form", { class: "card", id: "plan-form", novalidate: true, onsubmit: onSubmit },
     h("h2", {}, "New plan"),
     formError, // at the top, where it is seen, in the form's words
@@ -296,6 +299,7 @@ export async function render(main, [query]) {
   async function onSubmit(e) {
     e.preventDefault();
     clear(formError);
+    clearFieldErrors({ ...capped, label });
     let b;
     try {
       b = body();
@@ -310,8 +314,7 @@ export async function render(main, [query]) {
       const job = await api(route, { method: "POST", body: b });
       startMonitor(job);
     } catch (err) {
-      formError.append(banner("error", inFormWords(err, PLAN_WORDS)));
-      formError.scrollIntoView({ block: "nearest" });
+      showFormErrors(formError, err, PLAN_WORDS, { ...capped, label });
     } finally {
       submit.disabled = false;
     }
@@ -337,8 +340,8 @@ export async function render(main, [query]) {
   /** The form's values, the methods chosen and the task's angles, for this tab. */
   function saveForm() {
     const values = {};
-    for (const el of form.querySelectorAll("input[id], select[id]")) values[el.id] = el.value;
-    const methods = methodBoxes.map((l) => l.querySelector("input")).filter((x) => x.checked).map((x) => x.value);
+    for (const el of /** @type {NodeListOf<HTMLInputElement | HTMLSelectElement>} */ (form.querySelectorAll("input[id], select[id]"))) values[el.id] = el.value;
+    const methods = methodBoxes.map((l) => /** @type {HTMLInputElement} */ (l.querySelector("input"))).filter((x) => x.checked).map((x) => x.value);
     const joints = [...jointsBody.querySelectorAll("input")].map((x) => x.value);
     writeStore(FORM_KEY, { values, methods, joints });
   }
@@ -352,11 +355,11 @@ export async function render(main, [query]) {
     showRobot();
     for (const [key, value] of Object.entries(v)) {
       if (key === "robot" || (key === "template" && params.get("analysis"))) continue;
-      const el = form.querySelector(`#${CSS.escape(key)}`);
-      if (!el || (el.tagName === "SELECT" && ![...el.options].some((o) => o.value === value && !o.disabled))) continue;
+      const el = /** @type {HTMLInputElement | HTMLSelectElement | null} */ (form.querySelector(`#${CSS.escape(key)}`));
+      if (!el || (el.tagName === "SELECT" && ![.../** @type {HTMLSelectElement} */ (el).options].some((o) => o.value === value && !o.disabled))) continue;
       el.value = value;
     }
-    const boxes = methodBoxes.map((l) => l.querySelector("input"));
+    const boxes = methodBoxes.map((l) => /** @type {HTMLInputElement} */ (l.querySelector("input")));
     if (Array.isArray(saved.methods)) boxes.forEach((x) => (x.checked = x.disabled || saved.methods.includes(x.value)));
     const inputs = [...jointsBody.querySelectorAll("input")];
     if (Array.isArray(saved.joints) && saved.joints.length === inputs.length && robot.value === v.robot) {

@@ -4,15 +4,17 @@
 import { names, rgba } from "./names.js";
 import { h } from "./ui.js";
 
+/** @type {Promise<PlotlyStatic> | null} */
 let loading = null;
 
+/** Plotly.js, loading it the first time. @returns {Promise<PlotlyStatic>} */
 export function plotly() {
   if (window.Plotly) return Promise.resolve(window.Plotly);
   if (!loading) {
     loading = new Promise((resolve, reject) => {
       const s = document.createElement("script");
       s.src = "/api/viewer/assets/plotly.min.js";
-      s.onload = () => resolve(window.Plotly);
+      s.onload = () => resolve(/** @type {PlotlyStatic} */ (window.Plotly));
       s.onerror = () => {
         loading = null;
         reject(new Error("Plotly.js could not be loaded from the server"));
@@ -25,14 +27,19 @@ export function plotly() {
 
 /** The two trajectories' colours: the standard quintic's and the paper's method's. */
 export function colours() {
-  const of = (m) => names.methods.find((x) => x.name === m).colour;
+  /** @param {string} m a method the server always names */
+  const of = (m) => /** @type {{ colour: string }} */ (names.methods.find((x) => x.name === m)).colour;
   return { standard: of("quintic"), optimized: of("paper") };
 }
 export const NAMES = { standard: "standard quintic", optimized: "bio-inspired" };
 
-/** A translucent fill of a phase's colour, for shading it behind curves. */
+/**
+ * A translucent fill of a phase's colour, for shading it behind curves.
+ * @param {string} phase one of `names.phases` (A, B, C)
+ * @param {number} [alpha]
+ */
 export function phaseFill(phase, alpha = 0.12) {
-  return rgba(names.phases.find((p) => p.name === phase).colour, alpha);
+  return rgba(/** @type {{ colour: string }} */ (names.phases.find((p) => p.name === phase)).colour, alpha);
 }
 
 /** Legend entries "■ A high-load capacity" ... for the phases, in their colours. */
@@ -48,7 +55,11 @@ export const CONFIG = {
   modeBarButtonsToRemove: ["select2d", "lasso2d", "autoScale2d"],
 };
 
-/** Base layout: compact margins, white template, legend on top. */
+/**
+ * Base layout: compact margins, white template, legend on top.
+ * @param {Record<string, any>} [extra] layout keys that replace the base's
+ * @returns {Record<string, any>} a Plotly layout
+ */
 export function layout(extra = {}) {
   return {
     margin: { l: 56, r: 12, t: 30, b: 40 },
@@ -66,6 +77,12 @@ export function layout(extra = {}) {
 /**
  * Shapes shading the A/B/C phases between boundary times [t_AB, t_BC] on [t0, t1],
  * for one x axis ("x", "x2", ...) across the whole paper height.
+ * @param {(number | null)[] | null | undefined} times the phase boundary times [s]
+ * @param {number} t0
+ * @param {number} t1
+ * @param {string} [xref]
+ * @param {{ dashed?: (number | null)[] | null }} [options] times [s] drawn as dotted lines
+ * @returns {object[]}
  */
 export function phaseShapes(times, t0, t1, xref = "x", { dashed = null } = {}) {
   const shapes = [];
@@ -123,7 +140,14 @@ function fitNarrow(div, traces, lay) {
   };
 }
 
-/** Plotly.react into a div, loading Plotly first. */
+/**
+ * Plotly.react into a div, loading Plotly first.
+ * @param {HTMLElement} div
+ * @param {any[]} traces
+ * @param {Record<string, any>} lay a layout (`layout()`)
+ * @param {object} [config] Plotly config keys over CONFIG's
+ * @returns {Promise<PlotlyStatic>}
+ */
 export async function draw(div, traces, lay, config = {}) {
   const P = await plotly();
   await P.react(div, traces, fitNarrow(div, traces, lay), { ...CONFIG, ...config });

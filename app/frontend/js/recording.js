@@ -5,8 +5,10 @@
 import { ApiError, api, followJob, qs } from "./api.js";
 import { names } from "./names.js";
 import { draw, layout, phaseFill, phaseLegend, plotly } from "./plots.js";
-import { channelsCard, checksCard, framesCard, optionsCard } from "./recording_panels.js";
+import { IMAGE_SIZE_NOTE, channelsCard, checksCard, framesCard, imageSizeFix, optionsCard } from "./recording_panels.js";
 import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
+
+/** @typedef {import("./types").RecordingChannel} RecordingChannel */
 
 const POINTS = 1600;
 // Channels mapped to a site take the site's colour (app/names.py); the others these.
@@ -57,6 +59,7 @@ function rectTrace(spans, y0, y1, style) {
 function liftTraces(lifts, [y0, y1], axes) {
   const spans = new Map();
   const add = (key, a, b) => (spans.get(key) || spans.set(key, []).get(key)).push([a, b]);
+  /** @type {{ x: (number | null)[], y: (number | null)[] }} */
   const tops = { x: [], y: [] };
   for (const lift of lifts) {
     if (lift.phases.length) lift.phases.forEach((p) => add(p.name, p.start_s, p.end_s));
@@ -70,6 +73,10 @@ function liftTraces(lifts, [y0, y1], axes) {
 }
 
 /** [min, max] of the finite values of several series (null when there is none). */
+/**
+ * @param {...(number | null)[]} series
+ * @returns {[number, number] | null} the smallest and largest finite value, null without one
+ */
 function extent(...series) {
   let lo = Infinity;
   let hi = -Infinity;
@@ -116,7 +123,9 @@ export async function render(main, [idText]) {
 /** The recording's condition (a cohort groups by it), changed in place without re-analysing. */
 function conditionEditor(rec) {
   const input = h("input", { id: "rec-condition", maxlength: "100", value: rec.condition || "", placeholder: "none (e.g. heavy)", "aria-label": "Condition", style: "max-width:220px" });
-  const status = h("span", { class: "small muted", id: "rec-condition-status" });
+  const from = rec.options && rec.options.condition_from;
+  // Filled from the file names or a BIDS sidecar at upload: say so, so it can be checked.
+  const status = h("span", { class: "small muted", id: "rec-condition-status" }, from ? `from ${from}` : "");
   async function save(e) {
     e.preventDefault();
     try {
@@ -135,6 +144,7 @@ function conditionEditor(rec) {
 
 async function recordingPage(main, rec, ctx) {
   const id = rec.id;
+  /** @type {{ window: [number | null, number | null], analysis: any, emgChannels: RecordingChannel[], stop: any }} */
   const state = { window: [null, null], analysis: null, emgChannels: [], stop: ctx.stops };
   const channels = rec.files.flatMap((f) => f.channels.map((c) => ({ ...c, file: f.original_name })));
   const allEmg = channels.filter((c) => c.kind === "emg");
@@ -190,6 +200,7 @@ async function recordingPage(main, rec, ctx) {
 
   // ---- plot cards --------------------------------------------------------------------
   const emgDiv = h("div", { class: "plot tall", id: "emg-plot" });
+  /** @type {HTMLDivElement & Partial<Pick<PlotlyElement, "on">>} once drawn, Plotly's */
   const angleDiv = h("div", { class: "plot", id: "angle-plot" });
   const templateDiv = h("div", { class: "plot", id: "template-plot" });
   const analysisNote = h("div", { id: "analysis-note" }, h("p", { class: "muted small" }, "Analysing the recording (envelopes, onsets, angles, lifts)…"));
@@ -207,7 +218,7 @@ async function recordingPage(main, rec, ctx) {
       h("label", { class: "nowrap", style: "font-weight:400; margin:0 10px 0 0" },
         h("input", { type: "checkbox", checked: state.emgChannels.includes(c), dataset: { channel: String(c.id) }, onchange: (e) => {
           state.emgChannels = allEmg.filter((x) => x === c ? e.target.checked : state.emgChannels.includes(x));
-          picker.querySelector("summary").textContent = `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`;
+          /** @type {HTMLElement} */ (picker.querySelector("summary")).textContent = `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`;
           reload();
         } }),
         ` ${c.name}${c.site ? ` (${c.site})` : ""}`))),
@@ -257,7 +268,7 @@ async function recordingPage(main, rec, ctx) {
     const gap = 0.04;
     // Separate trials keep their own clocks: a file's panels share a time axis with each other
     // only, and the last of them says whose clock it is.
-    const fileOf = (ch) => (state.emgChannels.find((c) => c.id === ch.channel_id) || {}).file;
+    const fileOf = (ch) => state.emgChannels.find((c) => c.id === ch.channel_id)?.file;
     const files = raw.channels.map(fileOf);
     const ownClocks = rec.session === "separate" && new Set(files).size > 1;
     const firstOf = (i) => (ownClocks ? files.indexOf(files[i]) : 0);
@@ -282,6 +293,7 @@ async function recordingPage(main, rec, ctx) {
     raw.channels.forEach((ch, i) => {
       const axis = i === 0 ? "" : String(i + 1);
       const axes = { xaxis: `x${axis}`, yaxis: `y${axis}` };
+      /** @type {Partial<RecordingChannel>} */
       const info = state.emgChannels.find((c) => c.id === ch.channel_id) || {};
       const scale = emgScale(ch.unit);
       const s = ch.series[0];
@@ -291,7 +303,7 @@ async function recordingPage(main, rec, ctx) {
       const rawY = s.y.map((v) => (v === null ? null : v * scale.k));
       traces.push({ x: s.t, y: rawY, type: "scatter", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, ...axes, showlegend: false, hoverinfo: "skip" });
       const es = env ? emgScale(env.unit) : null;
-      const envY = env ? env.envelope.y.map((v) => (v === null ? null : v * es.k)) : [];
+      const envY = env && es ? env.envelope.y.map((v) => (v === null ? null : v * es.k)) : [];
       if (env) traces.push({ x: env.envelope.t, y: envY, type: "scatter", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, ...axes });
       const span = extent(rawY, envY);
       if (analysis && span) {
@@ -379,11 +391,12 @@ async function recordingPage(main, rec, ctx) {
     await draw(templateDiv, traces, lay);
   }
 
+  /** @param {HTMLElement} div a plot drawn by `draw` */
   function hook(div) {
     // Zoom on either plot loads that window at full detail into both.
     if (div.dataset.hooked) return;
     div.dataset.hooked = "1";
-    div.on("plotly_relayout", onRelayout);
+    /** @type {PlotlyElement} */ (div).on("plotly_relayout", onRelayout);
   }
 
   function fact(k, v) {
@@ -401,7 +414,7 @@ async function recordingPage(main, rec, ctx) {
     if (notes.length) {
       liftsBox.append(h("div", { class: "banner warn", id: "analysis-warnings", role: "status" },
         h("strong", {}, `${notes.length} note(s) from the analysis`),
-        h("ul", { class: "small" }, notes.map((w) => h("li", {}, w)))));
+        h("ul", { class: "small" }, notes.map((w) => h("li", {}, IMAGE_SIZE_NOTE.test(w) ? imageSizeFix(rec, w, onJob) : w)))));
     }
     if (!analysis.lifts.length) {
       liftsBox.append(h("p", { class: "muted", id: "no-lifts" }, "No lift found."));
@@ -507,6 +520,7 @@ async function recordingPage(main, rec, ctx) {
 
   /** Submit an analysis job (or follow `existing`), with its progress; then load its overlays. */
   let following = null;
+  /** @param {{ id: number, state: string } | null} [existing] a job already running */
   async function runAnalysis(existing = null) {
     if (existing) following = existing.id;
     analyseButton.disabled = true;
@@ -523,7 +537,7 @@ async function recordingPage(main, rec, ctx) {
       state.stop.push(follow.stop);
       const final = await follow.done;
       if (final.state === "succeeded") {
-        bar.parentElement.classList.add("done");
+        /** @type {HTMLElement} */ (bar.parentElement).classList.add("done");
         // A video's landmarks stored (a pose job) add channels: the page is drawn again.
         const now = await api(`/api/recordings/${id}`);
         if (channelKey(now) !== channelKey(rec)) {
@@ -534,7 +548,7 @@ async function recordingPage(main, rec, ctx) {
         analysisState = "unknown";
         await load({ initial: true });
       } else {
-        bar.parentElement.classList.add("failed");
+        /** @type {HTMLElement} */ (bar.parentElement).classList.add("failed");
         analysisState = "failed";
         clear(analysisNote).append(banner("warn", `Analysis job #${final.id} ${final.state}: ${final.error || final.message}`));
       }

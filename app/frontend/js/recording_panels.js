@@ -77,6 +77,56 @@ export function checksCard(rec, onJob) {
   return parts.length ? h("section", { class: "card", id: "checks-card" }, h("h2", {}, "Data checks"), parts) : null;
 }
 
+/** The analysis's "video size unknown" note (worded for the CLI: "--image-size W H"). */
+export const IMAGE_SIZE_NOTE = /video size unknown/;
+
+/** Common video sizes: the angles depend on the aspect ratio only (x is scaled by W/H). */
+const VIDEO_SIZES = [[1280, 720, "16:9 landscape"], [720, 1280, "9:16 portrait (phone)"], [640, 480, "4:3"]];
+
+/**
+ * The image-size note with its one-click fix: each button sets the recording's image size,
+ * reads the landmarks again and re-analyses; or the width and height typed in.
+ */
+export function imageSizeFix(rec, note, onJob) {
+  const source = note.split(":")[0];
+  const status = statusLine("image-size-status");
+  const width = h("input", { id: "image-width", type: "number", min: "1", max: "100000", step: "1", placeholder: "width", "aria-label": "Image width [px]", style: "width:90px" });
+  const height = h("input", { id: "image-height", type: "number", min: "1", max: "100000", step: "1", placeholder: "height", "aria-label": "Image height [px]", style: "width:90px" });
+  const buttons = [];
+  async function apply(w, hh) {
+    width.value = String(w);
+    height.value = String(hh);
+    buttons.forEach((b) => (b.disabled = true));
+    status.busy(`Reading the landmarks again at ${w} × ${hh} px…`);
+    try {
+      const out = await api(`/api/recordings/${rec.id}`, { method: "PATCH", body: { image_size: [w, hh], analyse: true } });
+      const said = `Image size set to ${w} × ${hh} px: the landmarks were read again and are being re-analysed.`;
+      status.ok(said);
+      if (out && out.analysis_job) onJob(out.analysis_job, out, said);
+    } catch (err) {
+      status.fail(err);
+    } finally {
+      buttons.forEach((b) => (b.disabled = false));
+    }
+  }
+  VIDEO_SIZES.forEach(([w, hh, what], k) => buttons.push(h("button", { type: "button", class: `small${k === 0 ? " primary" : ""}`, id: `image-size-${w}x${hh}`, onclick: () => apply(w, hh) }, `${w} × ${hh} (${what})`)));
+  const own = h("button", { type: "button", class: "small", id: "image-size-apply" }, "Use this size and re-analyse");
+  own.addEventListener("click", () => {
+    const w = Number(width.value);
+    const hh = Number(height.value);
+    if (!(Number.isInteger(w) && Number.isInteger(hh) && w >= 1 && hh >= 1 && w <= 100000 && hh <= 100000)) {
+      status.fail(new Error("Image size: give the video's width and height in whole pixels (1 to 100,000)."));
+      return;
+    }
+    apply(w, hh);
+  });
+  buttons.push(own);
+  return h("div", { id: "image-size-fix" },
+    `${source}: the video's size is unknown, so the angles come from the landmarks as if the frame were square (tens of degrees off for a 16:9 video). Give the size of the video MediaPipe ran on (only its aspect ratio matters): `,
+    h("div", { class: "row", style: "margin-top:4px" }, ...buttons.slice(0, -1), width, "×", height, own),
+    status.el);
+}
+
 /** Muscle mapping and exclusions per channel; saving reads the files again and re-analyses. */
 export function channelsCard(rec, onJob) {
   const emg = rec.files.flatMap((f) => f.channels.filter((c) => c.kind === "emg").map((c) => ({ ...c, file: f.original_name })));
@@ -191,10 +241,23 @@ export function framesCard(rec) {
   if (rec.frames_url) {
     api(rec.frames_url).then((out) => {
       if (!out.frames.length) strip.append(banner("info", "No frame with a detected person to show."));
-      out.frames.forEach((fr) => strip.append(h("figure", {},
+      out.frames.forEach((fr) => strip.append(h("figure", { class: personClass(fr.person) },
         h("img", { src: fr.url, alt: `frame ${fr.frame} of ${fr.video} with the detected skeleton`, loading: "lazy" }),
-        h("figcaption", { class: "small muted" }, `${fr.video}, frame ${fr.frame} (${fmt(fr.time_s, 3)} s)`))));
+        h("figcaption", { class: "small muted" }, `${fr.video}, frame ${fr.frame} (${fmt(fr.time_s, 3)} s)`),
+        personLabel(fr))));
     }).catch((err) => strip.append(banner("warn", messageOf(err))));
   }
   return card;
+}
+
+/** Whom a skeleton frame shows, as the pose extraction decided (null: not recorded). */
+function personLabel(fr) {
+  if (fr.person === null || fr.person === undefined) return null;
+  const who = fr.note || (fr.person === 0 ? "the tracked person" : fr.person > 0 ? `not the tracked person (#${fr.person})` : "person unknown");
+  const score = fr.quality === null || fr.quality === undefined ? "" : ` · quality ${fmt(fr.quality, 2)}`;
+  return h("figcaption", { class: "small person-label", "data-person": String(fr.person) }, `${who}${score}`);
+}
+
+function personClass(person) {
+  return person === 0 ? "person-tracked" : person > 0 ? "person-other" : "";
 }

@@ -2,7 +2,7 @@
 
 import { api, followJob, qs, upload } from "./api.js";
 import { otherWarnings, rateCheckText } from "./recording_panels.js";
-import { banner, bytes, clear, debounce, fmt, h, inFormWords, messageOf, namesInFormWords, when } from "./ui.js";
+import { banner, bytes, clear, clearFieldErrors, debounce, fmt, h, messageOf, namesInFormWords, showCaps, showFormErrors, when } from "./ui.js";
 
 const SITES = ["deltoid", "triceps", "biceps", "forearm"];
 /** The API's form fields in the words of this form. */
@@ -84,6 +84,8 @@ export function render(main) {
     maps.append(row);
   };
   const submit = h("button", { class: "primary", type: "submit", id: "upload-button", disabled: true }, "Upload");
+  /** The request's fields and their inputs: a refusal is shown beside each, caps as hints. */
+  const inputs = { subject, task, load_kg: load, notes, label, condition, rate, emg_rate: emgRate, frame_rate: frameRate, image_size: imageSize };
 
   function setBusy(value) {
     busy = value;
@@ -135,13 +137,13 @@ export function render(main) {
   drop.addEventListener("drop", (e) => {
     e.preventDefault();
     drop.classList.remove("over");
-    addFiles(e.dataTransfer.files);
+    addFiles(/** @type {DataTransfer} */ (e.dataTransfer).files);
   });
 
   function muscleMap() {
     const out = {};
     for (const row of maps.querySelectorAll(".map-row")) {
-      const [labelInput, siteSelect] = row.querySelectorAll("input, select");
+      const [labelInput, siteSelect] = /** @type {NodeListOf<HTMLInputElement | HTMLSelectElement>} */ (row.querySelectorAll("input, select"));
       const label = labelInput.value.trim();
       if (label) out[label] = siteSelect.value;
     }
@@ -208,7 +210,7 @@ export function render(main) {
     });
     stops.push(follow.stop);
     follow.done.then((final) => {
-      bar.parentElement.classList.add(final.state === "succeeded" ? "done" : "failed");
+      /** @type {HTMLElement} */ (bar.parentElement).classList.add(final.state === "succeeded" ? "done" : "failed");
       if (final.state === "succeeded") box.append(h("a", { href: `#/recordings/${rec.id}`, class: "small" }, "Check the detected skeletons and the analysis →"));
     });
     return box;
@@ -219,6 +221,7 @@ export function render(main) {
     if (!files.length || busy) return;
     setBusy(true);
     clear(topError);
+    clearFieldErrors(inputs);
     files.forEach((f) => clear(f.status));
     const sent = [...files];
     const form = new FormData();
@@ -259,7 +262,7 @@ export function render(main) {
         const which = culprits.map(([f]) => f.file.name).join(", ");
         topError.append(banner("error", `Nothing was stored: ${culprits.length > 1 ? `${culprits.length} files` : which} could not be read (${culprits.length > 1 ? `${which}; each message is next to its file` : "its message is next to it"}).`));
       } else {
-        topError.append(banner("error", inFormWords(err, FIELD_WORDS)));
+        showFormErrors(topError, err, FIELD_WORDS, inputs);
       }
     } finally {
       setBusy(false);
@@ -365,6 +368,7 @@ export function render(main) {
   }
   search.addEventListener("input", debounce(refresh, 250));
 
+  showCaps("upload", { load_kg: load, rate, emg_rate: emgRate, frame_rate: frameRate });
   const guide = homeGuide();
   if (guide) main.append(guide);
   main.append(h("div", { class: "grid-2" }, uploadCard, listCard));

@@ -11,7 +11,7 @@ import { h, messageOf } from "./ui.js";
 const FIELD_WORDS = {
   name: "Name", urdf: "Model file (URDF)", mjcf: "Model file (MJCF)", package: "Model file (zip)",
   sidecar: "Motor sidecar", payload: "Payload", shoulder_joint: "Shoulder joint",
-  elbow_joint: "Elbow joint", lock: "Locked joints",
+  elbow_joint: "Elbow joint", lock: "Locked joints", base_link: "Arm base link",
 };
 
 /** The movable joints of a URDF or MJCF text: [{name, kind: "revolute"|"prismatic"}]. */
@@ -20,17 +20,49 @@ export function movableJoints(text) {
   if (doc.querySelector("parsererror")) return [];
   if (doc.documentElement.nodeName === "robot") {
     return [...doc.querySelectorAll("robot > joint")]
-      .filter((j) => !["fixed", "floating", "planar"].includes(j.getAttribute("type")))
+      .filter((j) => !["fixed", "floating", "planar"].includes(j.getAttribute("type") || ""))
       .map((j) => ({ name: j.getAttribute("name"), kind: j.getAttribute("type") === "prismatic" ? "prismatic" : "revolute" }));
   }
   return [...doc.querySelectorAll("joint")]
-    .filter((j) => j.getAttribute("name") && !["free", "ball"].includes(j.getAttribute("type")))
+    .filter((j) => j.getAttribute("name") && !["free", "ball"].includes(j.getAttribute("type") || ""))
     .map((j) => ({ name: j.getAttribute("name"), kind: j.getAttribute("type") === "slide" ? "prismatic" : "revolute" }));
 }
 
 function modelField(file) {
   const ext = file.name.toLowerCase().split(".").pop();
   return { urdf: "urdf", xml: "mjcf", mjcf: "mjcf", zip: "package" }[ext] || null;
+}
+
+/** Millimetres or centimetres of a depth [m], in words. */
+function depthWords(depth) {
+  return depth >= 0.1 ? `${(100 * depth).toFixed(0)} cm` : `${(1000 * depth).toFixed(0)} mm`;
+}
+
+/**
+ * What the upload card says about the default task's safety check (``RobotInfo.default_task_safety``):
+ * ``{bad, text}``, or null when the server sent no check (a robot stored before it existed).
+ * @param {any} check
+ * @returns {{bad: boolean, text: string} | null}
+ */
+export function defaultTaskWarning(check) {
+  if (!check) return null;
+  if (check.checked !== true) {
+    return { bad: false, text: `The default task was not checked for collisions (${check.reason || "not checked"}).` };
+  }
+  const worst = check.worst;
+  if (check.ok === true || !worst) return null;
+  const links = worst.links || [];
+  const at = `at t = ${Number(worst.deepest_time).toFixed(2)} s of a ${check.duration} s quintic`;
+  const depth = depthWords(Number(worst.depth));
+  let what;
+  if (worst.kind === "plane") what = `drives ${links[0]} ${depth} below the ${worst.obstacle || "mount plane"}`;
+  else if (worst.kind === "obstacle") what = `drives ${links[0]} ${depth} into obstacle “${worst.obstacle}”`;
+  else what = `drives ${links[0]} ${depth} into ${links[links.length - 1]}`;
+  const more = check.findings > 1 ? ` (${check.findings} contacts in all)` : "";
+  return {
+    bad: true,
+    text: `Unsafe default task: it ${what} ${at}${more}. Give start and goal angles that keep clear, or a sidecar mount plane or obstacles that match the cell, before planning it.`,
+  };
 }
 
 /** The card; ``onAdded(robot)`` is called with the stored robot (``RobotInfo``). */
@@ -43,10 +75,13 @@ export function robotUploadCard(onAdded) {
   const jointList = h("datalist", { id: "robot-joint-names" });
   const shoulder = h("input", { id: "robot-shoulder", type: "text", list: "robot-joint-names", placeholder: "auto", "aria-label": "Shoulder joint" });
   const elbow = h("input", { id: "robot-elbow", type: "text", list: "robot-joint-names", placeholder: "auto", "aria-label": "Elbow joint" });
+  const baseLink = h("input", { id: "robot-base-link", type: "text", placeholder: "only for legged, mobile or two-arm robots", "aria-label": "Arm base link" });
+  const tipLink = h("input", { id: "robot-tip-link", type: "text", placeholder: "only when the arm branches (a hand)", "aria-label": "Arm tip link" });
   const locks = h("div", { id: "robot-locks", class: "stack" });
   const found = h("div", { class: "small muted", id: "robot-joints-found" });
   const status = h("div", { id: "robot-upload-status", role: "status", class: "small" });
   const button = h("button", { type: "submit", class: "primary", id: "robot-upload" }, "Add the robot");
+  const warning = h("div", { id: "robot-upload-safety", class: "small" });
   let joints = [];
 
   const addLock = () => {
@@ -57,7 +92,7 @@ export function robotUploadCard(onAdded) {
   };
 
   model.addEventListener("change", async () => {
-    const file = model.files[0];
+    const file = /** @type {FileList} */ (model.files)[0];
     jointList.replaceChildren();
     joints = [];
     found.textContent = "";
@@ -87,15 +122,19 @@ export function robotUploadCard(onAdded) {
     h("div", {}, h("label", { for: "robot-payload" }, "Default payload [kg]"), payload),
     h("div", {}, h("label", { for: "robot-shoulder" }, "Joint that plays the human shoulder"), shoulder),
     h("div", {}, h("label", { for: "robot-elbow" }, "Joint that plays the human elbow"), elbow),
+    h("div", {}, h("label", { for: "robot-base-link" }, "Arm base link (a robot whose joints branch)"), baseLink),
+    h("div", {}, h("label", { for: "robot-tip-link" }, "Arm tip link (optional, with the base link)"), tipLink),
     h("div", {}, h("label", {}, "Locked joints (fingers, grippers, a torso)"), locks, h("button", { type: "button", class: "small", id: "robot-add-lock", onclick: addLock }, "+ lock a joint")),
     jointList,
     h("div", { class: "row" }, button, status),
+    warning,
   );
 
   form.addEventListener("submit", async (event) => {
     event.preventDefault();
     status.className = "small";
-    const file = model.files[0];
+    warning.textContent = "";
+    const file = /** @type {FileList} */ (model.files)[0];
     if (!name.value.trim()) return fail("Name: give the robot a name (letters, digits, _ and -).");
     // Said in words here: the server's refusal quotes its pattern (a regular expression).
     if (!/^[A-Za-z0-9_.-]{1,100}$/.test(name.value.trim())) return fail(`Name: “${name.value.trim()}” may hold only letters, digits, _, . and - (no spaces), at most 100 characters; e.g. ${name.value.trim().replace(/[^A-Za-z0-9_.-]+/g, "_").slice(0, 100)}.`);
@@ -103,14 +142,18 @@ export function robotUploadCard(onAdded) {
     const body = new FormData();
     body.append("name", name.value.trim());
     body.append(modelField(file), file);
-    if (mjcf.files[0]) body.append("mjcf", mjcf.files[0]);
-    if (sidecar.files[0]) body.append("sidecar", sidecar.files[0]);
+    const [mjcfFile] = /** @type {FileList} */ (mjcf.files);
+    if (mjcfFile) body.append("mjcf", mjcfFile);
+    const [sidecarFile] = /** @type {FileList} */ (sidecar.files);
+    if (sidecarFile) body.append("sidecar", sidecarFile);
     if (payload.value !== "") body.append("payload", payload.value);
     if (shoulder.value.trim()) body.append("shoulder_joint", shoulder.value.trim());
     if (elbow.value.trim()) body.append("elbow_joint", elbow.value.trim());
+    if (baseLink.value.trim()) body.append("base_link", baseLink.value.trim());
+    if (tipLink.value.trim()) body.append("tip_link", tipLink.value.trim());
     for (const row of locks.querySelectorAll(".row")) {
-      const joint = row.querySelector(".lock-joint").value.trim();
-      const value = row.querySelector(".lock-value").value;
+      const joint = /** @type {HTMLInputElement} */ (row.querySelector(".lock-joint")).value.trim();
+      const value = /** @type {HTMLInputElement} */ (row.querySelector(".lock-value")).value;
       if (!joint && value === "") continue;
       if (!joint || value === "") return fail(`${FIELD_WORDS.lock}: each lock needs a joint and a value.`);
       body.append("lock", `${joint}=${value}`);
@@ -123,6 +166,15 @@ export function robotUploadCard(onAdded) {
       });
       status.className = "small better";
       status.textContent = `Added ${robot.name}: ${robot.joint_names.length} joints (${robot.joint_names.join(", ")}).`;
+      const missing = robot.missing_meshes || [];
+      if (missing.length) {
+        // The viewer would draw these links without bodies: ask for the meshes now.
+        status.className = "small worse";
+        status.textContent += ` ${missing.length} mesh file(s) the URDF names are missing (${missing.slice(0, 3).join(", ")}${missing.length > 3 ? ", …" : ""}): upload a .zip of the robot's folder with its meshes to see its bodies in the viewer.`;
+      }
+      const safety = defaultTaskWarning(robot.default_task_safety);
+      warning.className = safety ? `small ${safety.bad ? "worse" : "muted"}` : "small";
+      warning.textContent = safety ? safety.text : "";
       onAdded(robot);
     } catch (err) {
       const field = err.problem && err.problem.field;

@@ -16,7 +16,7 @@ const SWEEP_WORDS = {
 export function numberList(text, what) {
   const parts = text.split(/[\s,;]+/).filter(Boolean);
   const values = parts.map(Number);
-  const bad = parts.find((p, i) => !Number.isFinite(values[i]));
+  const bad = parts.find((_p, i) => !Number.isFinite(values[i]));
   if (bad !== undefined) throw new Error(`${what}: "${bad}" is not a number (give numbers separated by commas)`);
   if (!values.length) throw new Error(`${what}: give at least one value`);
   return values;

@@ -1,6 +1,14 @@
 // Small DOM helpers and number formatting shared by the pages.
 
-/** Create an element: h("div", {class: "x", onclick: fn}, child, "text", ...). */
+/**
+ * Create an element: h("div", {class: "x", onclick: fn}, child, "text", ...).
+ * @template {keyof HTMLElementTagNameMap} K
+ * @param {K} tag
+ * @param {Record<string, any> | null} [attrs] attributes; `on...` functions are listeners,
+ *   `class`, `dataset` and `html` set those; true is an empty attribute, null/false none
+ * @param {...any} children nodes, text, or (nested) arrays of them; null/false are skipped
+ * @returns {HTMLElementTagNameMap[K]}
+ */
 export function h(tag, attrs = {}, ...children) {
   const el = document.createElement(tag);
   for (const [k, v] of Object.entries(attrs || {})) {
@@ -69,13 +77,114 @@ export function messageOf(err) {
   return err && err.message ? err.message : String(err);
 }
 
-/** An API error in a form's words: "Duration: must be > 0" rather than "duration: ...".
- * `words` maps request field names (the part before any ".index") to the form's labels. */
+/** `text` as a literal pattern for a RegExp. */
+function literal(text) {
+  return String(text).replace(/[.*+?^${}()|[\]\\]/g, "\\$&");
+}
+
+/**
+ * Every error of an API refusal in a form's words, one {field, label, text} per field: a
+ * request the schema refuses lists them all (`problem.errors`, first message per field), any
+ * other refusal names one. `words` maps request field names (the part before any ".index") to
+ * the form's labels; field names inside a message are put in the form's words too.
+ */
+export function errorsInFormWords(err, words) {
+  const p = (err && err.problem) || {};
+  const listed = Array.isArray(p.errors) && p.errors.length ? p.errors : [{ field: p.field, message: null }];
+  const seen = new Map();
+  for (const e of listed) {
+    const key = e.field ? String(e.field).split(".")[0] : "";
+    if (!seen.has(key)) seen.set(key, e);
+  }
+  return [...seen.entries()].map(([key, e]) => {
+    const label = key ? words[key] : null;
+    let text = e.message === null || e.message === undefined ? messageOf(err) : String(e.message);
+    if (e.field) text = text.replace(new RegExp(`^${literal(e.field)}(?::|\\b)\\s*`), "");
+    text = namesInFormWords(text, words);
+    const where = e.field && e.field !== key ? ` (${e.field.slice(key.length + 1).split(".").map((i) => `item ${Number(i) + 1}`).join(", ")})` : "";
+    if (label) return { field: key, label, text: text.startsWith(label) ? text : `${label}${where}: ${text}` };
+    return { field: key || null, label: null, text: e.field && e.message !== null && e.message !== undefined ? `${e.field}: ${text}` : text };
+  });
+}
+
+/** An API error in a form's words: "Duration: must be > 0" rather than "duration: ...";
+ * several errors of one request together, separated by "; ". */
 export function inFormWords(err, words) {
-  const field = err && err.problem && err.problem.field;
-  const label = field && words[field.split(".")[0]];
-  const text = messageOf(err);
-  return label && !text.startsWith(label) ? `${label}: ${text.replace(new RegExp(`^${field}:\\s*`), "")}` : text;
+  return errorsInFormWords(err, words).map((e) => e.text).join("; ");
+}
+
+/**
+ * An API refusal shown on a form: every error at once in the form's words, in `box` (brought
+ * into view below the sticky top bar), and each beside its field when `fields` maps the request
+ * field to its input (marked aria-invalid until the next try).
+ */
+export function showFormErrors(box, err, words, fields = {}) {
+  clearFieldErrors(fields);
+  const errors = errorsInFormWords(err, words);
+  const shown = errors.length > 1
+    ? h("div", { class: "banner error", role: "alert" }, h("strong", {}, `${errors.length} fields need a change:`), h("ul", { class: "form-errors" }, errors.map((e) => h("li", {}, e.text))))
+    : banner("error", errors[0].text);
+  box.append(shown);
+  let first = null;
+  for (const e of errors) {
+    const input = e.field ? fields[e.field] : null;
+    if (!input) continue;
+    const folded = input.closest("details");
+    if (folded) folded.open = true; // a field in a folded section is shown with its message
+    input.setAttribute("aria-invalid", "true");
+    input.after(h("div", { class: "field-error", role: "alert", dataset: { field: e.field } }, e.text));
+    first = first || input;
+  }
+  shown.scrollIntoView({ block: "nearest" });
+  if (first && !inView(first)) first.scrollIntoView({ block: "center" });
+}
+
+/** The marks of `showFormErrors` taken off the fields. */
+export function clearFieldErrors(fields) {
+  for (const input of Object.values(fields)) {
+    if (!input) continue;
+    input.removeAttribute("aria-invalid");
+    const next = input.nextElementSibling;
+    if (next && next.classList.contains("field-error")) next.remove();
+  }
+}
+
+function inView(el) {
+  const r = el.getBoundingClientRect();
+  return r.top >= 60 && r.bottom <= window.innerHeight;
+}
+
+let capsLoading = null;
+
+/** The server's bounds of the fields the pages fill (GET /api/caps), fetched once. */
+export function loadCaps() {
+  if (!capsLoading) {
+    capsLoading = fetch("/api/caps", { headers: { Accept: "application/json" } })
+      .then((r) => (r.ok ? r.json() : {}))
+      .catch(() => ({}));
+  }
+  return capsLoading;
+}
+
+/**
+ * Each capped field shows its cap, as this server enforces it: the input's min/max, and a hint
+ * ("max 400") added to its label. `form` names the request (plan, simulation, sweep, upload,
+ * analysis, recording_patch); `fields` maps request fields to inputs.
+ */
+export async function showCaps(form, fields) {
+  const caps = (await loadCaps())[form] || {};
+  for (const [field, input] of Object.entries(fields)) {
+    const c = caps[field];
+    if (!input || !c) continue;
+    const max = c.maximum ?? c.exclusiveMaximum;
+    const min = c.minimum ?? c.exclusiveMinimum;
+    if (max !== undefined) input.max = String(max);
+    if (min !== undefined) input.min = String(min);
+    const sel = `label[for="${input.id}"]`;
+    const label = input.id ? (input.parentElement && input.parentElement.querySelector(sel)) || document.querySelector(sel) : null;
+    if (!label || max === undefined || label.querySelector(".cap")) continue;
+    label.append(h("span", { class: "hint cap", dataset: { field } }, ` max ${c.exclusiveMaximum !== undefined ? `< ${fmt(max)}` : fmt(max)}`));
+  }
 }
 
 /** A message that names request fields (`frame_rate`) in a form's words (“Frame rate”). */
