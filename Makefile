@@ -100,10 +100,10 @@ typecheck: $(TSTAMP)
 	$(VENV)/bin/mypy app
 
 # The suite runs on every core (at most 4 workers; PYTEST_WORKERS=0 runs it in one process):
-# each test file stays on one worker in order, the browser tests together (tests/conftest.py).
+# each test file stays on one worker, in order (the README's examples build on each other).
 PYTEST_WORKERS ?= auto
 pytest: $(TSTAMP) $(POSE_STAMP) $(NODE_STAMP) browser
-	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --maxprocesses 4 --dist loadgroup
+	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --maxprocesses 4 --dist loadfile
 
 test: $(POSE_STAMP) lint typecheck pytest
 

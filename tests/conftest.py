@@ -47,12 +47,3 @@ def two_link_urdf() -> str:
     """:data:`TWO_LINK_URDF`."""
     return TWO_LINK_URDF
 
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Keep each test file on one pytest-xdist worker, in order (``make test`` runs two; the
-    README's examples build on each other), and every browser test on one worker: they share
-    one demo server and one Playwright, each started once per worker."""
-    for item in items:
-        rel = item.path.relative_to(REPO_ROOT / "tests")
-        group = "browser" if rel.parts[0] == "frontend" else rel.as_posix()
-        item.add_marker(pytest.mark.xdist_group(group))

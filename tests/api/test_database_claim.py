@@ -76,9 +76,10 @@ def test_a_second_server_on_the_same_database_refuses_to_start(
         assert "Traceback" not in done.stderr and done.stdout == ""
         print(lines[0])
 
-        # The first server's job runs on: not re-queued, not failed, not started again.
+        # The first server's job runs on (or has finished meanwhile on a fast machine): not
+        # re-queued, not failed, not started again.
         after = _job(first, job_id)
-        assert after["state"] == "running", after
+        assert after["state"] in ("running", "succeeded"), after
         assert after["attempts"] == before["attempts"] == 1
         assert after["started_at"] == before["started_at"]
         first.post(f"/api/jobs/{job_id}/cancel")

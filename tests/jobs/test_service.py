@@ -174,6 +174,10 @@ def test_cancel_marks_cancelled_and_failures_keep_their_message(
         assert failed.error == "bad input: payload < 0"
         unknown = _wait(sessions, gone["id"], {"failed"})
         assert unknown.error is not None and "unknown robot 'nope'" in unknown.error
+        # the runner reaps a finished child on its own thread: wait for it, generously
+        deadline = time.monotonic() + 60
+        while runner.info()["running"] and time.monotonic() < deadline:
+            time.sleep(0.05)
         assert runner.info()["running"] == 0
     finally:
         svc.close()

@@ -79,7 +79,7 @@ def test_title_and_human_note_reach_markdown_escaped(plan_comparison: Comparison
     scene = ComparisonScene(FakeTarget(), PreparedComparison(c))
     gui = FakeGui()
     _add_gui(gui, scene, autoplay=False)
-    assert len(gui.markdown) == 3  # title, phase of the moment, whose human
+    assert len(gui.markdown) == 4  # title, phase of the moment, whose human, safety
     for text in gui.markdown:
         _no_markup(text)
     assert any("&lt;iframe srcdoc" in t for t in gui.markdown)
