@@ -46,4 +46,3 @@ def shared_data() -> Path:
 def two_link_urdf() -> str:
     """:data:`TWO_LINK_URDF`."""
     return TWO_LINK_URDF
-
