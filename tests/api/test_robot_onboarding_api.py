@@ -4,28 +4,11 @@ base link, and the ``base_link`` field makes the same upload load the arm alone.
 
 from __future__ import annotations
 
-import io
-import zipfile
-
 from tests.utils.api import TestClient, assert_problem
-from tests.utils.example_robots import UR5, robot_file, robots_dir
+from tests.utils.example_robots import UR5, robot_file
+from tests.utils.ur5_package import ur5_package
 
 ANYMAL_KINOVA = "anymal_b_simple_description/robots/anymal-kinova.urdf"
-
-
-def _ur5_zip(folders: tuple[str, ...]) -> bytes:
-    """UR5's URDF and the meshes of ``folders`` (visual, collision) as example-robot-data lays
-    them out (package:// paths)."""
-    urdf = robot_file(UR5)
-    base = robots_dir().parent.parent
-    buffer = io.BytesIO()
-    with zipfile.ZipFile(buffer, "w") as archive:
-        archive.writestr(str(urdf.relative_to(base)), urdf.read_bytes())
-        for folder in folders:
-            for mesh in (urdf.parents[1] / "meshes" / "ur5" / folder).rglob("*"):
-                if mesh.is_file():
-                    archive.writestr(str(mesh.relative_to(base)), mesh.read_bytes())
-    return buffer.getvalue()
 
 
 def test_missing_meshes_are_listed_at_upload(client: TestClient) -> None:
@@ -43,7 +26,7 @@ def test_missing_meshes_are_listed_at_upload(client: TestClient) -> None:
         ("ur5_full", ("visual", "collision"), 0),
     ):
         r = client.post("/api/robots", data={"name": name},
-                        files={"package": ("ur5.zip", _ur5_zip(folders))})  # fmt: skip
+                        files={"package": ("ur5.zip", ur5_package(meshes=folders))})  # fmt: skip
         assert r.status_code == 201, r.text
         left = r.json()["missing_meshes"]
         assert len(left) == expected and all("/collision/" in m for m in left), name
