@@ -100,10 +100,12 @@ typecheck: $(TSTAMP)
 	$(VENV)/bin/mypy app
 
 # The suite runs on every core (at most 4 workers; PYTEST_WORKERS=0 runs it in one process):
-# each test file stays on one worker, in order (the README's examples build on each other).
+# each test file stays on one worker, in order (the README's examples build on each other),
+# the longest files first (tests/conftest.py LONGEST_FIRST); the 25 slowest tests are listed.
 PYTEST_WORKERS ?= auto
 pytest: $(TSTAMP) $(POSE_STAMP) $(NODE_STAMP) browser
-	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --maxprocesses 4 --dist loadfile
+	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --maxprocesses 4 --dist loadfile \
+	  --no-loadscope-reorder --durations 25
 
 test: $(POSE_STAMP) lint typecheck pytest
 

@@ -43,8 +43,10 @@ if [ -z "$BIN" ]; then
     BIN="$(find_bin)"
 fi
 
-if [ -f "$DIR/data/postmaster.pid" ] && [ -f "$DIR/port" ]; then
-    PORT="$(cat "$DIR/port")"       # already running: reuse it
+# Reuse a cluster only when its server answers: a pid file can outlive the machine's restart.
+if [ -f "$DIR/data/postmaster.pid" ] && [ -f "$DIR/port" ] \
+        && as_owner "$BIN/pg_ctl" -D "$DIR/data" status >/dev/null 2>&1; then
+    PORT="$(cat "$DIR/port")"
 else
     PORT="${BIOPLAN_PG_PORT:-$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')}"
     rm -rf "$DIR"

@@ -22,6 +22,7 @@ arm well seen, limbs of plausible lengths, spread over the video; each says whom
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import queue
@@ -42,6 +43,8 @@ from app.names import MAX_VIDEO_SECONDS
 from app.progress import ProgressFn, report
 from app.recordings._pose_quality import FrameQuality, arm_quality, frame_ranges, image_landmarks
 from app.recordings.types import Recording, RecordingError
+
+logger = logging.getLogger("bioplan.recordings")
 
 #: Environment variable naming the pose environment's Python.
 POSE_PYTHON_ENV = "BIOPLAN_POSE_PYTHON"
@@ -195,7 +198,9 @@ def create_pose_env(
     if uv:
         if not py.is_file():
             steps.append([uv, "venv", *q, "--python", base, str(env)])
-        pip = [uv, "pip", "install", *q, "--python", str(py)]
+        # Bytecode now: with PYTHONDONTWRITEBYTECODE set nothing writes it later, and every
+        # video would compile MediaPipe's imports from source again.
+        pip = [uv, "pip", "install", *q, "--compile-bytecode", "--python", str(py)]
     else:
         if not py.is_file():
             steps.append([base, "-m", "venv", str(env)])
@@ -422,7 +427,9 @@ def _frame_quality(doc_bytes: bytes) -> FrameQuality | None:
 
     try:
         rec = read_bytes(doc_bytes, "landmarks.json", format="mediapipe_json")
-    except RecordingError:
+    except RecordingError as exc:
+        # The landmarks are kept; only their per-frame quality (and its warnings) is lost.
+        logger.warning("per-frame pose quality not computed: landmarks unreadable: %s", exc)
         return None
     lms = image_landmarks(rec.channels)
     t = next(iter(rec.channels.values())).times
