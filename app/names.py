@@ -157,6 +157,19 @@ HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "none")
 #: Constant-jerk intervals of the optimal-control transcription by default
 #: (``app.planning.optimal.DEFAULT_INTERVALS``).
 OPTIMAL_INTERVALS = 40
+#: Metrics a Pareto front can trade (``app.planning.front``; ``peak_torque``: the largest
+#: |τ_j| / τ_max,j; ``jerk``: ∫ Σ q⃛² dt [rad²/s⁵], a smoothness measure).
+FRONT_METRICS: tuple[str, ...] = (
+    "tau_sq",
+    "abs_work",
+    "pos_work",
+    "electrical_energy",
+    "peak_power",
+    "peak_torque",
+    "jerk",
+)
+#: Every axis of a front: the metrics and the duration [s].
+FRONT_AXES: tuple[str, ...] = (*FRONT_METRICS, "duration")
 #: Seeds of the paper's PSO per sweep cell (``app.simulation.sweep.SWEEP_SEEDS``): a verdict is
 #: certain only when all agree.
 SWEEP_SEEDS = 3

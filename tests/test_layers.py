@@ -45,6 +45,7 @@ ROUTE_IMPORTS = (
     "app.api.schemas",
     "app.api.checks",
     "app.api.routes._common",
+    "app.api.routes._results",
     "app.services",
     "app.errors",
     "app.names",

@@ -8,6 +8,7 @@ from app.api.routes import (
     analyses,
     cohorts,
     dashboard,
+    fronts,
     jobs,
     meta,
     plans,
@@ -28,6 +29,7 @@ api_router.include_router(poses.router)
 api_router.include_router(plans.router)
 api_router.include_router(simulations.router)
 api_router.include_router(sweeps.router)
+api_router.include_router(fronts.router)
 api_router.include_router(profiles.router)
 api_router.include_router(cohorts.router)
 api_router.include_router(jobs.router)

@@ -24,6 +24,7 @@ from pydantic import (
 )
 
 from app.names import (
+    FRONT_AXES,
     HUMAN_CONSTRAINTS,
     JOB_STATES,
     MAX_DURATION,
@@ -58,7 +59,7 @@ else:
     HumanConstraint = Literal[HUMAN_CONSTRAINTS]
     ReaderFormat = Literal[FORMATS]
 JobKind = Literal[
-    "analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify"
+    "analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify", "front"
 ]
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
@@ -695,6 +696,100 @@ class SweepRequest(_Request):
         description="refine every optimal-control result until its objective changes by less "
         "than 0.1 % (several times slower)",
     )
+
+
+#: Most points of one front requested through the API.
+MAX_FRONT_POINTS = 25
+
+if TYPE_CHECKING:
+    FrontAxis = str
+else:
+    FrontAxis = Literal[FRONT_AXES]
+
+
+class FrontRequest(_Request):
+    """The Pareto front between two metrics, or a metric and the duration (``bioplan front``),
+    with the quintic's, the paper's and the jerk-limited points beside it."""
+
+    label: Label = Field(default=None, description="a short name for the result (not planned)")
+    robot: str = Field(
+        default="curtain_wall_6dof", pattern=ROBOT_NAME, description="built-in or uploaded robot"
+    )
+    payload_mass: float | None = Field(
+        default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
+    )
+    # Before ``duration`` and ``max_duration``: their checks read it.
+    objectives: Distinct[FrontAxis] = Field(
+        min_length=2,
+        max_length=2,
+        description="A,B: minimise A with B <= epsilon; two different axes (a metric or duration)",
+        examples=[["abs_work", "peak_power"]],
+    )
+    duration: float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_DURATION,
+        description="motion time [s] (default 1 s); none when duration is an axis",
+    )
+    method: Literal["bound", "human_optimal"] = Field(
+        default="bound",
+        description="bound: the limits only; human_optimal: also the elbow's human-like peak",
+    )
+    points: int = Field(
+        default=9, ge=2, le=MAX_FRONT_POINTS, description="points of the front, ends included"
+    )
+    intervals: int = Field(
+        default=OPTIMAL_INTERVALS,
+        ge=8,
+        le=400,
+        description="coarsest constant-jerk mesh; every point is refined from it to convergence",
+    )
+    tolerance: float = Field(
+        default=1e-3,
+        gt=0,
+        lt=1,
+        description="mesh refinement stops when the objective changes by less than this fraction",
+    )
+    allow_reversal: bool = Field(
+        default=False, description="let joints move against their stroke (default: none does)"
+    )
+    max_duration: float | None = Field(
+        default=None,
+        gt=0,
+        le=MAX_DURATION,
+        description="the duration axis' longest duration [s] (default: 3 x the shortest "
+        "feasible); only with duration as an axis",
+    )
+    start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="start joint angles (default: the curl task's)"
+    )
+    goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
+        default=None, max_length=32, description="goal joint angles (default: the curl task's)"
+    )
+    template: dict[str, Any] | None = Field(
+        default=None, description="a HumanTemplate (human_optimal's; default: the paper's)"
+    )
+    template_analysis_id: int | None = Field(
+        default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
+    )
+
+    @field_validator("duration")
+    @classmethod
+    def _no_duration_on_a_duration_axis(cls, value: float | None, info: ValidationInfo) -> Any:
+        if value is not None and "duration" in (info.data.get("objectives") or ()):
+            raise ValueError(
+                "duration is an axis of objectives: expected no fixed duration (max_duration "
+                "sets the axis' longest)"
+            )
+        return value
+
+    @field_validator("max_duration")
+    @classmethod
+    def _max_duration_needs_the_axis(cls, value: float | None, info: ValidationInfo) -> Any:
+        objectives = info.data.get("objectives")
+        if value is not None and objectives is not None and "duration" not in objectives:
+            raise ValueError("max_duration given but duration is not an axis of objectives")
+        return value
 
 
 class ProfilesRequest(_Request):

@@ -23,26 +23,45 @@ from app.cli._common import (
     progress_printer,
     task_from_args,
 )
+from app.names import FRONT_AXES
 
-#: The axes of a front (``app.planning.front.FRONT_AXES``, without importing CasADi for --help).
-AXES = (
-    "tau_sq",
-    "abs_work",
-    "pos_work",
-    "electrical_energy",
-    "peak_power",
-    "peak_torque",
-    "jerk",
-    "duration",
-)
+#: The axes of a front (the metrics and the duration).
+AXES = FRONT_AXES
 METHOD_CHOICES = ("bound", "human_optimal")
 #: The transcription's coarsest mesh (``app.planning.optimal.DEFAULT_INTERVALS``).
 DEFAULT_INTERVALS = 40
+#: ``--duration``'s help: none by default, which is 1 s unless duration is an axis.
+FRONT_DURATION_HELP = DURATION_HELP + " (default: 1 s; none when duration is an axis)"
 #: Refinement stops below this relative change (``app.planning.methods.CONVERGENCE_TOLERANCE``).
 DEFAULT_TOLERANCE = 1e-3
 
 
+def add_front_args(p: argparse.ArgumentParser) -> None:
+    """--objectives, --points, --max-duration and the method options (``bioplan front``'s own,
+    shared with ``bioplan submit front``)."""
+    p.add_argument(
+        "--objectives",
+        required=True,
+        help="A,B: minimise A with B <= epsilon; two of " + ", ".join(AXES),
+    )
+    p.add_argument("--points", type=int, default=9, help="points of the front, ends included")
+    p.add_argument(
+        "--max-duration",
+        type=float,
+        default=None,
+        help="the duration axis' longest duration [s] (default: 3 x the shortest feasible)",
+    )
+    add_method_args(p)
+
+
 def _add_common(p: argparse.ArgumentParser) -> None:
+    add_method_args(p)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--out", default=None, help="also write the JSON to this file")
+
+
+def add_method_args(p: argparse.ArgumentParser) -> None:
+    """--method, --template, --intervals, --tolerance, --allow-reversal."""
     p.add_argument(
         "--method",
         choices=METHOD_CHOICES,
@@ -67,8 +86,6 @@ def _add_common(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="let joints move against their stroke (default: no joint reverses)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
 
 
 def _intervals(value: int) -> int:
@@ -77,8 +94,14 @@ def _intervals(value: int) -> int:
     return value
 
 
-def cmd_front(args: argparse.Namespace) -> int:
-    from app.planning.front import check_front_options, pareto_front
+def check_front_args(args: argparse.Namespace) -> tuple[str, str]:
+    """The two axes (A, B) of ``--objectives``, after checking the front's options together.
+
+    Raises:
+        BioPlanError: a bad axis, the same axis twice, a bad --points, --method, --duration,
+            --max-duration or --intervals; the message names the option.
+    """
+    from app.planning.front import check_front_options
 
     a, b = check_front_options(
         args.objectives, points=args.points, method=args.method, duration=args.duration
@@ -89,6 +112,14 @@ def cmd_front(args: argparse.Namespace) -> int:
         if "duration" not in (a, b):
             raise CliError("--max-duration given but duration is not an axis of --objectives")
         duration("max-duration", args.max_duration)
+    _intervals(args.intervals)
+    return a, b
+
+
+def cmd_front(args: argparse.Namespace) -> int:
+    from app.planning.front import pareto_front
+
+    a, b = check_front_args(args)
     robot = load_robot(args)
     front = pareto_front(
         robot,
@@ -191,20 +222,10 @@ def register(sub: Any) -> None:
     p.set_defaults(duration=None)
     for action in p._actions:
         if "--duration" in action.option_strings:
-            action.help = DURATION_HELP + " (default: 1 s; none when duration is an axis)"
-    p.add_argument(
-        "--objectives",
-        required=True,
-        help="A,B: minimise A with B <= epsilon; two of " + ", ".join(AXES),
-    )
-    p.add_argument("--points", type=int, default=9, help="points of the front, ends included")
-    p.add_argument(
-        "--max-duration",
-        type=float,
-        default=None,
-        help="the duration axis' longest duration [s] (default: 3 x the shortest feasible)",
-    )
-    _add_common(p)
+            action.help = FRONT_DURATION_HELP
+    add_front_args(p)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--out", default=None, help="also write the JSON to this file")
     p.set_defaults(handler=cmd_front)
 
     p = sub.add_parser(

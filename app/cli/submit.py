@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from app.cli._common import DURATION_HELP, EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, write_out
+from app.cli.front import FRONT_DURATION_HELP, add_front_args, check_front_args
 from app.names import OBJECTIVES, PSO_DEFAULTS, TERMINAL_JOB_STATES
 
 
@@ -164,6 +165,27 @@ def _job_body(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
             "seed": args.seed,
         }
         return "/api/sweeps", body
+    if args.kind == "front":
+        # `bioplan front`'s own checks first: bad input is refused naming the option, as there,
+        # before anything is sent.
+        a, b = check_front_args(args)
+        body = {
+            "robot": args.robot,
+            "payload_mass": args.payload,
+            "objectives": [a, b],
+            "duration": args.duration,
+            "max_duration": args.max_duration,
+            "points": args.points,
+            "method": args.method,
+            "intervals": args.intervals,
+            "tolerance": args.tolerance,
+            "allow_reversal": args.allow_reversal,
+            "start_deg": _floats(args.start_deg),
+            "goal_deg": _floats(args.goal_deg),
+        }
+        if args.template:
+            body["template"] = json.loads(Path(args.template).read_text(encoding="utf-8"))
+        return "/api/fronts", {k: v for k, v in body.items() if v is not None}
     raise ValueError(f"unknown kind {args.kind}")
 
 
@@ -297,6 +319,15 @@ def register(sub: Any) -> None:
     q.add_argument("--payloads", default="0,4,8,12,20", help="comma-separated [kg]")
     q.add_argument("--objectives", default="abs_work", help="comma-separated metric names")
     q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
+    q = kinds.add_parser("front", help="bioplan front, on the server (with its references)")
+    q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
+    q.add_argument("--duration", type=float, default=None, help=FRONT_DURATION_HELP)
+    q.add_argument(
+        "--payload", type=float, default=None, help="payload [kg] (default: the robot's)"
+    )
+    q.add_argument("--start-deg", default=None, help="start joint angles, comma-separated")
+    q.add_argument("--goal-deg", default=None, help="goal joint angles, comma-separated")
+    add_front_args(q)
     q = kinds.add_parser("analyze", help="upload recordings and analyse them on the server")
     q.add_argument("files", nargs="+", help="recording files of one session")
     q.add_argument("--subject", default=None, help="who lifted")

@@ -45,7 +45,9 @@ NAMING_CONVENTION = {
 #: Job states and the ones a job never leaves (one home: ``app.names``).
 JOB_STATES = _names.JOB_STATES
 TERMINAL_STATES = _names.TERMINAL_JOB_STATES
-JOB_KINDS = ("analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify")
+JOB_KINDS = (
+    "analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify", "front"
+)  # fmt: skip
 #: What an uploaded file is to its session: a recording (read and analysed; also the landmarks
 #: extracted from a video), a sidecar of another file (BIDS ``_channels.tsv``/``_emg.json`` of an
 #: EDF: used when that file is read, never read on its own), or a video (turned into pose).
@@ -366,6 +368,20 @@ class IdentificationRecord(_ResultMixin, Base):
     job: Mapped[JobRecord] = relationship()
 
 
+class FrontRecord(_ResultMixin, Base):
+    """A Pareto front between two metrics (``bioplan front``) with its reference methods;
+    ``arrays`` holds every point's and reference's trajectory (``<id>_t``, ``<id>_q``, ...) as
+    ``.npz`` bytes, so a point can be plotted, viewed and exported."""
+
+    __tablename__ = "fronts"
+
+    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
+    robot: Mapped[str] = mapped_column(String(100), index=True)
+    arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
+
+    job: Mapped[JobRecord] = relationship()
+
+
 class ResultBlob(Base):
     """A job result too large for its row, kept in the file store: the row's ``result`` holds
     ``{RESULT_BLOB_KEY: sha256, "bytes": n}`` and this row keeps the blob referenced (read back
@@ -391,7 +407,8 @@ RESULT_MODELS: dict[
     | type[Sweep]
     | type[Profiles]
     | type[Cohort]
-    | type[IdentificationRecord],
+    | type[IdentificationRecord]
+    | type[FrontRecord],
 ] = {
     "analysis": Analysis,
     "pose": PoseExtraction,
@@ -401,4 +418,5 @@ RESULT_MODELS: dict[
     "profiles": Profiles,
     "cohort": Cohort,
     "identify": IdentificationRecord,
+    "front": FrontRecord,
 }

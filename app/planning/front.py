@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from app.names import FRONT_AXES, FRONT_METRICS
 from app.planning.actuators import actuator_limits, actuator_violation
 from app.planning.evaluation import (
     EvaluatedTrajectory,
@@ -82,19 +83,6 @@ __all__ = [
     "throughput",
 ]
 
-#: Metrics a front can trade (``peak_torque``: the largest |τ_j| / τ_max,j; ``jerk``:
-#: ∫ Σ q⃛² dt [rad²/s⁵], a smoothness measure).
-FRONT_METRICS: tuple[str, ...] = (
-    "tau_sq",
-    "abs_work",
-    "pos_work",
-    "electrical_energy",
-    "peak_power",
-    "peak_torque",
-    "jerk",
-)
-#: Every axis of a front: the metrics and the duration [s].
-FRONT_AXES: tuple[str, ...] = (*FRONT_METRICS, "duration")
 #: The optimal-control methods a front is made of.
 FRONT_METHODS: tuple[str, ...] = ("human_optimal", "bound")
 #: Default number of points of a front.
@@ -726,6 +714,8 @@ def _finish(
         else:
             kept.append(p)
     kept.sort(key=lambda p: (p.values[a], -p.values[b]))
+    if "duration" not in (a, b):
+        kept = _ends_marked(kept, a, b, notes)
     kept = [dataclasses.replace(p, id=f"p{i}") for i, p in enumerate(kept)]
     if len(kept) == 1:
         notes.append(f"no trade-off: the {a} optimum is also the {b} optimum")
@@ -745,6 +735,25 @@ def _finish(
         solves=solves,
         notes=tuple(notes),
     )
+
+
+def _ends_marked(kept: list[FrontPoint], a: str, b: str, notes: list[str]) -> list[FrontPoint]:
+    """A metric front's first and last points are its A and B ends. An end's own
+    single-objective solve can be beaten by a neighbour on a coarse tolerance (then it is
+    dominated and dropped): the neighbour is the best known optimum, marked as the end, said."""
+    roles = {p.role for p in kept}
+    out = list(kept)
+    for index, role, metric in ((0, "A end", a), (-1, "B end", b)):
+        p = out[index] if out else None
+        if p is None or role in roles or p.role or p.epsilon is None:
+            continue
+        notes.append(
+            f"the {metric} optimum's own solve was dominated by the point solved under {b} <= "
+            f"{p.epsilon:.6g}, now the {role} ({metric} {p.values[metric]:.6g}); a tighter "
+            "tolerance converges the end's solve further"
+        )
+        out[index] = dataclasses.replace(p, role=role)
+    return out
 
 
 def _method(setup: _Setup) -> str:

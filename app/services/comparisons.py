@@ -1,5 +1,6 @@
-"""Finished plans and simulations, read from the database as the viewer's ``Comparison``, and
-what the dashboard shows of them: the Compare page's data and the HTML exports."""
+"""Finished plans, simulations and fronts' points, read from the database as the viewer's
+``Comparison``, and what the dashboard shows of them: the Compare page's data and the HTML
+exports."""
 
 from __future__ import annotations
 
@@ -60,9 +61,10 @@ class ComparisonLoader:
         """The comparison of plan or simulation ``result_id``.
 
         Args:
-            kind: ``plan`` or ``simulation``.
+            kind: ``plan``, ``simulation`` or ``front``.
             result_id: its id.
-            methods: the two planned methods to show (None: quintic and paper).
+            methods: the two planned methods to show (None: quintic and paper); for a front
+                ``(point id, "quintic")`` (either way round).
 
         Raises:
             NotFoundError: unknown kind or id.
@@ -71,6 +73,8 @@ class ComparisonLoader:
         """
         if kind not in KINDS:
             raise NotFoundError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
+        if kind == "front":
+            return self._front_point(result_id, methods)
         model: Any = RESULT_MODELS[kind]
         with self.sessions() as session:
             row = session.scalars(
@@ -105,6 +109,46 @@ class ComparisonLoader:
             kind,
             result_id,
             arrays,
+            result,
+            robot,
+            urdf=urdf,
+            methods=methods,
+            allowed_roots=None if folder is None else (folder,),
+        )
+
+    def _front_point(self, front_id: int, methods: tuple[str, str] | None) -> Comparison:
+        """A point of front ``front_id`` beside the quintic at its duration, in the slots
+        ``methods`` gives (solid, ghost): the point and ``quintic``, either way round.
+
+        Raises:
+            NotFoundError: no such front, or no such point (field ``pid``).
+            ConflictError: the front has no result yet.
+        """
+        from app.services.fronts import point_arrays, viewed_point
+
+        pid = viewed_point(methods)  # NotFoundError naming pid
+        model: Any = RESULT_MODELS["front"]
+        with self.sessions() as session:
+            row = session.scalars(
+                select(model).where(model.id == front_id).options(undefer(model.arrays))
+            ).first()
+            if row is None:
+                raise NotFoundError(f"front {front_id} does not exist")
+            if row.result is None or row.arrays is None:
+                job = session.get(JobRecord, front_id)
+                state = "unknown" if job is None else job.state
+                raise ConflictError(f"front {front_id} has no result yet (job state {state})")
+            result = dict(row.result)
+            result.pop("motions", None)  # the exports' blocks: not the viewer's
+            arrays = decode_arrays(row.arrays)
+            spec = self.robots.spec(session, row.robot)
+        payload = (result.get("conditions") or {}).get("payload")
+        folder = self.robots.folder(spec)
+        robot, urdf = load_robot_spec(spec, None if payload is None else float(payload), folder)
+        return comparison_from_arrays(
+            "front",
+            front_id,
+            point_arrays(arrays, result, pid, robot),
             result,
             robot,
             urdf=urdf,

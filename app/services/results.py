@@ -9,7 +9,7 @@ other ``ServiceError`` 422 naming the field); nothing here knows HTTP.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -163,55 +163,32 @@ class ExportFile:
     filename: str
 
 
-def export_file(
-    session: Session,
-    robots: RobotCatalog,
-    kind: str,
-    result_id: int,
-    *,
-    fmt: str,
-    rate: float | None,
-    method: str | None,
-    samples: int | None = None,
-    max_samples: int | None = None,
-    force: bool = False,
-    allow_unsafe: bool = False,
-    goal: bool = False,
-    topic: str | None = None,
-    from_position: str | None = None,
-) -> ExportFile:
-    """A stored plan's or simulation's export file (``export_stream``'s chunks).
+@dataclass(frozen=True)
+class TrajectorySource:
+    """What an export reads: a stored result's motion and how to name it.
 
-    ``rate`` [Hz] or ``samples`` (that many samples over the motion); the file holds at most
-    ``max_samples`` (``Settings.max_export_samples``), else a ServiceError naming ``samples``
-    or ``rate``, before anything is sampled. A file past the robot's limits or into a contact
-    of the plan's safety check is a ConflictError unless ``force`` / ``allow_unsafe``;
-    ``goal``, ``topic`` and ``from_position`` (degrees, comma separated) are the ROS 2 options
-    (a ServiceError naming them)."""
-    from app.jobs.tasks import robot_from_spec
-    from app.planning.export import (
-        ExportRefused,
-        check_export_size,
-        check_ros_options,
-        export_sample_limit,
-        export_stream,
-        motion_of_result,
-    )
+    Attributes:
+        motion: the motion block (``app.planning.export.PlanMotion``) with its safety check.
+        robot: the robot's name in the catalogue (rebuilt from its spec for the export).
+        stem: the download name's start (``plan-7``, ``front-3-p2``).
+    """
 
-    start_from = None
-    if from_position is not None:
-        try:
-            start_from = [math.radians(float(v)) for v in from_position.split(",")]
-        except ValueError:
-            raise ServiceError(
-                f"from_position '{from_position}': expected joint positions in degrees "
-                "separated by commas",
-                field="from_position",
-            ) from None
-    try:
-        check_ros_options(fmt, goal=goal, topic=topic, from_position=start_from)
-    except BioPlanError as exc:
-        raise ServiceError(str(exc), field=_export_field(str(exc))) from None
+    motion: Any
+    robot: str
+    stem: str
+
+
+def stored_source(
+    session: Session, kind: str, result_id: int, method: str | None
+) -> TrajectorySource:
+    """The motion of a stored plan or simulation, with ``method`` checked against it.
+
+    Raises:
+        NotFoundError: no such result, or a method it did not plan (field ``method``).
+        ConflictError: no result yet, or one stored without its motion block.
+        ServiceError: a motion block that does not read back.
+    """
+    from app.planning.export import motion_of_result
 
     row = get_result_row(session, kind, result_id)
     if row.result is None:
@@ -229,6 +206,87 @@ def export_file(
         )
     try:
         motion = motion_of_result(row.result)
+    except BioPlanError as exc:
+        raise ServiceError(str(exc), field=_export_field(str(exc))) from None
+    return TrajectorySource(motion=motion, robot=row.robot, stem=f"{kind}-{result_id}")
+
+
+def export_file(
+    session: Session,
+    robots: RobotCatalog,
+    kind: str,
+    result_id: int,
+    *,
+    fmt: str,
+    rate: float | None,
+    method: str | None,
+    **options: Any,
+) -> ExportFile:
+    """A stored plan's or simulation's export file (:func:`export_trajectory` of its
+    :func:`stored_source`)."""
+    return export_trajectory(
+        session,
+        robots,
+        lambda: stored_source(session, kind, result_id, method),
+        fmt=fmt,
+        rate=rate,
+        method=method,
+        **options,
+    )
+
+
+def export_trajectory(
+    session: Session,
+    robots: RobotCatalog,
+    source: Callable[[], TrajectorySource],
+    *,
+    fmt: str,
+    rate: float | None,
+    method: str | None,
+    samples: int | None = None,
+    max_samples: int | None = None,
+    force: bool = False,
+    allow_unsafe: bool = False,
+    goal: bool = False,
+    topic: str | None = None,
+    from_position: str | None = None,
+) -> ExportFile:
+    """The export file of a stored trajectory (``export_stream``'s chunks); ``source`` reads
+    the motion once the request's own options are checked (a plan's method, a front's point).
+
+    ``rate`` [Hz] or ``samples`` (that many samples over the motion); the file holds at most
+    ``max_samples`` (``Settings.max_export_samples``), else a ServiceError naming ``samples``
+    or ``rate``, before anything is sampled. A file past the robot's limits or into a contact
+    of the result's safety check is a ConflictError unless ``force`` / ``allow_unsafe``;
+    ``goal``, ``topic`` and ``from_position`` (degrees, comma separated) are the ROS 2 options
+    (a ServiceError naming them)."""
+    from app.jobs.tasks import robot_from_spec
+    from app.planning.export import (
+        ExportRefused,
+        check_export_size,
+        check_ros_options,
+        export_sample_limit,
+        export_stream,
+    )
+
+    start_from = None
+    if from_position is not None:
+        try:
+            start_from = [math.radians(float(v)) for v in from_position.split(",")]
+        except ValueError:
+            raise ServiceError(
+                f"from_position '{from_position}': expected joint positions in degrees "
+                "separated by commas",
+                field="from_position",
+            ) from None
+    try:
+        check_ros_options(fmt, goal=goal, topic=topic, from_position=start_from)
+    except BioPlanError as exc:
+        raise ServiceError(str(exc), field=_export_field(str(exc))) from None
+
+    found = source()
+    motion = found.motion
+    try:
         if samples is not None:
             if rate is not None:
                 raise ServiceError("give rate or samples, not both", field="samples")
@@ -247,7 +305,7 @@ def export_file(
     except BioPlanError as exc:
         field = "samples" if samples is not None else _export_field(str(exc))
         raise ServiceError(str(exc), field=field) from None
-    spec = robots.spec(session, row.robot)
+    spec = robots.spec(session, found.robot)
     payload = motion.conditions.get("payload")
     try:
         with robot_from_spec(spec, None if payload is None else float(payload)) as robot:
@@ -269,9 +327,9 @@ def export_file(
     except BioPlanError as exc:  # a robot file gone or changed: its name, not its folder
         text = without_paths(exc)
         raise ServiceError(text, field=_export_field(text)) from None
-    chosen = method or row.result["motion"]["default_method"]
+    chosen = method or motion.default_method
     # Each format's extension is its name.
-    return ExportFile(chunks=chunks, filename=f"{kind}-{result_id}-{chosen}.{fmt}")
+    return ExportFile(chunks=chunks, filename=f"{found.stem}-{chosen}.{fmt}")
 
 
 def job_page(

@@ -34,7 +34,7 @@ DEFAULT_TTL_S = 3600.0
 #: Viewer connections at once, in all and per capability (a tab that reconnects, a second tab).
 DEFAULT_MAX_CONNECTIONS = 32
 DEFAULT_MAX_PER_TOKEN = 4
-_KINDS = ("plan", "simulation")
+_KINDS = ("plan", "simulation", "front")
 
 
 class Refused(Exception):
@@ -61,7 +61,7 @@ class _Capability:
 
 
 def parse_client_path(path: str | None) -> tuple[str, int, dict[str, str]] | None:
-    """``(kind, id, query)`` from a websocket path ``/bioplan/<plan|simulation>/<id>[?...]``
+    """``(kind, id, query)`` from a websocket path ``/bioplan/<plan|simulation|front>/<id>[?...]``
     (each query key's first value), else None."""
     if not path:
         return None
@@ -78,7 +78,10 @@ def parse_client_path(path: str | None) -> tuple[str, int, dict[str, str]] | Non
 
 def _methods(value: str | None) -> tuple[str, str] | None:
     pair = (value or "").split(",")
-    if len(pair) == 2 and all(m.replace("_", "").isalpha() and len(m) <= 32 for m in pair):
+    # Method names, or a front's point ids (``p0``, ``p12``).
+    if len(pair) == 2 and all(
+        m.isascii() and m.replace("_", "").isalnum() and len(m) <= 32 for m in pair
+    ):
         return pair[0], pair[1]
     return None
 
@@ -145,7 +148,7 @@ class ViewerAccess:
             raise Refused(f"foreign origin {origin[:100]!r}")
         target = parse_client_path(path)
         if target is None:
-            raise Refused("not a comparison's address (/bioplan/<plan|simulation>/<id>)")
+            raise Refused("not a comparison's address (/bioplan/<plan|simulation|front>/<id>)")
         kind, result_id, query = target
         token = query.get("token", "")
         with self._lock:

@@ -26,8 +26,10 @@ if TYPE_CHECKING:
     from app.planning.robots import Robot
 
 FloatArray = NDArray[np.float64]
-Kind = Literal["plan", "simulation"]
-KINDS: tuple[Kind, ...] = ("plan", "simulation")
+Kind = Literal["plan", "simulation", "front"]
+#: ``front``: one point of a Pareto front beside the quintic at its duration (two "methods":
+#: ``quintic`` and the point's id, ``p0``...).
+KINDS: tuple[Kind, ...] = ("plan", "simulation", "front")
 LABELS: tuple[str, str] = ("standard", "optimized")
 #: Phase names and what they mean in a curl (``app.names.PHASES``).
 PHASES = {p.name: p.label for p in _PHASES}
@@ -323,7 +325,7 @@ def _trajectory(
     arrays: Mapping[str, Any], label: str, kind: str, t: FloatArray, n_joints: int
 ) -> dict[str, FloatArray]:
     """One trajectory's ``q, qd, qdd, tau`` (T, n) and ``power, energy`` (T,), shapes checked."""
-    acc_key = "qdd" if kind == "plan" else "qdd_cmd"
+    acc_key = "qdd_cmd" if kind == "simulation" else "qdd"
     out: dict[str, FloatArray] = {}
     for name, key in (("q", "q"), ("qd", "qd"), ("qdd", acc_key), ("tau", "tau")):
         arr = _get(arrays, f"{label}_{key}")
@@ -388,6 +390,8 @@ def comparison_from_arrays(
     }
     times: dict[str, tuple[float, float]] = {}
     planned = tuple(m for m in METHODS if f"{m}_q" in arrays and f"{m}_tau" in arrays)
+    if kind == "front" and methods is not None:
+        planned = methods  # a point's id is no planning method
     for label in (*LABELS, *planned):
         for name, arr in _trajectory(arrays, label, kind, t, len(robot.joint_names)).items():
             data[name][label] = arr

@@ -57,7 +57,8 @@ from app.viewer.scene import (
 
 logger = logging.getLogger(__name__)
 
-Prepare = Callable[[str, int], PreparedComparison]
+#: ``(kind, id) -> PreparedComparison``; a front's also takes ``("quintic", point id)``.
+Prepare = Callable[..., PreparedComparison]
 
 #: Seconds between updates of the time slider and the plot's cursor while playing. Each update
 #: re-renders viser's control panel; at 10 Hz that cost a software-rendered canvas about a third
@@ -362,7 +363,10 @@ class ViewerServer:
             return  # refused at the handshake: closed, nothing to show
         kind, result_id = grant.kind, grant.id
         try:
-            prepared = self.prepare(kind, result_id)
+            if kind == "front":  # a front's tab shows one point: part of what is prepared
+                prepared = self.prepare(kind, result_id, grant.methods)
+            else:
+                prepared = self.prepare(kind, result_id)
         except LookupError as exc:  # unknown, unfinished or deleted
             reason = markdown_text(without_paths(exc))
             shown = f"{markdown_text(kind)} {int(result_id)}"

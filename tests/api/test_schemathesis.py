@@ -73,6 +73,13 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
         "durations": "long enough for the chosen robot's joint speed limits",
         "cells": "durations x payloads x objectives within BIOPLAN_MAX_SWEEP_CELLS (a product)",
     },
+    "POST /api/fronts": {
+        "duration": "none when duration is one of the objectives",
+        "max_duration": "only when duration is one of the objectives",
+        "start_deg": "one angle per joint of the chosen robot",
+        "goal_deg": "one angle per joint of the chosen robot",
+        "template": "a HumanTemplate, and not beside template_analysis_id",
+    },
     "POST /api/cohorts": {
         "groups": "each recording in one group; a group name is not blanks only",
         "group_by": "not beside groups",
@@ -95,6 +102,9 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
     },
 }
 UNSTATED_RULES["GET /api/simulations/{simulation_id}/trajectory"] = UNSTATED_RULES[
+    "GET /api/plans/{plan_id}/trajectory"
+]
+UNSTATED_RULES["GET /api/fronts/{front_id}/points/{pid}/export"] = UNSTATED_RULES[
     "GET /api/plans/{plan_id}/trajectory"
 ]
 UNSTATED_RULES["POST /api/simulations"] = UNSTATED_RULES["POST /api/plans"]

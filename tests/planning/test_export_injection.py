@@ -61,8 +61,10 @@ def _urscript_structure(text: str) -> None:
 def test_urscript_has_one_top_level_statement(hostile: Any) -> None:
     text = _export(hostile, "script")
     _urscript_structure(text)
-    # the header comments: export, limits, safety, the forced non-UR note, joints
-    assert text.count("\n# ") + text.startswith("# ") == 5
+    # the header comments: export, limits, the limits not stated (not checked), safety, the
+    # forced non-UR note, joints
+    assert text.count("\n# ") + text.startswith("# ") == 6
+    assert "\n# limits not stated by the robot (not checked)" in text
     assert "\r" not in text
 
 

@@ -132,6 +132,23 @@ def test_front_on_the_2dof_is_non_dominated_with_the_single_objective_optima_at_
     )
 
 
+def test_an_end_beaten_by_its_neighbour_on_a_coarse_tolerance_is_replaced_and_said() -> None:
+    """Found on the page: on a coarse tolerance the abs_work end's own solve was dominated by
+    its neighbour and dropped, leaving a front without an "A end". The neighbour is the best
+    known abs_work optimum: it is marked as the end, and the note says why."""
+    robot = load_robot("human_arm_2dof")
+    front = pareto_front(
+        robot, objectives="abs_work,peak_torque", duration=1.0, points=3, n_intervals=8,
+        tolerance=0.05,
+    )  # fmt: skip
+    assert front.points[0].role == "A end" and front.points[-1].role == "B end"
+    ends = front.to_dict()["ends"]
+    assert ends["abs_work"] == min(p.values["abs_work"] for p in front.points)
+    for drop in front.dropped:
+        if "dominated" in drop["why"] and drop["epsilon"] is None:  # an end's own solve
+            assert any("now the A end" in n or "now the B end" in n for n in front.notes)
+
+
 def test_human_optimal_front_is_more_human_like_than_the_bound_front() -> None:
     """--method changes the result: the human-like front puts the elbow's speed peak at the
     template's 62 deg of flexion (within the constraint's band) and costs more at its ends."""

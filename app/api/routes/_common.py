@@ -7,15 +7,16 @@ from datetime import UTC, datetime
 from pathlib import PurePosixPath
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from fastapi import Path, Query, Response
+from fastapi import Depends, Path, Query, Response
 from pydantic import BeforeValidator, Field
 from sqlalchemy.orm import Session
 
+from app.api.deps import SettingsDep
 from app.api.errors import ApiError
 from app.api.schemas import Problem
 from app.names import METHODS
 from app.services import RobotCatalog
-from app.services.results import export_file
+from app.services.results import ExportFile, export_file
 
 #: Ids in paths: positive and within a 32-bit integer, so no database overflows.
 IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
@@ -137,6 +138,33 @@ FromPositionQuery = Annotated[
 ]
 
 
+def export_options(
+    settings: SettingsDep,
+    samples: SamplesQuery = None,
+    force: ForceQuery = False,
+    allow_unsafe: AllowUnsafeQuery = False,
+    goal: GoalQuery = False,
+    topic: TopicQuery = None,
+    from_position: FromPositionQuery = None,
+) -> dict[str, Any]:
+    """The export query options every trajectory download takes beside its format, rate and
+    method, with this server's sample cap (``app.services.results.export_trajectory``'s
+    keyword arguments)."""
+    return {
+        "samples": samples,
+        "max_samples": settings.max_export_samples,
+        "force": force,
+        "allow_unsafe": allow_unsafe,
+        "goal": goal,
+        "topic": topic,
+        "from_position": from_position,
+    }
+
+
+#: ``export_options`` as a dependency (its query parameters are the route's).
+ExportOptions = Annotated[dict[str, Any], Depends(export_options)]
+
+
 def trajectory_out(
     session: Session,
     robots: RobotCatalog,
@@ -146,35 +174,22 @@ def trajectory_out(
     fmt: str,
     rate: float | None,
     method: str | None,
-    samples: int | None = None,
-    max_samples: int | None = None,
-    force: bool = False,
-    allow_unsafe: bool = False,
-    goal: bool = False,
-    topic: str | None = None,
-    from_position: str | None = None,
+    **options: Any,
 ) -> Response:
     """A stored plan's or simulation's export file, streamed as an attachment
     (``app.services.results.export_file``: its refusals are 404, 409 and 422 naming the
-    field)."""
+    field); ``options`` are ``export_options``'."""
+    out = export_file(
+        session, robots, kind, result_id, fmt=fmt, rate=rate, method=method, **options
+    )
+    return export_response(out, fmt)
+
+
+def export_response(out: ExportFile, fmt: str) -> Response:
+    """An export file (``app.services.results.ExportFile``) streamed as an attachment of
+    format ``fmt``'s media type."""
     from fastapi.responses import StreamingResponse
 
-    out = export_file(
-        session,
-        robots,
-        kind,
-        result_id,
-        fmt=fmt,
-        rate=rate,
-        method=method,
-        samples=samples,
-        max_samples=max_samples,
-        force=force,
-        allow_unsafe=allow_unsafe,
-        goal=goal,
-        topic=topic,
-        from_position=from_position,
-    )
     return StreamingResponse(
         out.chunks,
         media_type=EXPORT_MEDIA_TYPES[fmt],

@@ -1,74 +1,76 @@
-"""Analyses: submit (202 + job), list, fetch the result and the human template."""
+"""Analyses: submit (202 + job), list, fetch (``app.api.routes._results``), and the human
+template."""
 
 from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Query
+from sqlalchemy.orm import Session
 
-from app.api.deps import JobsDep, SessionDep, WriteAccess
+from app.api.deps import SessionDep
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath
-from app.api.schemas import AnalysisOut, AnalysisRequest, Job, JobState, Page
+from app.api.routes._results import ResultRoutes, add_result_routes
+from app.api.schemas import AnalysisOut, AnalysisRequest
+from app.services import Services
 from app.services.recording_views import analysis_summary
 from app.services.recordings import analysis_params
-from app.services.results import get_result_row, job_of, list_results
+from app.services.results import get_result_row, job_of
 
 router = APIRouter(prefix="/api/analyses", tags=["analyses"], responses=PROBLEM_RESPONSES)
 
 
-@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
-def submit_analysis(
-    body: AnalysisRequest, session: SessionDep, jobs: JobsDep, response: Response
-) -> dict[str, Any]:
-    """Queue an analysis of a stored recording; poll the job or follow its events.
-
-    Options left out take the recording's (its EMG rate, muscle map, excluded channels,
-    session mode, load); the job's ``params`` are the options it runs with. 409 while the
-    recording's video is being turned into pose (the problem's ``job``: that pose job).
-    """
+def _submit(body: AnalysisRequest, session: Session, services: Services) -> dict[str, Any]:
     params = analysis_params(session, body.model_dump(mode="json"))
-    job = jobs.submit(kind="analysis", params=params, resource={"recording_id": body.recording_id})
-    response.headers["Location"] = job["result_url"]
-    return job
-
-
-@router.get("", response_model=Page[AnalysisOut])
-def list_analyses(
-    session: SessionDep,
-    limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
-    state: JobState | None = None,
-    recording_id: Annotated[
-        int | None, Query(ge=1, le=2**31 - 1, description="only this recording's analyses")
-    ] = None,
-) -> dict[str, Any]:
-    """Analyses, newest first; filter by job state and by recording. Each finished one has a
-    ``summary``: where its template came from (``is_paper_default``), lifts, every warning."""
-    items, total = list_results(
-        session,
-        "analysis",
-        limit=limit,
-        offset=offset,
-        state=state,
-        recording_id=recording_id,
+    return services.jobs.submit(
+        kind="analysis", params=params, resource={"recording_id": body.recording_id}
     )
-    for item in items:
-        item["summary"] = analysis_summary(item["result"])
-    return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
-@router.get("/{analysis_id:int}", response_model=AnalysisOut)
-def get_analysis(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
+def _item(session: Session, analysis_id: int) -> dict[str, Any]:
     row = get_result_row(session, "analysis", analysis_id)
     return {
         "id": row.id,
         "recording_id": row.recording_id,
         "job": job_of(session, row.id),
-        "summary": analysis_summary(row.result),
         "result": row.result,
         "template": row.template,
     }
+
+
+def _summarised(session: Session, item: dict[str, Any]) -> dict[str, Any]:
+    return {**item, "summary": analysis_summary(item["result"])}
+
+
+_SUBMIT_DOC = """Queue an analysis of a stored recording; poll the job or follow its events.
+
+Options left out take the recording's (its EMG rate, muscle map, excluded channels,
+session mode, load); the job's ``params`` are the options it runs with. 409 while the
+recording's video is being turned into pose (the problem's ``job``: that pose job)."""
+_LIST_DOC = """Analyses, newest first; filter by job state and by recording. Each finished one has a
+``summary``: where its template came from (``is_paper_default``), lifts, every warning."""
+
+
+add_result_routes(
+    router,
+    ResultRoutes(
+        kind="analysis",
+        plural="analyses",
+        response_model=AnalysisOut,
+        filters={
+            "recording_id": Annotated[
+                int | None,
+                Query(ge=1, le=2**31 - 1, description="only this recording's analyses"),
+            ]
+        },
+        item=_item,
+        shape=_summarised,
+        submit=_submit,
+        request=AnalysisRequest,
+        docs={"submit": _SUBMIT_DOC, "list": _LIST_DOC},
+    ),
+)
 
 
 @router.get("/{analysis_id:int}/template", response_model=dict[str, Any])

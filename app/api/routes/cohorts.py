@@ -3,35 +3,21 @@ options a comparison takes (from ``CohortOptions``)."""
 
 from __future__ import annotations
 
-import contextlib
-from typing import Annotated, Any
+from typing import Any
 
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Response
+from sqlalchemy.orm import Session
 
-from app.api.deps import ServicesDep, SessionDep, WriteAccess
+from app.api.deps import SessionDep
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath
-from app.api.schemas import CohortOptionInfo, CohortOut, CohortRequest, Job, JobState, Page
+from app.api.routes._results import ResultRoutes, add_result_routes
+from app.api.schemas import CohortOptionInfo, CohortOut, CohortRequest
+from app.services import Services
 from app.services.cohorts import cohort_csv, cohort_option_info, cohort_params
-from app.services.errors import ConflictError
-from app.services.results import delete_job, get_result_row, job_of, list_results
+from app.services.results import get_result_row, job_of
 
 router = APIRouter(prefix="/api/cohorts", tags=["cohorts"], responses=PROBLEM_RESPONSES)
-
-
-@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
-def submit_cohort(
-    body: CohortRequest, session: SessionDep, services: ServicesDep, response: Response
-) -> dict[str, Any]:
-    """Queue a comparison of groups of stored recordings (``bioplan cohort``): explicit
-    ``groups`` of recording ids, or the recordings grouped by their condition. Progress is
-    reported per recording file. A missing recording is a 404 naming the field; a recording
-    in two groups a 422; a recording without a condition or anything to measure, or fewer
-    than two conditions, a 409. Nothing is stored for a refused request."""
-    params = cohort_params(session, body.model_dump(mode="json", exclude={"label"}))
-    job = services.jobs.submit(kind="cohort", params=params, resource={}, label=body.label)
-    response.headers["Location"] = job["result_url"]
-    return job
 
 
 @router.get("/options", response_model=list[CohortOptionInfo])
@@ -40,27 +26,13 @@ def cohort_options() -> list[dict[str, Any]]:
     return cohort_option_info()
 
 
-def _out(item: dict[str, Any]) -> dict[str, Any]:
+def _out(session: Session, item: dict[str, Any]) -> dict[str, Any]:
     return {**item, "groups": item["job"]["params"].get("groups") or {}}
 
 
-@router.get("", response_model=Page[CohortOut])
-def list_cohorts(
-    session: SessionDep,
-    limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
-    state: JobState | None = None,
-) -> dict[str, Any]:
-    """Cohort comparisons, newest first."""
-    items, total = list_results(session, "cohort", limit=limit, offset=offset, state=state)
-    return {"items": [_out(i) for i in items], "total": total, "limit": limit, "offset": offset}
-
-
-@router.get("/{cohort_id:int}", response_model=CohortOut)
-def get_cohort(session: SessionDep, cohort_id: IdPath) -> dict[str, Any]:
-    row = get_result_row(session, "cohort", cohort_id)
-    job = job_of(session, row.id)
-    return _out({"id": row.id, "label": job["label"], "job": job, "result": row.result})
+def _submit(body: CohortRequest, session: Session, services: Services) -> dict[str, Any]:
+    params = cohort_params(session, body.model_dump(mode="json", exclude={"label"}))
+    return services.jobs.submit(kind="cohort", params=params, resource={}, label=body.label)
 
 
 @router.get(
@@ -81,14 +53,21 @@ def get_cohort_csv(session: SessionDep, cohort_id: IdPath) -> Response:
     )
 
 
-@router.delete("/{cohort_id:int}", status_code=204, dependencies=[WriteAccess])
-def delete_cohort(services: ServicesDep, session: SessionDep, cohort_id: IdPath) -> Response:
-    """Delete a comparison (its job and result); one still queued or running is cancelled
-    first."""
-    get_result_row(session, "cohort", cohort_id)  # 404 when there is none
-    if job_of(session, cohort_id)["state"] in ("queued", "running"):
-        with contextlib.suppress(ConflictError):  # it ended meanwhile
-            services.jobs.cancel(cohort_id)
-    if not delete_job(session, services.blobs, cohort_id):
-        raise ApiError(404, f"cohort {cohort_id} does not exist")
-    return Response(status_code=204)
+_SUBMIT_DOC = """Queue a comparison of groups of stored recordings (``bioplan cohort``): explicit
+``groups`` of recording ids, or the recordings grouped by their condition. Progress is
+reported per recording file. A missing recording is a 404 naming the field; a recording
+in two groups a 422; a recording without a condition or anything to measure, or fewer
+than two conditions, a 409. Nothing is stored for a refused request."""
+_LIST_DOC = "Cohort comparisons, newest first."
+_DELETE_DOC = """Delete a comparison (its job and result); one still queued or running is cancelled
+first."""
+
+
+_DOCS = {"submit": _SUBMIT_DOC, "list": _LIST_DOC, "delete": _DELETE_DOC}
+add_result_routes(
+    router,
+    ResultRoutes(
+        "cohort", response_model=CohortOut, shape=_out, submit=_submit, request=CohortRequest,
+        delete=True, docs=_DOCS,
+    ),
+)  # fmt: skip

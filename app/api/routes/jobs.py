@@ -14,6 +14,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import StreamingResponse
+from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 from starlette.types import Receive, Scope, Send
 
@@ -74,6 +75,28 @@ def get_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
 def cancel_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
     """Cancel a queued or running job (a running one is stopped); 409 when it already ended."""
     return jobs.cancel(job_id)
+
+
+class JobLog(BaseModel):
+    """A job's log: the science packages' records at INFO and above (``app.logs``)."""
+
+    job_id: int
+    state: JobState
+    complete: bool = Field(
+        description="the job ended and this is all of its log; while it is queued or running "
+        "the log is not here yet (a running job's lines arrive with its end)"
+    )
+    lines: list[str] = Field(
+        description="oldest first, one record each ('HH:MM:SS LEVEL logger: message'); the "
+        "last 500 lines and at most 64 kB (a first line says how many were left out); "
+        "folders cut from paths"
+    )
+
+
+@router.get("/{job_id:int}/log", response_model=JobLog)
+def get_job_log(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
+    """What the job's science said while it ran: methods, solve times, channels, failures."""
+    return jobs.log(job_id)
 
 
 def _open_stream(request: Request, services: Services) -> StreamTicket:

@@ -86,6 +86,7 @@ _FORMS = {
     "plan": "PlanRequest",
     "simulation": "SimulationRequest",
     "sweep": "SweepRequest",
+    "front": "FrontRequest",
     "analysis": "AnalysisRequest",
     "recording_patch": "RecordingPatch",
     "upload": "Body_upload_recording_api_recordings_post",

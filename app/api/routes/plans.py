@@ -5,80 +5,16 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Query
 
-from app.api.checks import check_task
-from app.api.deps import RobotsDep, ServicesDep, SessionDep, SettingsDep, WriteAccess
+from app.api.deps import SessionDep
 from app.api.errors import ApiError
-from app.api.routes._common import (
-    EXPORT_RESPONSES,
-    MAX_POINTS,
-    PROBLEM_RESPONSES,
-    AllowUnsafeQuery,
-    ArrayNames,
-    ForceQuery,
-    FormatQuery,
-    FromPositionQuery,
-    GoalQuery,
-    IdPath,
-    MethodQuery,
-    RateQuery,
-    SamplesQuery,
-    TopicQuery,
-    trajectory_out,
-)
-from app.api.schemas import (
-    ArraysOut,
-    Job,
-    JobState,
-    LabelPatch,
-    Page,
-    PlanComparison,
-    PlanRequest,
-    ResultOut,
-    left_out,
-)
-from app.services.results import (
-    get_result_row,
-    job_of,
-    list_results,
-    relabel,
-    result_arrays,
-    result_out,
-)
+from app.api.routes._common import PROBLEM_RESPONSES
+from app.api.routes._results import ResultRoutes, add_result_routes
+from app.api.schemas import PlanComparison, PlanRequest
+from app.services.results import get_result_row, job_of
 
 router = APIRouter(prefix="/api/plans", tags=["plans"], responses=PROBLEM_RESPONSES)
-
-
-@router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
-def submit_plan(
-    body: PlanRequest, session: SessionDep, services: ServicesDep, response: Response
-) -> dict[str, Any]:
-    """Queue a plan (``bioplan plan``); the result is the CLI's ``--json`` output."""
-    check_task(body, session, services)
-    job = services.jobs.submit(
-        kind="plan",
-        params=body.model_dump(mode="json", exclude={"label"}),
-        resource={"robot": body.robot},
-        label=body.label,
-        left_out=left_out(body),
-    )
-    response.headers["Location"] = job["result_url"]
-    return job
-
-
-@router.get("", response_model=Page[ResultOut])
-def list_plans(
-    session: SessionDep,
-    limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
-    state: JobState | None = None,
-    robot: Annotated[str | None, Query(max_length=100)] = None,
-) -> dict[str, Any]:
-    items, total = list_results(
-        session, "plan", limit=limit, offset=offset, state=state, robot=robot
-    )
-    return {"items": items, "total": total, "limit": limit, "offset": offset}
 
 
 def _diff(a: Any, b: Any) -> dict[str, Any] | None:
@@ -135,65 +71,8 @@ def compare_plans(
     }
 
 
-@router.get("/{plan_id:int}", response_model=ResultOut)
-def get_plan(session: SessionDep, plan_id: IdPath) -> dict[str, Any]:
-    return result_out(session, "plan", plan_id)
-
-
-@router.patch("/{plan_id:int}", response_model=ResultOut, dependencies=[WriteAccess])
-def relabel_plan(session: SessionDep, plan_id: IdPath, body: LabelPatch) -> dict[str, Any]:
-    """Give the plan a short name (shown in every list), or remove it with ``null``."""
-    return relabel(session, "plan", plan_id, body.label)
-
-
-@router.get("/{plan_id:int}/arrays", response_model=ArraysOut)
-def get_plan_arrays(
-    session: SessionDep,
-    plan_id: IdPath,
-    points: Annotated[int, Query(ge=2, le=MAX_POINTS)] = 500,
-    name: ArrayNames = None,
-) -> dict[str, Any]:
-    """Time grid and, per trajectory, q, qd, qdd, tau [SI], power [W], energy [J]."""
-    return result_arrays(session, "plan", plan_id, points=points, names=name)
-
-
-@router.get(
-    "/{plan_id:int}/trajectory",
-    response_class=Response,
-    responses=EXPORT_RESPONSES,
+_SUBMIT_DOC = "Queue a plan (``bioplan plan``); the result is the CLI's ``--json`` output."
+_ARRAYS_DOC = "Time grid and, per trajectory, q, qd, qdd, tau [SI], power [W], energy [J]."
+add_result_routes(
+    router, ResultRoutes.robot_task("plan", PlanRequest, submit=_SUBMIT_DOC, arrays=_ARRAYS_DOC)
 )
-def get_plan_trajectory(
-    session: SessionDep,
-    robots: RobotsDep,
-    plan_id: IdPath,
-    format: FormatQuery,
-    settings: SettingsDep,
-    rate: RateQuery = None,
-    method: MethodQuery = None,
-    samples: SamplesQuery = None,
-    force: ForceQuery = False,
-    allow_unsafe: AllowUnsafeQuery = False,
-    goal: GoalQuery = False,
-    topic: TopicQuery = None,
-    from_position: FromPositionQuery = None,
-) -> Response:
-    """One method's trajectory as a file (``bioplan export``): csv, json, yaml (ROS 2
-    JointTrajectory), mcap (rosbag2), script (URScript) or mot (OpenSim); ``docs/export.md``.
-    A file past the robot's limits or into a contact is refused (409) unless ``force`` /
-    ``allow_unsafe``, which the file records."""
-    return trajectory_out(
-        session,
-        robots,
-        "plan",
-        plan_id,
-        fmt=format,
-        rate=rate,
-        method=method,
-        samples=samples,
-        max_samples=settings.max_export_samples,
-        force=force,
-        allow_unsafe=allow_unsafe,
-        goal=goal,
-        topic=topic,
-        from_position=from_position,
-    )

@@ -1,16 +1,17 @@
 """Pose extractions: the jobs that turn an uploaded video into landmarks (read only; a video
 upload or ``POST /api/recordings/{id}/pose`` starts them, ``POST /api/jobs/{id}/cancel`` stops
-one and its worker)."""
+one and its worker); the list and get routes are made by ``app.api.routes._results``."""
 
 from __future__ import annotations
 
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Query
+from sqlalchemy.orm import Session
 
-from app.api.deps import SessionDep
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath
-from app.api.schemas import JobState, Page, PoseOut
+from app.api.routes._common import PROBLEM_RESPONSES
+from app.api.routes._results import ResultRoutes, add_result_routes
+from app.api.schemas import PoseOut
 from app.services.results import get_result_row, job_of, pose_page
 
 router = APIRouter(prefix="/api/poses", tags=["recordings"], responses=PROBLEM_RESPONSES)
@@ -26,27 +27,35 @@ def _out(row: Any, job: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-@router.get("", response_model=Page[PoseOut])
-def list_poses(
-    session: SessionDep,
-    limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
-    state: JobState | None = None,
-    recording_id: Annotated[
-        int | None, Query(ge=1, le=2**31 - 1, description="only this recording's")
-    ] = None,
-) -> dict[str, Any]:
-    """Pose extractions, newest first; filter by job state and by recording."""
-    rows, total = pose_page(
-        session, limit=limit, offset=offset, state=state, recording_id=recording_id
-    )
-    items = [_out(row, job) for row, job in rows]
-    return {"items": items, "total": total, "limit": limit, "offset": offset}
+def _page(session: Session, **query: Any) -> tuple[list[dict[str, Any]], int]:
+    rows, total = pose_page(session, **query)
+    return [_out(row, job) for row, job in rows], total
 
 
-@router.get("/{pose_id:int}", response_model=PoseOut)
-def get_pose(session: SessionDep, pose_id: IdPath) -> dict[str, Any]:
-    """A pose job and, once it succeeded: frames, frames with a person, fps, image size,
-    warnings, the landmarks file's id and how many skeleton frames were kept."""
+def _item(session: Session, pose_id: int) -> dict[str, Any]:
     row = get_result_row(session, "pose", pose_id)
     return _out(row, job_of(session, row.id))
+
+
+_GET_DOC = """A pose job and, once it succeeded: frames, frames with a person, fps, image size,
+warnings, the landmarks file's id and how many skeleton frames were kept."""
+
+
+add_result_routes(
+    router,
+    ResultRoutes(
+        kind="pose",
+        response_model=PoseOut,
+        filters={
+            "recording_id": Annotated[
+                int | None, Query(ge=1, le=2**31 - 1, description="only this recording's")
+            ]
+        },
+        page=_page,
+        item=_item,
+        docs={
+            "list": "Pose extractions, newest first; filter by job state and by recording.",
+            "get": _GET_DOC,
+        },
+    ),
+)

@@ -6,20 +6,19 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from fastapi import APIRouter, File, Form, Query, Response, UploadFile
+from sqlalchemy.orm import Session
 
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, upload_name
+from app.api.routes._results import ResultRoutes, add_result_routes
 from app.api.schemas import (
     ROBOT_NAME,
     IdentificationOut,
     IdentifyRequest,
-    Job,
-    JobState,
-    Page,
     RobotLogOut,
 )
-from app.services import robot_logs
+from app.services import Services, robot_logs
 from app.services.results import get_result_row, job_of, list_results
 from app.services.robots import check_data_quota
 
@@ -126,64 +125,58 @@ def delete_robot_log(services: ServicesDep, session: SessionDep, log_id: IdPath)
     return Response(status_code=204)
 
 
-@identifications.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])
-def submit_identification(
-    body: IdentifyRequest,
-    services: ServicesDep,
-    session: SessionDep,
-    robots: RobotsDep,
-    response: Response,
-) -> dict[str, Any]:
-    """Queue an identification (``bioplan identify``) from stored logs of one uploaded robot;
-    on success the identified robot is stored as ``version`` (its nominal files with the
-    identified sidecar), ready for plans and simulations. A log too short to identify from is a
-    422, a built-in robot or a taken name a 409; nothing is stored for a refused request."""
+def _submit(body: IdentifyRequest, session: Session, services: Services) -> dict[str, Any]:
     params = robot_logs.identify_params(
         session,
-        robots,
+        services.robots,
         log_ids=body.log_ids,
         version=body.version,
         validate_fraction=body.validate_fraction,
         cutoff_hz=body.cutoff_hz,
         identify_payload=body.identify_payload,
     )
-    job = services.jobs.submit(
+    return services.jobs.submit(
         kind="identify",
         params=params,
         resource={"robot": params["robot"], "version": params["version"]},
         label=body.label,
     )
-    response.headers["Location"] = job["result_url"]
-    return job
 
 
-def _out(session: Any, row: Any) -> dict[str, Any]:
-    job = job_of(session, row.id)
+def _item(session: Session, identification_id: int) -> dict[str, Any]:
+    row = get_result_row(session, "identify", identification_id)
     return {
         "id": row.id,
         "robot": row.robot,
         "version": row.version,
-        "job": job,
+        "job": job_of(session, row.id),
         "result": row.result,
     }
 
 
-@identifications.get("", response_model=Page[IdentificationOut])
-def list_identifications(
-    session: SessionDep,
-    limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
-    state: JobState | None = None,
-    robot: Annotated[str | None, Query(pattern=ROBOT_NAME)] = None,
-) -> dict[str, Any]:
-    """Identifications, newest first."""
-    items, total = list_results(
-        session, "identify", limit=limit, offset=offset, state=state, robot=robot
-    )
-    out = [_out(session, get_result_row(session, "identify", int(item["id"]))) for item in items]
-    return {"items": out, "total": total, "limit": limit, "offset": offset}
+def _page(session: Session, **query: Any) -> tuple[list[dict[str, Any]], int]:
+    items, total = list_results(session, "identify", **query)
+    return [_item(session, int(item["id"])) for item in items], total
 
 
-@identifications.get("/{identification_id:int}", response_model=IdentificationOut)
-def get_identification(session: SessionDep, identification_id: IdPath) -> dict[str, Any]:
-    return _out(session, get_result_row(session, "identify", identification_id))
+_SUBMIT_DOC = """\
+Queue an identification (``bioplan identify``) from stored logs of one uploaded robot;
+on success the identified robot is stored as ``version`` (its nominal files with the
+identified sidecar), ready for plans and simulations. A log too short to identify from is a
+422, a built-in robot or a taken name a 409; nothing is stored for a refused request."""
+
+add_result_routes(
+    identifications,
+    ResultRoutes(
+        kind="identify",
+        noun="identification",
+        plural="identifications",
+        response_model=IdentificationOut,
+        filters={"robot": Annotated[str | None, Query(pattern=ROBOT_NAME)]},
+        page=_page,
+        item=_item,
+        submit=_submit,
+        request=IdentifyRequest,
+        docs={"submit": _SUBMIT_DOC, "list": "Identifications, newest first."},
+    ),
+)

@@ -4,7 +4,7 @@ import { api, setToken, token } from "./api.js";
 import { mountJobDrawer } from "./jobs_drawer.js";
 import { loadNames } from "./names.js";
 import { colours } from "./plots.js";
-import { banner, clear, messageOf } from "./ui.js";
+import { banner, clear, h, messageOf } from "./ui.js";
 
 const routes = [
   { re: /^#\/recordings\/(\d+)$/, page: "recordings", load: () => import("./recording.js") },
@@ -12,6 +12,8 @@ const routes = [
   { re: /^#\/plan\/?(?:\?(.*))?$/, page: "plan", load: () => import("./plan.js") },
   { re: /^#\/cohort(?:\/(\d+))?\/?$/, page: "cohort", load: () => import("./cohort.js") },
   { re: /^#\/validate(?:\/(\d+))?\/?$/, page: "validate", load: () => import("./validate.js") },
+  // Trade-offs under Compare: the Pareto fronts (front.js), one reopened by its id.
+  { re: /^#\/compare\/fronts(?:\/(\d+))?\/?$/, page: "compare", load: () => import("./front.js") },
   // Query: ?methods=a,b (the pair shown), ?sweep=ID (that sweep's heat maps).
   { re: /^#\/?compare(?:\/(plan|simulation)\/(\d+))?\/?(?:\?(.*))?$/, page: "compare", load: () => import("./compare.js") },
 ];
@@ -19,10 +21,12 @@ const routes = [
 const main = /** @type {HTMLElement} */ (document.getElementById("app"));
 let current = null; // the page's cleanup function
 let drawerMounted = false;
+let visits = 0; // which route() call is the latest
 
 async function route() {
   const hash = location.hash || "#/recordings";
   const match = /** @type {[typeof routes[number], RegExpMatchArray] | undefined} */ (routes.map((r) => [r, hash.match(r.re)]).find(([, m]) => m));
+  const visit = ++visits;
   if (current) {
     try {
       current();
@@ -38,6 +42,11 @@ async function route() {
     return;
   }
   const [r, m] = match;
+  // Each visit renders into its own box: a page still loading when the visitor moves on (the
+  // Compare page's link to the trade-offs, a tab) goes on filling its own detached box, not the
+  // next page, and its cleanup runs as soon as it is known.
+  const view = h("div", { class: "page-view" });
+  main.append(view);
   try {
     await loadNames();
     if (!drawerMounted) {
@@ -49,11 +58,13 @@ async function route() {
     for (const [k, v] of Object.entries({ "--std": colours().standard, "--opt": colours().optimized })) {
       document.documentElement.style.setProperty(k, v);
     }
-    // Every page module renders into `main` from the route's captured groups.
+    // Every page module renders into its box from the route's captured groups.
     const mod = /** @type {{ render: (main: HTMLElement, args: string[]) => Promise<any> }} */ (await r.load());
-    current = (await mod.render(main, m.slice(1))) || null;
+    const cleanup = (await mod.render(view, m.slice(1))) || null;
+    if (visit === visits) current = cleanup;
+    else if (cleanup) cleanup();
   } catch (err) {
-    main.append(banner("error", `This page could not be shown: ${messageOf(err)}`));
+    view.append(banner("error", `This page could not be shown: ${messageOf(err)}`));
   }
   main.focus({ preventScroll: true });
 }

@@ -23,7 +23,8 @@ const FLOOR_TEXT = {
 };
 // Said plainly where a metric has no physical floor (tau_sq, peak_torque, torque_change).
 const NO_FLOOR = "no floor";
-const EXPORT_FORMATS = [
+/** The trajectory formats a plan exports in ([format, what it is]); a front's points too (front.js). */
+export const EXPORT_FORMATS = [
   ["csv", "CSV (t, q, qd, qdd, tau per joint)"], ["json", "JSON"], ["yaml", "YAML (ROS 2 JointTrajectory)"],
   ["mcap", "MCAP (rosbag2)"], ["script", "URScript"], ["mot", "OpenSim .mot"],
 ];
@@ -132,7 +133,8 @@ export async function render(main, [kindArg, idArg, query]) {
     ...plans.items.map((x) => ({ kind: "plan", item: x })),
   ].sort((a, b) => b.item.id - a.item.id);
 
-  const head = h("div", { class: "page-head" }, h("h1", {}, "Compare the planning methods"));
+  const head = h("div", { class: "page-head" }, h("h1", {}, "Compare the planning methods"),
+    h("a", { class: "button small", id: "open-fronts", href: "#/compare/fronts" }, "Trade-offs: Pareto fronts →"));
   main.append(head);
   if (!options.length) {
     main.append(banner("info", "No finished plan or simulation yet. "), h("a", { class: "button primary", href: "#/plan" }, "Plan one"));
@@ -423,6 +425,17 @@ async function drawHuman(card, data, curvesOf) {
 }
 
 /**
+ * The viewer's URL as this page can reach it: the viewer listens on its own port; on a wildcard
+ * bind the host the page came from.
+ * @param {{ host: string, url: string }} viewer an enabled viewer's address from the API
+ * @returns {string}
+ */
+export function viewerUrl(viewer) {
+  const host = ["0.0.0.0", "::", ""].includes(viewer.host) ? location.hostname : viewer.host;
+  return viewer.url.replaceAll(`${viewer.host}:`, `${host}:`);
+}
+
+/**
  * @param {string} kind
  * @param {number} id
  * @param {ComparisonView} data
@@ -452,9 +465,7 @@ function viewerCard(kind, id, data, pair) {
     ),
   );
   if (data.viewer.enabled) {
-    // The viewer listens on its own port; on a wildcard bind use the host the page came from.
-    const host = ["0.0.0.0", "::", ""].includes(data.viewer.host) ? location.hostname : data.viewer.host;
-    const url = data.viewer.url.replaceAll(`${data.viewer.host}:`, `${host}:`);
+    const url = viewerUrl(data.viewer);
     card.append(
       h("iframe", { class: "viewer-frame", id: "viewer-frame", src: url, title: "3-D comparison viewer", allow: "fullscreen" }),
       h("p", { class: "small muted" }, "Each tab gets its own scene. ", h("a", { href: url, target: "_blank", rel: "noopener" }, "Open the viewer alone ↗")),
@@ -465,10 +476,17 @@ function viewerCard(kind, id, data, pair) {
   return card;
 }
 
-/** Fetch a file with the API token, show busy and errors on the button, then save it. */
-async function download(url, button, status) {
+/**
+ * Fetch a file with the API token, show busy and errors on the button, then save it.
+ * @param {string} url
+ * @param {HTMLButtonElement | HTMLAnchorElement} button what was clicked: disabled (a link:
+ *   aria-disabled) and "Preparing…" meanwhile
+ * @param {HTMLElement} status where the saved file or the refusal is said
+ */
+export async function download(url, button, status) {
   const label = button.textContent;
-  button.disabled = true;
+  const busy = (on) => (button instanceof HTMLButtonElement ? (button.disabled = on) : button.toggleAttribute("aria-disabled", on));
+  busy(true);
   button.textContent = "Preparing…";
   status.textContent = "";
   status.className = "small muted";
@@ -496,7 +514,7 @@ async function download(url, button, status) {
     status.textContent = messageOf(err);
     status.className = "small worse";
   } finally {
-    button.disabled = false;
+    busy(false);
     button.textContent = label;
   }
 }

@@ -1,7 +1,8 @@
 // The job drawer on every page: running and recent jobs with progress, cancel and a link to the
 // result, updated live from one Server-Sent Events stream (GET /api/events/jobs). It lives in
 // the shell, not in a page, so it survives navigation; the server keeps the jobs, so a reload
-// shows them again.
+// shows them again. Each job has a "Log" toggle: what its science said while it ran (GET
+// /api/jobs/{id}/log: methods, solve times, channels, failures), read once it has ended.
 
 import { api, qs } from "./api.js";
 import { isTerminal } from "./names.js";
@@ -26,7 +27,26 @@ export function resultLink(job) {
   return null;
 }
 
-function jobItem(job, onCancel) {
+/**
+ * A job's log as shown under it: the lines, or why there are none (yet).
+ * @param {{id: number, state: string}} job
+ * @param {string[] | string | undefined} log the lines, an error, or undefined while read
+ */
+function logView(job, log) {
+  const text = !isTerminal(job.state) ? "The log arrives when the job ends."
+    : log === undefined ? "Reading the log…"
+      : typeof log === "string" ? `The log cannot be read: ${log}`
+        : log.length ? log.join("\n") : "Nothing logged.";
+  return h("pre", { class: "job-log small mono", dataset: { jobId: String(job.id) }, style: "max-height:16em; overflow:auto; white-space:pre-wrap; margin:2px 0" }, text);
+}
+
+/**
+ * One job of the drawer.
+ * @param {any} job a JobSummary
+ * @param {(job: any, button: HTMLButtonElement) => void} onCancel
+ * @param {{open: boolean, log: string[] | string | undefined, toggle: (job: any) => void}} log
+ */
+function jobItem(job, onCancel, log) {
   const active = !isTerminal(job.state);
   const pctDone = Math.round(100 * job.progress);
   const link = job.state === "succeeded" ? resultLink(job) : null;
@@ -40,7 +60,9 @@ function jobItem(job, onCancel) {
     active ? h("div", { class: "progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": String(pctDone) },
       h("div", { style: `width:${pctDone}%` })) : null,
     detail ? h("div", { class: `small ${job.state === "failed" ? "error-text" : "muted"}` }, detail) : null,
+    log.open ? logView(job, log.log) : null,
     h("div", { class: "row" },
+      h("button", { type: "button", class: "small job-log-toggle", "aria-expanded": String(log.open), onclick: () => log.toggle(job) }, log.open ? "Hide log" : "Log"),
       link ? h("a", { class: "job-open", href: link[0] }, `${link[1]} →`) : null,
       // A running plan: its progress and convergence curve on the Plan page.
       active && (job.kind === "plan" || job.kind === "simulation") ? h("a", { class: "job-follow", href: `#/plan?job=${job.id}` }, "Progress →") : null,
@@ -51,6 +73,9 @@ function jobItem(job, onCancel) {
 /** Mount the drawer: the header button toggles it; returns nothing (it lives as long as the page). */
 export function mountJobDrawer(button, drawer) {
   const jobs = new Map(); // id -> JobSummary
+  const openLogs = new Set(); // ids whose log is shown
+  /** @type {Map<number, string[] | string>} an ended job's log lines, or why they cannot be read */
+  const logs = new Map();
   const list = h("ul", { class: "job-list", id: "job-list" });
   const note = h("div", { id: "job-drawer-note", class: "small muted" });
   const count = button.querySelector("#jobs-count");
@@ -83,12 +108,38 @@ export function mountJobDrawer(button, drawer) {
     }
   }
 
+  const reading = new Set(); // ids whose log is being read
+
+  /** Read an ended job's log once (it does not change any more), then show it. */
+  async function readLog(job) {
+    reading.add(job.id);
+    try {
+      const body = await api(`/api/jobs/${job.id}/log`);
+      logs.set(job.id, body.complete ? body.lines : `job #${job.id} has not ended yet`);
+    } catch (err) {
+      logs.set(job.id, messageOf(err));
+    }
+    reading.delete(job.id);
+    render();
+  }
+
+  function toggleLog(job) {
+    if (openLogs.has(job.id)) openLogs.delete(job.id);
+    else openLogs.add(job.id);
+    if (typeof logs.get(job.id) === "string") logs.delete(job.id); // a failed read: try again
+    render();
+  }
+
   function render() {
     const sorted = [...jobs.values()].sort((a, b) => b.id - a.id);
     const running = sorted.filter((j) => !isTerminal(j.state));
     // Every active job, then the newest finished ones.
     const shown = running.concat(sorted.filter((j) => isTerminal(j.state)).slice(0, RECENT));
-    clear(list).append(...shown.map((j) => jobItem(j, cancel)));
+    for (const j of shown) {
+      // A shown log of a job that just ended: read it now.
+      if (openLogs.has(j.id) && isTerminal(j.state) && !logs.has(j.id) && !reading.has(j.id)) readLog(j);
+    }
+    clear(list).append(...shown.map((j) => jobItem(j, cancel, { open: openLogs.has(j.id), log: logs.get(j.id), toggle: toggleLog })));
     if (!shown.length) list.append(h("li", { class: "muted small" }, "No jobs yet: analyses, plans, simulations and sweeps appear here while they run."));
     if (String(running.length) !== (count.textContent || "0")) {
       // The header's status line says how many run: it reads them again at once.

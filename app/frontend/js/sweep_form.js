@@ -23,6 +23,39 @@ export function numberList(text, what) {
 }
 
 /**
+ * A job's progress as the forms show it: its name and state, a bar, and one line per update
+ * (the sweep's cells, a front's points). The pages' tests find the parts by `ids`.
+ * @param {{ state: string, message: string }} job the job as submitted
+ * @param {string} title e.g. "Sweep #3"
+ * @param {{ progress: string, state: string, detail: string }} ids of the bar, the state tag and the line
+ * @param {(job: any) => string} detail an update's line
+ * @returns {{ element: HTMLElement, update: (job: any) => void, finish: (job: any) => HTMLElement | null }}
+ *   `update` shows a job update; `finish` marks the bar done or failed and returns, for a job
+ *   that did not succeed, the banner saying so
+ */
+export function jobProgress(job, title, ids, detail) {
+  const bar = h("div", {});
+  const prog = h("div", { class: "progress", id: ids.progress, role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": "0" }, bar);
+  const state = h("span", { id: ids.state }, tag(job.state));
+  const line = h("div", { class: "small muted", id: ids.detail }, job.message);
+  const update = (j) => {
+    const p = Math.round(100 * j.progress);
+    bar.style.width = `${p}%`;
+    prog.setAttribute("aria-valuenow", String(p));
+    clear(state).append(tag(j.state));
+    line.textContent = detail(j);
+  };
+  const finish = (final) => {
+    const ok = final.state === "succeeded";
+    prog.classList.add(ok ? "done" : "failed");
+    if (ok) return null;
+    return banner(final.state === "cancelled" ? "warn" : "error", final.state === "cancelled" ? "Cancelled." : `Failed: ${final.error}`);
+  };
+  const element = h("div", {}, h("div", { class: "row" }, h("strong", {}, title), state), prog, line);
+  return { element, update, finish };
+}
+
+/**
  * The card. `form` reads the plan form's shared choices: () => ({robot, objective, methods,
  * particles, iterations, seed}). `stops` collects the page's cleanup functions.
  */
@@ -33,26 +66,17 @@ export function sweepFormCard(form, stops) {
   const submit = h("button", { type: "submit", class: "primary", id: "submit-sweep" }, "Run the sweep");
 
   function follow(job) {
-    const bar = h("div", {});
-    const prog = h("div", { class: "progress", id: "sweep-progress", role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": "0" }, bar);
-    const state = h("span", { id: "sweep-state" }, tag(job.state));
-    const cells = h("div", { class: "small muted", id: "sweep-cells" }, job.message);
-    clear(status).append(h("div", { class: "row" }, h("strong", {}, `Sweep #${job.id}`), state), prog, cells);
-    const watch = followJob(job, (j) => {
-      const p = Math.round(100 * j.progress);
-      bar.style.width = `${p}%`;
-      prog.setAttribute("aria-valuenow", String(p));
-      clear(state).append(tag(j.state));
-      cells.textContent = j.stage === "sweep" ? `cell ${j.done} of ${j.of} done · ${j.message}` : j.error || j.message;
-    });
+    const box = jobProgress(job, `Sweep #${job.id}`, { progress: "sweep-progress", state: "sweep-state", detail: "sweep-cells" },
+      (j) => (j.stage === "sweep" ? `cell ${j.done} of ${j.of} done · ${j.message}` : j.error || j.message));
+    clear(status).append(box.element);
+    const watch = followJob(job, box.update);
     stops.push(watch.stop);
     watch.done.then(async (final) => {
-      if (final.state !== "succeeded") {
-        prog.classList.add("failed");
-        status.append(banner(final.state === "cancelled" ? "warn" : "error", final.state === "cancelled" ? "Cancelled." : `Failed: ${final.error}`));
+      const failed = box.finish(final);
+      if (failed) {
+        status.append(failed);
         return;
       }
-      prog.classList.add("done");
       // That sweep's heat maps, beside a comparison of its robot.
       status.append(h("a", { class: "button", id: "open-sweep", href: `#/compare?sweep=${final.id}` }, "Heat maps per method on Compare →"));
     });

@@ -168,3 +168,95 @@ export interface Meta {
   job_states: string[];
   terminal_job_states: string[];
 }
+
+/** The mesh refinement of one optimal-control solve of a front (app/planning/front.py `_solve`). */
+export interface FrontConvergence {
+  /** Each mesh solved: its intervals and the objective on it, or why it failed. */
+  sequence: { n_intervals: number; objective?: number; error?: string }[];
+  /** |change| of the objective between the last two meshes over its value; null: one mesh. */
+  relative_change: number | null;
+  converged: boolean;
+  final_intervals: number;
+  tolerance: number;
+}
+
+/** One point of a front (app/planning/front.py `FrontPoint.to_dict`); its axis values (every
+ * metric of FRONT_AXES and `duration`) are read by name, so they are indexed, not listed. */
+export interface FrontPoint {
+  id: string;
+  /** Peak |τ| by joint name [Nm]. */
+  peak_torques: Record<string, number>;
+  /** The elbow speed profile's distance to the template's (0 = the same). */
+  human_likeness: number;
+  /** The bound on B this point was solved under; null at the ends. */
+  epsilon: number | null;
+  /** "A end", "B end" or null. */
+  end: string | null;
+  knee: boolean;
+  convergence: FrontConvergence;
+  violations: string[];
+  [axis: string]: unknown;
+}
+
+/** A reference method's values at the front's duration, or why it failed there. */
+export interface FrontReference {
+  error?: string;
+  [axis: string]: unknown;
+}
+
+/** A front's result (`Front.to_dict` plus the service's `references` and `methods`). */
+export interface FrontResult {
+  robot: string;
+  payload_mass: number;
+  /** [A, B]: A is minimised with B <= epsilon. */
+  objectives: [string, string];
+  method: string;
+  /** The fixed duration [s]; null when duration is an axis. */
+  duration: number | null;
+  rules: string[];
+  /** The knee point's id, or null. */
+  knee: string | null;
+  /** Non-dominated, sorted by A (B falling). */
+  points: FrontPoint[];
+  shortest_duration: { duration: number; infeasible_below: number | null } | null;
+  dropped: Record<string, unknown>[];
+  solves: number;
+  seconds: number;
+  notes: string[];
+  /** quintic, paper, jerk_limited: the same metric keys as a point, or `error`. */
+  references?: Record<string, FrontReference>;
+  /** The ids that can be viewed and exported ("quintic", "p0", ...). */
+  methods?: string[];
+}
+
+/** A job as the pages read it (app/api/schemas.py `Job`). */
+export interface JobInfo {
+  id: number;
+  kind: string;
+  state: string;
+  progress: number;
+  stage: string;
+  done: number;
+  of: number;
+  message: string;
+  error: string | null;
+  finished_at: string | null;
+  params: Record<string, any>;
+  result_url: string;
+  events_url: string;
+}
+
+/** GET /api/fronts/{id} (app/api/schemas.py `ResultOut`). */
+export interface FrontOut {
+  id: number;
+  robot: string;
+  label: string | null;
+  job: JobInfo;
+  result: FrontResult | null;
+}
+
+/** GET /api/fronts/{id}/points/{pid}/view: the point and the viewer playing it beside the quintic. */
+export interface FrontPointView {
+  point: FrontPoint;
+  viewer: { enabled: boolean; url?: string; path?: string; host?: string; port?: number };
+}

@@ -2,14 +2,17 @@
 
 Two gates, both on the samples actually written (the export rate, the approach included):
 
-- **Limits**: every free joint's position, speed and torque against the robot's limits
+- **Limits**: every limit the robot states, on every free joint: position, speed and torque
   (``q_min``/``q_max`` [rad], ``qd_max`` [rad/s], ``tau_max`` [Nm]: what a URDF's ``<limit>``
-  states and the planner enforces). Acceleration is checked against limits given explicitly
-  (``qdd_max`` of :func:`limit_exceedances`); an export passes none, because no robot source
-  states one: a URDF has no acceleration limit, and the ``<joint>.acceleration`` rows of the
-  built-in robots are the jerk-limited baseline's assumed controller settings (the optimal
-  methods exceed them by design). An excess above ``LIMIT_TOL * max(1, |limit|)`` (round-off)
-  refuses the export unless it is forced, and a forced file records what was exceeded.
+  states and the planner enforces), and acceleration [rad/s^2] and jerk [rad/s^3] where the
+  robot states them (``Robot.stated_limits``: a sidecar's ``acceleration_limits`` and
+  ``jerk_limits``, or limits given explicitly). A URDF states no acceleration or jerk limit,
+  and the ``<joint>.acceleration``/``.jerk`` rows of the built-in robots are the jerk-limited
+  baseline's assumed controller settings (the optimal methods exceed them by design): those
+  are not gated, and the file says so. The jerk is the samples' finite difference of the
+  acceleration (by the mean value theorem never above the true peak, so a refusal is never
+  spurious). An excess above ``LIMIT_TOL * max(1, |limit|)`` (round-off) refuses the export
+  unless it is forced, and a forced file records what was exceeded.
 - **Safety**: the plan's ``safety`` block (collision and workspace check, when the plan has
   one). A method with a contact (``ok`` false and a finding of that method) is refused unless
   the user allows it (``allow_unsafe``), which the file records; a plan without the check (no
@@ -38,6 +41,8 @@ __all__ = [
     "ExportRefused",
     "limit_exceedances",
     "safety_status",
+    "stated_controller_limits",
+    "unstated_limits",
 ]
 
 #: Relative excess over a limit that is round-off, not an exceedance [-] (as ``check_limits``).
@@ -55,8 +60,9 @@ class Exceedance:
 
     Attributes:
         joint: joint name.
-        limit: ``position``, ``velocity``, ``acceleration`` or ``effort``.
-        bound: the limit [rad, rad/s, rad/s^2 or Nm] (signed for position: the bound crossed).
+        limit: ``position``, ``velocity``, ``acceleration``, ``jerk`` or ``effort``.
+        bound: the limit [rad, rad/s, rad/s^2, rad/s^3 or Nm] (signed for position: the bound
+            crossed).
         value: the exported value there (signed for position, magnitude otherwise).
         time: its time in the exported file [s].
         unit: the unit of ``bound`` and ``value``.
@@ -101,16 +107,44 @@ def _num(x: float) -> str:
     return f"{x:.6g}"
 
 
+def stated_controller_limits(robot: Robot, kind: str) -> np.ndarray:
+    """(n,) the robot's ``acceleration`` [rad/s^2] or ``jerk`` [rad/s^3] limits where it states
+    them (``Robot.stated_limits``), inf elsewhere (not checked)."""
+    values = np.asarray(robot.qdd_max if kind == "acceleration" else robot.jerk_max, float)
+    stated = set(robot.stated_limits.get(kind, ()))
+    return np.array(
+        [
+            v if name in stated else math.inf
+            for name, v in zip(robot.joint_names, values, strict=True)
+        ]
+    )
+
+
+def unstated_limits(robot: Robot) -> tuple[str, ...]:
+    """The controller limits (``acceleration``, ``jerk``) the robot does not state for every
+    joint, each with the joints it does state it for, e.g. ``jerk (stated for: j1)``."""
+    out = []
+    for kind in ("acceleration", "jerk"):
+        stated = [n for n in robot.joint_names if n in set(robot.stated_limits.get(kind, ()))]
+        if len(stated) < robot.n_joints:
+            out.append(kind + (f" (stated for {' '.join(stated)} only)" if stated else ""))
+    return tuple(out)
+
+
 def limit_exceedances(
-    samples: Samples, robot: Robot, *, qdd_max: np.ndarray | None = None
+    samples: Samples,
+    robot: Robot,
+    *,
+    qdd_max: np.ndarray | None = None,
+    jerk_max: np.ndarray | None = None,
 ) -> list[Exceedance]:
     """Every (joint, limit) whose exported samples leave the robot's limits, worst first.
 
     Args:
         samples: the samples to be written (T rows of ``robot.joint_names``).
-        robot: the robot (its position, speed and torque limits).
-        qdd_max: (n,) acceleration limits [rad/s^2] to check too (None: not checked; see the
-            module docstring).
+        robot: the robot (its position, speed, torque and stated acceleration and jerk limits).
+        qdd_max, jerk_max: (n,) acceleration [rad/s^2] and jerk [rad/s^3] limits to check
+            instead of the robot's stated ones (inf: not checked; see the module docstring).
 
     Returns:
         One :class:`Exceedance` per joint and limit exceeded (its worst sample), sorted by how
@@ -140,14 +174,14 @@ def limit_exceedances(
     worst(samples.q, np.asarray(robot.q_max), "position", "rad", 1.0)
     worst(samples.q, np.asarray(robot.q_min), "position", "rad", -1.0)
     worst(np.abs(samples.qd), np.asarray(robot.qd_max), "velocity", "rad/s", 1.0)
-    if qdd_max is not None:
-        worst(
-            np.abs(samples.qdd),
-            np.asarray(qdd_max, dtype=np.float64),
-            "acceleration",
-            "rad/s^2",
-            1.0,
-        )
+    if qdd_max is None:
+        qdd_max = stated_controller_limits(robot, "acceleration")
+    worst(np.abs(samples.qdd), np.asarray(qdd_max, float), "acceleration", "rad/s^2", 1.0)
+    if jerk_max is None:
+        jerk_max = stated_controller_limits(robot, "jerk")
+    if samples.t.size > 1 and np.any(np.isfinite(np.asarray(jerk_max, float))):
+        jerk = np.abs(np.gradient(samples.qdd, samples.t, axis=0))
+        worst(jerk, np.asarray(jerk_max, float), "jerk", "rad/s^3", 1.0)
     worst(np.abs(samples.tau), np.asarray(robot.tau_max), "effort", "Nm", 1.0)
     return sorted(out, key=lambda e: -e.ratio)
 
@@ -233,6 +267,8 @@ class ExportNotes:
         safety: the method's :class:`SafetyStatus`.
         allow_unsafe: the user allowed an unsafe method (``--allow-unsafe``).
         extra: further lines (e.g. a URScript for a robot not recognised as a UR).
+        unstated: the controller limits not checked because the robot does not state them
+            (:func:`unstated_limits`).
     """
 
     exceeded: tuple[Exceedance, ...] = ()
@@ -240,6 +276,7 @@ class ExportNotes:
     safety: SafetyStatus = field(default_factory=lambda: SafetyStatus("not checked"))
     allow_unsafe: bool = False
     extra: tuple[str, ...] = ()
+    unstated: tuple[str, ...] = ()
 
     def safety_line(self) -> str:
         s = self.safety
@@ -258,9 +295,21 @@ class ExportNotes:
         worst = "; ".join(e.text() for e in self.exceeded)
         return f"limits: FORCED past the robot's limits: {worst}"
 
+    def unstated_line(self) -> str | None:
+        """What was not checked because the robot states no such limit (None: all checked)."""
+        if not self.unstated:
+            return None
+        return f"limits not stated by the robot (not checked): {'; '.join(self.unstated)}"
+
     def lines(self) -> list[str]:
         """One-line statements for a comment header (no newline inside any)."""
-        return [self.limits_line(), self.safety_line(), *self.extra]
+        unstated = self.unstated_line()
+        return [
+            self.limits_line(),
+            *([unstated] if unstated else []),
+            self.safety_line(),
+            *self.extra,
+        ]
 
     def to_dict(self) -> dict[str, Any]:
         s = self.safety
@@ -275,6 +324,7 @@ class ExportNotes:
                 "reason": s.reason,
             },
             "notes": list(self.extra),
+            "unstated_limits": list(self.unstated),
         }
 
 
@@ -312,4 +362,5 @@ def check_export(
         forced=force,
         safety=status,
         allow_unsafe=allow_unsafe and status.state == "unsafe",
+        unstated=unstated_limits(robot),
     )

@@ -358,7 +358,10 @@ def check_rate(rate: float) -> float:
     return float(rate)
 
 
-def _method_motion(name: str, ev: EvaluatedTrajectory, robot: Robot) -> MethodMotion:
+def method_motion(name: str, ev: EvaluatedTrajectory, robot: Robot) -> MethodMotion:
+    """One evaluated trajectory as method ``name`` of a motion block: its exact knots (an
+    optimum's constant-jerk mesh, a quintic's polynomial) or else its samples, with the torques
+    at a few times to check a rebuilt robot against."""
     traj = ev.trajectory
     if traj.knots is not None:
         kind, knots = "piecewise_quintic", traj.knots
@@ -391,7 +394,7 @@ def plan_motion(result: PlanResult, robot: Robot, *, default_method: str = "pape
         robot: the robot the plan was made with (its spec, joints and locks are recorded).
         default_method: the method exported when none is named.
     """
-    methods = {name: _method_motion(name, ev, robot) for name, ev in plan_methods(result).items()}
+    methods = {name: method_motion(name, ev, robot) for name, ev in plan_methods(result).items()}
     safety = getattr(result, "safety", None)
     if safety is not None and not isinstance(safety, Mapping) and hasattr(safety, "to_dict"):
         safety = safety.to_dict()
