@@ -10,6 +10,7 @@ the JSON summary (degrees at this edge, seconds on the common clock).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -20,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.analysis.emg import (
+    NYQUIST_CAP,
     activation_order,
     detect_onsets,
     emg_process,
@@ -34,6 +36,8 @@ from app.analysis.template import LiftProfile, build_template, consensus_order, 
 from app.names import MAX_VIDEO_SECONDS
 from app.planning.human_template import HumanTemplate
 from app.recordings.types import SITES, Channel, RateCheck, Recording, RecordingError, rate_check
+
+logger = logging.getLogger("bioplan.analysis")
 
 #: EMG onsets are searched from this long before a lift's start [s] (EMG leads the movement;
 #: a muscle that bears the load early switches on well before the forearm moves), but never
@@ -431,6 +435,7 @@ def _process_emg(
             raise RecordingError(
                 exc.message, file=recording.source, channel=exc.channel, expected=exc.expected
             ) from None
+        _log_filters(recording.source, names, rate, emg_options)
         t = start + np.arange(n) / rate
         sat = saturation_flags(x)
         for j, ch in enumerate(group):
@@ -453,6 +458,29 @@ def _process_emg(
                 )
             )
     return out
+
+
+def _log_filters(source: str, names: list[str], rate: float, options: Mapping[str, Any]) -> None:
+    """Say which EMG channels are filtered how (the band's upper edge as capped below Nyquist)."""
+    if not logger.isEnabledFor(logging.INFO):
+        return
+    band = options.get("band", (20.0, 450.0))
+    shown = "none"
+    if band is not None:
+        high = min(float(band[1]), NYQUIST_CAP * rate / 2)
+        capped = f" (capped from {band[1]:g} below Nyquist)" if high < float(band[1]) else ""
+        shown = f"{band[0]:g}-{high:g} Hz{capped}"
+    notch = options.get("notch")
+    envelope = options.get("method", "lowpass")
+    if envelope == "lowpass":
+        envelope = f"low-pass {options.get('lowpass', 6.0):g} Hz"
+    else:
+        envelope = f"RMS {1000 * options.get('rms_window', 0.1):g} ms"
+    logger.info(
+        "%s: EMG %s at %g Hz: band-pass %s, notch %s, envelope %s",
+        Path(source).name, ", ".join(names), rate, shown,
+        f"{notch:g} Hz" if notch else "none", envelope,
+    )  # fmt: skip
 
 
 def _is_flat(ch: Channel) -> bool:
@@ -558,10 +586,13 @@ def _arm(
 ) -> ArmAngles | None:
     """Arm angles from landmarks or markers, else from joint-angle channels (None without)."""
     side = pose_options.get("side")
+    name = Path(recording.source).name
     if not _has_positions(recording):
         angles = angles_from_channels(recording, side=side)
         if angles is not None:
             warnings.append("arm angles from joint-angle channels (taken as flexion)")
+        found = "joint-angle channels" if angles is not None else "nothing (EMG only)"
+        logger.info("%s: arm angles from %s", name, found)
         return angles
     try:
         angles = arm_angles(recording, **pose_options)
@@ -570,7 +601,12 @@ def _arm(
         if fallback is None and not has_emg:
             raise
         warnings.append(f"landmarks not used: {exc}")
+        logger.info("%s: landmarks not used (%s); arm angles from %s", name, exc,
+                    "joint-angle channels" if fallback is not None else "nothing")  # fmt: skip
         return fallback
+    logger.info("%s: arm angles from %s of the %s arm, %.3g Hz", name,
+                "image landmarks" if angles.quality is not None else "markers",
+                angles.side, angles.rate)  # fmt: skip
     assumption = image_size_assumption(recording)
     if assumption:
         warnings.append(assumption)
@@ -818,6 +854,11 @@ def _analyze_one(
         )
     shift = _clock_offset(emg, angles, options.offset, warnings)
     lifts = _find_lifts(emg, angles, shift, warnings)
+    logger.info(
+        "%s: clock offset %+.3f s; %d repetition(s) found from %s",
+        Path(recording.source).name, shift, len(lifts),
+        ("the elbow angle" if lifts[0].source == "angle" else "EMG bursts") if lifts else "-",
+    )  # fmt: skip
     ctx = _Context(
         emg=emg,
         angles=angles,
@@ -955,6 +996,12 @@ def analyze_recordings(
         assumptions=assumptions,
         left_out={LOW_QUALITY_REASON: len(lifts) - len(kept)} if len(kept) < len(lifts) else {},
     )
+    logger.info(
+        "template from %d of %d lift(s) (%d of low pose quality%s): peak velocity at %g deg%s",
+        len(kept), len(lifts), n_low, ", kept" if options.keep_low_quality_lifts else ", left out",
+        template.peak_velocity_angle_deg, " (the paper's default)" if template.is_paper_default
+        else "",
+    )  # fmt: skip
     if n_low and options.keep_low_quality_lifts:
         warnings.append(f"{n_low} lift(s) with low pose quality kept in the template on request")
     if template.is_paper_default:

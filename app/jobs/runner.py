@@ -12,6 +12,12 @@ Both report to an ``EventSink`` callable in the API process: ``started``, ``prog
 exactly one of ``succeeded`` (with the plain-data result), ``failed`` (with a one-line error) or
 ``cancelled``. Workers never touch the database.
 
+Job logs (local runner): a job process records the ``bioplan`` loggers' records at INFO and
+above (``app.logs.LogTail``: its last 500 lines, at most 64 kB) and sends the new lines with
+each progress report and before its outcome; the final event carries the log (``log``), so a
+cancelled or stopped job keeps what it had said by its last progress report. The Dask runner
+sends no log (``log`` None).
+
 Cancellation semantics:
 - queued job: removed from the queue at once (both runners).
 - running job, local runner: its process group is terminated (SIGTERM) at once; any result it
@@ -32,6 +38,7 @@ top level with ``if __name__ == "__main__":`` (``bioplan serve``, uvicorn and py
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import os
 import queue
@@ -49,6 +56,7 @@ from typing import Any, Literal
 
 from app.errors import BioPlanError
 from app.jobs._lifeline import die_with_parent, reap_group_on_exit
+from app.logs import LogTail, capture
 from app.progress import Progress, ProgressFn
 
 logger = logging.getLogger(__name__)
@@ -77,6 +85,8 @@ class JobEvent:
         detail: the structured progress, ``Progress.to_dict()`` (``progress`` events).
         result: the job function's return value (``succeeded``).
         error: one-line error message (``failed``).
+        log: the job's log lines (``app.logs.LogTail.lines``) on its final event; None when
+            the runner keeps no log.
     """
 
     job_id: int
@@ -86,6 +96,7 @@ class JobEvent:
     result: dict[str, Any] | None = None
     error: str | None = None
     detail: dict[str, Any] | None = None
+    log: list[str] | None = None
 
 
 EventSink = Callable[[JobEvent], None]
@@ -207,6 +218,12 @@ def _child_main(
         os.killpg(0, signal.SIGKILL)
     limit_memory(memory_mb)
     last = [0.0]
+    tail = LogTail()
+
+    def send_log() -> None:
+        lines = tail.take()
+        if lines:
+            conn.send(("log", lines))
 
     def progress(update: Progress) -> None:
         now = time.monotonic()
@@ -214,19 +231,28 @@ def _child_main(
         if update.fraction < 1.0 and now - last[0] < 0.02:
             return
         last[0] = now
+        # From the thread that reports progress, never from a logging call: a sweep's pool
+        # workers inherit the handler but not the right to write on this pipe.
+        send_log()
         conn.send(("progress", update.to_dict()))
 
     try:
-        result = target(kind, payload, progress)
+        with capture(tail):
+            result = target(kind, payload, progress)
+        send_log()
         conn.send(("result", result))
     except BaseException as exc:
         if memory_mb is not None and _is_memory_error(exc):
             del exc  # let go of the frames that hold the memory before saying so
             logger.error("job %d (%s) %s", job_id, kind, out_of_memory(memory_mb))
-            conn.send(("error", out_of_memory(memory_mb)))
+            error = out_of_memory(memory_mb)
         else:
             logger.error("job %d (%s) failed:\n%s", job_id, kind, traceback.format_exc())
-            conn.send(("error", describe_error(exc)))
+            error = describe_error(exc)
+        with contextlib.suppress(Exception):  # the log is a courtesy; the error is the outcome
+            send_log()
+            conn.send(("log", [f"{time.strftime('%H:%M:%S')} ERROR bioplan: job failed: {error}"]))
+        conn.send(("error", error))
     finally:
         conn.close()
 
@@ -291,6 +317,7 @@ class _Running:
     conn_open: bool = True
     started: float = field(default_factory=time.monotonic)
     timed_out: bool = False
+    log: LogTail = field(default_factory=LogTail)
 
 
 @dataclass
@@ -485,6 +512,8 @@ class LocalRunner(JobRunner):
             run.result, run.has_outcome = msg[1], True
         elif tag == "error":
             run.error, run.has_outcome = msg[1], True
+        elif tag == "log":
+            run.log.extend(list(msg[1]))
 
     def _finish(self, run: _Running) -> None:
         while run.conn_open and run.conn.poll():
@@ -496,30 +525,38 @@ class LocalRunner(JobRunner):
             self._running.pop(run.job_id, None)
         if run.timed_out and run.result is None:
             limit = f"{self.time_limit:g}"
-            self._emit(
+            self._emit_end(
+                run,
                 JobEvent(
                     run.job_id,
                     "failed",
                     error=f"time limit: the job ran longer than {limit} s "
                     "(BIOPLAN_JOB_TIME_LIMIT_S) and was stopped",
-                )
+                ),
             )
         elif run.cancel_requested and run.result is None:
-            self._emit(JobEvent(run.job_id, "cancelled", message="cancelled while running"))
+            self._emit_end(
+                run, JobEvent(run.job_id, "cancelled", message="cancelled while running")
+            )
         elif run.result is not None:
-            self._emit(JobEvent(run.job_id, "succeeded", progress=1.0, result=run.result))
+            self._emit_end(run, JobEvent(run.job_id, "succeeded", progress=1.0, result=run.result))
         elif run.error is not None:
-            self._emit(JobEvent(run.job_id, "failed", error=run.error))
+            self._emit_end(run, JobEvent(run.job_id, "failed", error=run.error))
         else:
-            self._emit(
+            self._emit_end(
+                run,
                 JobEvent(
                     run.job_id,
                     "failed",
                     error=f"job process exited with code {code} before reporting a result",
-                )
+                ),
             )
         with contextlib.suppress(ValueError):  # still running after the join timeout
             run.process.close()
+
+    def _emit_end(self, run: _Running, event: JobEvent) -> None:
+        """Report a job's final event with its log."""
+        self._emit(dataclasses.replace(event, log=run.log.lines()))
 
     def _stop_overdue(self, runs: list[_Running]) -> None:
         """Stop (the whole process group, pools included) every job over the time limit."""

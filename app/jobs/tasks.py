@@ -21,6 +21,7 @@ from typing import Any, overload
 import numpy as np
 
 from app.errors import BioPlanError, one_line
+from app.jobs.front_task import front
 from app.jsonsafe import json_safe
 from app.names import PSO_DEFAULTS
 from app.progress import ProgressFn, no_progress, report
@@ -1102,6 +1103,7 @@ TASKS: dict[str, TaskFn] = {
     "profiles": profiles,
     "cohort": cohort,
     "identify": identify_robot,
+    "front": front,
 }
 
 

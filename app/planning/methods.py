@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -47,6 +48,7 @@ from app.planning.profiles import Trajectory, piecewise_quintic
 from app.planning.pso import PSOResult, pso_minimize
 from app.planning.robots import Robot, RobotError
 from app.planning.safety import Finding, check_safety, default_scene
+from app.planning.shortest_duration import shortest_paper_duration
 from app.progress import ProgressFn, report
 
 __all__ = [
@@ -143,6 +145,8 @@ def failure_of(name: str, exc: Exception) -> MethodFailure:
         kind = "infeasible" if exc.infeasible else "not_converged"
     else:
         kind = "infeasible" if message.startswith("infeasible") else "refused"
+    # INFO: the plan states it (``method_errors``, ``warnings``) or fails with it.
+    logger.info("%s failed (%s): %s", name, kind, message)
     return MethodFailure(name, message, kind, exc)
 
 
@@ -248,7 +252,16 @@ def simulated_share_of_achievable_pct(quintic: float, method: float, bound: floa
 
 class PaperInfeasible(PlanningError):
     """The paper's PSO found no trajectory of its family (elbow velocity peak at the template
-    angle) within the limits; the task itself may still be feasible for the other methods."""
+    angle) within the limits; the task itself may still be feasible for the other methods.
+
+    Attributes:
+        shortest_duration: the shortest duration [s] at which the same PSO found one within
+            every limit (None: no duration helps).
+    """
+
+    def __init__(self, message: str, *, shortest_duration: float | None = None) -> None:
+        super().__init__(message)
+        self.shortest_duration = shortest_duration
 
 
 def run_paper(
@@ -267,11 +280,15 @@ def run_paper(
     progress: ProgressFn | None,
 ) -> tuple[MethodResult, PSOResult, float]:
     """The paper's method (PSO over two quintics); returns it, the PSO result and the via time."""
-    problem = PlanProblem.build(
-        robot, task, duration=duration, objective=objective, q_via_elbow=q_via, n_samples=n_samples
-    )
+    logger.info(
+        "paper: PSO of %d particles x %d iterations, seed %d, %s over %g s, via angle %.1f deg",
+        particles, iterations, seed, objective, duration, target_deg,
+    )  # fmt: skip
+    started = time.perf_counter()
 
     def on_iteration(iteration: int, best_cost: float) -> None:
+        logger.debug("paper: PSO iteration %d/%d, best %s = %.6g", iteration, iterations,
+                     objective, best_cost)  # fmt: skip
         report(
             progress,
             "pso",
@@ -281,21 +298,39 @@ def run_paper(
             message=f"PSO iteration {iteration}/{iterations}, best {objective} = {best_cost:.6g}",
         )
 
-    result = pso_minimize(
-        problem.swarm_cost,
-        problem.lower,
-        problem.upper,
-        particles=particles,
-        iterations=iterations,
-        seed=seed,
-        callback=on_iteration,
-        initial=problem.initial,
-    )
+    def swarm(at: float, callback: Any = None) -> tuple[PlanProblem, PSOResult]:
+        """The paper's PSO at the duration ``at`` [s] (the same seed and budget)."""
+        problem = PlanProblem.build(
+            robot, task, duration=at, objective=objective, q_via_elbow=q_via, n_samples=n_samples
+        )
+        return problem, pso_minimize(
+            problem.swarm_cost,
+            problem.lower,
+            problem.upper,
+            particles=particles,
+            iterations=iterations,
+            seed=seed,
+            callback=callback,
+            initial=problem.initial,
+        )
+
+    problem, result = swarm(duration, on_iteration)
+    logger.info(
+        "paper: best %s = %.6g after %d evaluations, violation %.3g, in %.2f s",
+        objective, result.best_cost, result.evaluations, result.best_violation,
+        time.perf_counter() - started,
+    )  # fmt: skip
     if result.best_violation > 0:
+        # The family only slows down with a longer duration: search the shortest one at which
+        # the same PSO finds a trajectory within every limit (or say that none helps).
+        found = shortest_paper_duration(
+            robot, task, duration, (problem, result), swarm, report_samples=report_samples
+        )
         raise PaperInfeasible(
             f"infeasible: no trajectory with the elbow's velocity peak at {target_deg:.1f} deg "
-            f"satisfies the joint limits in {duration} s with {robot.payload.mass} kg "
-            "(expected a longer duration, a lighter payload or wider limits)"
+            f"satisfies the joint limits in {duration:g} s with {robot.payload.mass:g} kg (the "
+            f"best breaks {found.breach}): {found.describe()}",
+            shortest_duration=found.duration,
         )
     tk, qk, qdk, qddk = problem.design.knots(result.best_position[None, :])
     traj = piecewise_quintic(
@@ -404,12 +439,14 @@ def run_optimal(
             break
         n *= 2
     # Clearance where it binds (issue 27): a solution that the safety check finds below the
-    # mounting plane is solved again with the plane as a constraint, from itself. Only then, as
-    # the actuators above: most tasks stay clear of the plane unconstrained.
-    finding = plane_finding(robot, name, solution.trajectory)
+    # mounting plane or inside an obstacle is solved again with the plane and the obstacles as
+    # constraints, from itself. Only then, as the actuators above: most tasks stay clear
+    # unconstrained.
+    finding = world_finding(robot, name, solution.trajectory)
     clearance: dict[str, Any] | None = None
     if finding is not None:
-        clearance = {"constraint": "mount plane", "first_contact": finding.describe()}
+        what = "mount plane" if finding.kind == "plane" else f"obstacle '{finding.obstacle}'"
+        clearance = {"constraint": what, "first_contact": finding.describe()}
         solve = {
             "objective": objective, "human": spec, "no_reversal": no_reversal,
             "report_samples": report_samples, "name": name, "warm_start_name": name,
@@ -418,6 +455,13 @@ def run_optimal(
         solution, evaluated = _keep_clearance(robot, task, solution, evaluated, duration,
                                               n_intervals, solve, clearance)  # fmt: skip
     solver = {"kind": "ipopt", **solution.solver.to_dict()}
+    logger.info(
+        "%s: IPOPT %s in %d iterations, %.2f s, %d intervals, warm start %s, objective %.6g%s%s",
+        name, solution.solver.status, solution.solver.iterations, solution.solver.seconds,
+        solution.solver.n_intervals, solution.solver.warm_start, solution.solver.objective,
+        ", re-solved within the actuators' limits" if said_no is not None else "",
+        f", re-solved clear of the {clearance['constraint']}" if clearance else "",
+    )  # fmt: skip
     if said_no is not None:
         solver["actuators"] = {"constrained": True, "first_violation": said_no}
     if clearance is not None:
@@ -425,11 +469,11 @@ def run_optimal(
     return MethodResult(name, evaluated, solver)
 
 
-def plane_finding(robot: Robot, name: str, trajectory: Trajectory) -> Finding | None:
-    """The safety check's first finding of ``trajectory`` below the mounting plane, or None
-    (also when the robot cannot be checked)."""
+def world_finding(robot: Robot, name: str, trajectory: Trajectory) -> Finding | None:
+    """The safety check's first finding of ``trajectory`` below the mounting plane or inside
+    an obstacle, or None (also when the robot cannot be checked)."""
     report = check_safety(robot, {name: trajectory})
-    return next((f for f in report.findings if f.kind == "plane"), None)
+    return next((f for f in report.findings if f.kind in ("plane", "obstacle")), None)
 
 
 def _keep_clearance(
@@ -442,12 +486,15 @@ def _keep_clearance(
     solve: dict[str, Any],
     info: dict[str, Any],
 ) -> tuple[Any, EvaluatedTrajectory]:
-    """Re-solve with the mounting plane as a constraint (spheres covering the links, at the
-    evaluation points), on N then 2N intervals until the safety check finds no plane contact.
+    """Re-solve with the mounting plane and the obstacles as constraints (spheres covering the
+    links, at the evaluation points), on N then 2N intervals until the safety check finds no
+    plane or obstacle contact (each solve chooses the obstacles' faces at its warm start).
 
-    ``info`` gains ``spheres``, ``margin_m``, ``plane_m``, ``n_intervals``, ``resolved`` and,
-    when it is not, ``warning`` (the start or goal itself is below the plane, the constrained
-    problem failed, or a contact is left between the points: ``remaining``).
+    ``info`` gains ``constraint`` (what is kept clear), ``spheres``, ``margin_m``, ``plane_m``,
+    ``obstacle_pairs`` (sphere-obstacle pairs with rows), ``n_intervals``, ``resolved`` and,
+    when it is not, ``warning`` (the start or goal itself is within the margin of the plane or
+    an obstacle, the constrained problem failed, or a contact is left between the points:
+    ``remaining``).
     """
     info["resolved"] = False
     try:
@@ -455,17 +502,25 @@ def _keep_clearance(
     except RobotError as exc:
         constraint, info["warning"] = None, f"clearance not constrained: {exc}"
     if constraint is None:
-        info.setdefault("warning", "clearance not constrained: no plane or no moving geometry")
+        info.setdefault(
+            "warning", "clearance not constrained: no plane, no reachable obstacle or no moving "
+            "geometry"
+        )  # fmt: skip
         logger.warning("%s", info["warning"])
         return solution, evaluated
-    info.update(spheres=constraint.n_spheres, margin_m=constraint.margin, plane_m=constraint.plane)
+    info.update(
+        constraint=constraint.describe(), spheres=constraint.n_spheres,
+        margin_m=constraint.margin, plane_m=constraint.plane, obstacle_pairs=constraint.n_pairs,
+    )  # fmt: skip
     for where, q in (("start", task.start), ("goal", task.goal)):
-        links = constraint.violations(robot, q)
-        if links:
+        blocked = constraint.blocked(robot, q)
+        if blocked:
             # No trajectory from or to there keeps the clearance: say so, do not try.
+            what, links = blocked[0]
+            side = "below" if what == "the mount plane" else "inside"
             info["warning"] = (
-                f"no trajectory keeps clear of the mount plane: at the {where}, "
-                f"{', '.join(links)} is within {1000 * constraint.margin:.0f} mm of it or below"
+                f"no trajectory keeps clear of {what}: at the {where}, {', '.join(links)} is "
+                f"within {1000 * constraint.margin:.0f} mm of it or {side}"
             )
             logger.warning("%s", info["warning"])
             return solution, evaluated
@@ -480,19 +535,19 @@ def _keep_clearance(
                 **solve,
             )  # fmt: skip
         except SolverError as exc:
-            info["warning"] = f"the plane's clearance could not be kept: {exc}"
+            info["warning"] = f"the clearance of {constraint.describe()} could not be kept: {exc}"
             logger.warning("%s", info["warning"])
             return solution, evaluated
         evaluated = evaluate_trajectory(robot, solution.trajectory, task)
         info["n_intervals"] = n
-        left = plane_finding(robot, str(solve["name"]), solution.trajectory)
+        left = world_finding(robot, str(solve["name"]), solution.trajectory)
         if left is None:
             info["resolved"] = True
             info.pop("remaining", None)
             return solution, evaluated
         info["remaining"] = left.describe()
         n *= 2
-    info["warning"] = f"a contact with the plane is left between the points: {info['remaining']}"
+    info["warning"] = f"a contact is left between the points: {info['remaining']}"
     logger.warning("%s", info["warning"])
     return solution, evaluated
 
@@ -541,10 +596,13 @@ def refine_to_convergence(
             )  # fmt: skip
         except SolverError as exc:
             sequence.append({"n_intervals": n, "error": str(exc)})
+            logger.warning("%s: refinement stopped at %d intervals: %s", result.name, n, exc)
             break
         new = objective_value(robot, finer.evaluated, objective)
         sequence.append({"n_intervals": n, "objective": new})
         change = abs(new - value) / max(abs(value), abs(new), 1e-12)
+        logger.debug("%s: %d intervals, %s = %.6g (change %.2g)", result.name, n, objective,
+                     new, change)  # fmt: skip
         current, value = finer, new
         if not keep_lowest or new <= best_value:
             best, best_value = finer, new
@@ -555,6 +613,11 @@ def refine_to_convergence(
     for key in ("multistart", "starts", "rules", "certificate"):
         if key in solver:
             out[key] = solver[key]
+    logger.info(
+        "%s: mesh refinement %s at %d intervals (last change %.2g, tolerance %g)",
+        result.name, "converged" if converged else "did not converge",
+        int((best.solver or {}).get("n_intervals", n)), change, CONVERGENCE_TOLERANCE,
+    )  # fmt: skip
     out["convergence"] = {
         "sequence": sequence,
         "relative_change": change,
@@ -682,6 +745,10 @@ def run_bound(
     solves: list[dict[str, Any]] = []
     best: list[tuple[float, MethodResult]] = []
     errors: list[SolverError] = []
+    logger.info(
+        "%s: warm starts %s; outside its rules: %s", name,
+        ", ".join(w or "quintic" for w in starts), ", ".join(outside) or "none",
+    )  # fmt: skip
 
     def attempt(warm: str | None, n: int) -> bool:
         try:
@@ -694,6 +761,8 @@ def run_bound(
         except SolverError as exc:
             if exc.infeasible:
                 raise
+            logger.info("%s: the start from %s on %d intervals failed: %s", name,
+                        warm or "quintic", n, exc)  # fmt: skip
             errors.append(exc)
             solves.append({"warm_start": warm or "quintic", "n_intervals": n, "error": str(exc)})
             return False
@@ -744,13 +813,19 @@ def run_bound(
             {**(result.solver or {}), "warm_start": incumbent},
         )
     if ((result.solver or {}).get("clearance") or {}).get("resolved"):
-        # The bound keeps the mounting plane clear: a method that goes below it is outside
-        # its rules (it may well be cheaper).
+        # The bound keeps the mounting plane and the obstacles clear: a method that goes
+        # below or into them is outside its rules (it may well be cheaper).
         for other in list(eligible):
-            below = plane_finding(robot, other, candidates[other].trajectory)
+            below = world_finding(robot, other, candidates[other].trajectory)
             if below is not None:
-                outside[other] = "goes below the mount plane: " + below.describe()
+                into = "below the mount plane" if below.kind == "plane" else "into an obstacle"
+                outside[other] = f"goes {into}: " + below.describe()
                 eligible.remove(other)
+    beaten = [o for o in eligible if beats_bound(values[o], value, scale=size)]
+    if beaten:
+        logger.warning("%s: still beaten by %s: not a bound", name, ", ".join(beaten))
+    logger.info("%s: %s = %.6g after %d solve(s)%s", name, objective, value, len(solves),
+                f", incumbent {incumbent}" if incumbent else "")  # fmt: skip
     solver = dict(result.solver or {})
     solver.update(
         multistart=len(starts),
@@ -759,7 +834,7 @@ def run_bound(
         certificate={
             "checked": eligible,
             "outside_rules": outside,
-            "beaten_by": [o for o in eligible if beats_bound(values[o], value, scale=size)],
+            "beaten_by": beaten,
             "tolerance": BOUND_TOLERANCE,
             "incumbent": incumbent,
         },
@@ -770,8 +845,20 @@ def run_bound(
 def run_jerk_limited(
     robot: Robot, task: PlanTask, *, duration: float, report_samples: int
 ) -> MethodResult:
-    """The ruckig time-synchronised jerk-limited profile of the same duration."""
-    traj = jerk_limited(robot, task.start, task.goal, duration, n_samples=report_samples)
+    """The ruckig time-synchronised jerk-limited profile of the same duration.
+
+    Raises:
+        JerkLimitedError: ruckig refuses the input, or its time-optimal move is slower than
+            ``duration``: then the error names the joint that sets that time and its limits,
+            and ``shortest_duration`` [s] holds it rounded up to 1 ms (ruckig plans at it).
+    """
+    try:
+        traj = jerk_limited(robot, task.start, task.goal, duration, n_samples=report_samples)
+    except JerkLimitedError as exc:
+        if not str(exc).startswith("infeasible"):
+            raise
+        raise _jerk_infeasible(robot, task, exc) from None
+    logger.info("jerk_limited: ruckig profile over %g s", duration)
     solver = {
         "kind": "ruckig",
         "max_velocity": [float(v) for v in robot.qd_max],
@@ -779,3 +866,32 @@ def run_jerk_limited(
         "max_jerk": [float(v) for v in np.asarray(robot.jerk_max)],
     }
     return MethodResult("jerk_limited", evaluate_trajectory(robot, traj, task), solver)
+
+
+def _jerk_infeasible(robot: Robot, task: PlanTask, exc: JerkLimitedError) -> JerkLimitedError:
+    """``exc`` with the joint whose own time-optimal move is the slowest (ruckig's
+    ``independent_min_durations``) and ``shortest_duration``: the time-optimal duration rounded
+    up to 1 ms, verified by planning the move at it (ruckig synchronises every joint to it)."""
+    from app.planning.jerk_limited import _calculate
+
+    start, goal = np.asarray(task.start, float), np.asarray(task.goal, float)
+    profile: Any = _calculate(robot, start, goal, None)
+    alone = np.asarray(profile.independent_min_durations, float)
+    j = int(np.argmax(alone))
+    steps = math.ceil(float(profile.duration) * 1000.0 - 1e-9)
+    for extra in range(3):  # round-off of the rounded duration: at most a step or two more
+        shortest = (steps + extra) / 1000.0
+        try:
+            jerk_limited(robot, start, goal, shortest, n_samples=11)
+        except JerkLimitedError:
+            continue
+        break
+    qdd_max, jerk_max = np.asarray(robot.qdd_max, float), np.asarray(robot.jerk_max, float)
+    out = JerkLimitedError(
+        f"{exc}: expected a duration of at least {shortest:.3f} s (verified: ruckig plans the "
+        f"move at it; joint {robot.joint_names[j]} sets it, alone it needs {alone[j]:.3f} s "
+        f"with its {robot.qd_max[j]:.3g} rad/s, {qdd_max[j]:.3g} rad/s² and "
+        f"{jerk_max[j]:.3g} rad/s³ limits)"
+    )
+    out.shortest_duration = shortest  # type: ignore[attr-defined]
+    return out

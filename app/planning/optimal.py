@@ -343,11 +343,13 @@ class _Params:
     index: dict[str, slice]
 
     @classmethod
-    def create(cls, n: int) -> _Params:
+    def create(cls, n: int, faces: int = 0) -> _Params:
         import casadi as ca
 
         sizes = {"start": n, "T": 1, "p_scale": 1, "cost_scale": 1, "effort_scale": 1}
         sizes.update(bound=1, bound_scale=1)  # ExtraConstraints' epsilon and its scale
+        if faces:  # the obstacle faces chosen at the guess (ClearanceConstraint.constrain)
+            sizes["faces"] = faces
         index, offset = {}, 0
         for name, size in sizes.items():
             index[name] = slice(offset, offset + size)
@@ -771,8 +773,10 @@ class ExtraConstraints:
         warm: the warm start is near the optimum (a front's neighbour): IPOPT starts with a
             small barrier parameter (:data:`_WARM`; measured on the 6-DOF: 6 iterations instead
             of 10, the same optimum to 1e-8).
-        clearance: spheres covering the robot's links kept above the mounting plane at every
-            evaluation point (:class:`app.planning.clearance.ClearanceConstraint`), or None.
+        clearance: spheres covering the robot's links kept above the mounting plane and out
+            of the sidecar's obstacles at every evaluation point
+            (:class:`app.planning.clearance.ClearanceConstraint`; an obstacle's faces are
+            chosen at the warm start), or None.
     """
 
     metric: str | None = None
@@ -827,7 +831,13 @@ def _extra_constraints(
     if extra.actuators is not None:
         extra.actuators.constrain(problem.robot, problem.goal, grid, cons, tau, problem.free)
     if extra.clearance is not None:
-        extra.clearance.constrain(problem.robot, grid, cons)
+        guess = None
+        if extra.clearance.obstacles:  # their faces are chosen at the guess's points
+            import casadi as ca
+
+            at = ca.Function("guess_points", [var.vector(), par.sym], [grid.point_q])
+            guess = np.asarray(at(np.concatenate(var.guess), par.values), dtype=float)
+        extra.clearance.constrain(problem.robot, grid, cons, par=par, guess=guess)
 
 
 def _controller_limits(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
@@ -909,7 +919,10 @@ def _nlp(problem: _Problem, warm: Trajectory) -> tuple[dict[str, Any], dict[str,
     import casadi as ca
 
     var, cons = _Variables(), _Constraints()
-    par = _Params.create(problem.start.size)
+    clearance = None if problem.extra is None else problem.extra.clearance
+    points = problem.n_intervals * len((_EIGHTHS if _peak_rule(problem) else _QUARTERS)[0])
+    faces = 0 if clearance is None else clearance.n_parameters(points)
+    par = _Params.create(problem.start.size, faces)
     par.set("start", problem.start)
     par.set("T", problem.duration)
     par.set("p_scale", _power_scale(problem))

@@ -18,6 +18,7 @@ objective, (quintic − method) / (quintic − bound). No result may be below a 
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -560,10 +561,14 @@ def _require_enough(outcome: _Outcome, chosen: tuple[str, ...]) -> None:
     if len(failures) == 1:
         raise next(iter(failures.values())).exception
 
-    def rank(f: MethodFailure) -> int:
+    def rank(f: MethodFailure) -> tuple[int, float]:
+        # The smallest verified duration first: planning at it makes the plan succeed.
+        shortest = getattr(f.exception, "shortest_duration", None)
+        if f.kind == "infeasible" and shortest is not None:
+            return 0, float(shortest)
         if f.kind == "infeasible" and "expected a duration" in f.error:
-            return 0
-        return 1 if f.kind == "infeasible" else 2
+            return 1, math.inf
+        return (2 if f.kind == "infeasible" else 3), math.inf
 
     ordered = sorted(failures.values(), key=rank)
     lead, rest = ordered[0], ordered[1:]
@@ -657,6 +662,9 @@ def plan(
     """
     _check_options(objective, particles, iterations, n_samples, report_samples)
     chosen = check_methods(methods)
+    logging.getLogger("bioplan.planning").info(
+        "plan of %s: %s over %g s, %s", robot.name, ", ".join(chosen), duration, objective
+    )
     given_template = template
     template = template or HumanTemplate()
     task = task or PlanTask.default(robot)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -32,6 +33,8 @@ from app.recordings._vendors import read_delsys, read_qualisys
 from app.recordings._xdf import read_xdf
 from app.recordings.muscles import parse_site
 from app.recordings.types import Channel, DatalogSensor, RateCheck, Recording, RecordingError
+
+logger = logging.getLogger("bioplan.recordings")
 
 Reader = Callable[[Source, Options], Recording]
 
@@ -248,6 +251,18 @@ def _read_checked(src: Source, format: str | None, opts: Options) -> Recording:
     rec.source = src.name
     warnings = list(rec.metadata.get("warnings", []))
     rec.metadata["warnings"] = warnings + [w for w in src.warnings if w not in warnings]
+    if logger.isEnabledFor(logging.INFO):
+        kinds: dict[str, int] = {}
+        for ch in rec.channels.values():
+            kinds[ch.kind] = kinds.get(ch.kind, 0) + 1
+        logger.info(
+            "%s: read as %s (%s): %s; %d warning(s)",
+            src.name, fmt, "sniffed" if format is None else "as asked",
+            ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())) or "no channels",
+            len(rec.metadata["warnings"]),
+        )  # fmt: skip
+        for warning in rec.metadata["warnings"]:
+            logger.debug("%s: %s", src.name, warning)
     return rec
 
 

@@ -17,10 +17,17 @@ is run again while it has attempts left (``max_attempts`` starts in all), otherw
 Bounds: at most ``max_queued`` jobs wait at once; a submission beyond it is refused
 (:class:`QueueFullError`, 429 with ``Retry-After``) before anything is stored. A result whose
 JSON is larger than ``inline_result_bytes`` is kept in the file store (``crud.store_result``).
+
+Logs: a job's log (the science packages' records at INFO and above, as the runner hands them
+over with its final event, bounded by ``app.logs.LogTail``) is a text file per job in
+``log_dir``, written before the job's end is, and served by :meth:`JobService.log`. No schema
+change: a new job removes a file its id may have left, and the start removes the files of
+jobs that no longer exist.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import queue
 import threading
@@ -56,6 +63,7 @@ KIND_PATHS = {
     "profiles": "profiles",
     "cohort": "cohorts",
     "identify": "identifications",
+    "front": "fronts",
 }
 
 #: Structured progress of a job that has not reported any yet.
@@ -119,7 +127,12 @@ def _about(kind: str, params: dict[str, Any]) -> str:
         logs = len(params.get("log_ids") or ())
         return f"{params.get('robot', '')}, {logs} log(s) -> {params.get('version', '')}"
     parts = [str(params.get("robot", ""))]
-    if kind == "sweep":
+    if kind == "front":
+        if params.get("payload_mass") is not None:
+            parts.append(f"{params['payload_mass']:g} kg")
+        parts.append(" vs ".join(params.get("objectives") or ()))
+        parts.append(f"{params.get('points')} points")
+    elif kind == "sweep":
         cells = len(params.get("durations") or ()) * len(params.get("payloads") or ())
         parts.append(f"{cells} cells" if cells else "")
         parts.append(", ".join(params.get("objectives") or ()))
@@ -194,6 +207,8 @@ class JobService:
         max_queued: jobs waiting at once (None: no bound); more are refused.
         inline_result_bytes: largest result JSON kept in the database row; larger ones go to
             the file store (None: always in the row).
+        log_dir: folder of the jobs' logs (None: ``job-logs`` beside the file store's folder,
+            in the data directory).
     """
 
     def __init__(
@@ -211,8 +226,10 @@ class JobService:
         limits: JobLimits | None = None,
         max_queued: int | None = None,
         inline_result_bytes: int | None = None,
+        log_dir: Path | None = None,
     ) -> None:
         self.sessions = sessions
+        self.log_dir = log_dir if log_dir is not None else blobs.root.parent / "job-logs"
         self.max_queued = max_queued
         self.inline_result_bytes = inline_result_bytes
         self._submitting = threading.Lock()
@@ -237,6 +254,7 @@ class JobService:
         self._writer.daemon = True
         self._writer.start()
         self.runner.start(self._events.put)
+        self._remove_stray_logs()
         return self.recover()
 
     def close(self) -> None:
@@ -291,6 +309,8 @@ class JobService:
                 session=session, kind=kind, params=params, resource=resource, label=label
             )
             data = job_to_dict(job)
+        with contextlib.suppress(OSError):  # a deleted job's, under a reused id
+            self._log_path(job.id).unlink(missing_ok=True)
         self._publish(job.id)  # the job drawers see it queued
         self._dispatch(job.id)
         return data
@@ -350,6 +370,53 @@ class JobService:
         if job is None:
             raise NotFoundError(f"job {job_id} does not exist")
         return job
+
+    def log(self, job_id: int) -> dict[str, Any]:
+        """A job's log: ``lines`` (its records at INFO and above, oldest first, paths cut to
+        their last part), ``complete`` (the job ended: the log is all there is; while it is
+        queued or running its log is not here yet) and ``state``.
+
+        Raises:
+            NotFoundError: no such job.
+        """
+        job = self.get(job_id)
+        try:
+            text = self._log_path(job_id).read_text(encoding="utf-8", errors="replace")
+        except FileNotFoundError:
+            text = ""
+        return {
+            "job_id": job_id,
+            "state": job["state"],
+            "complete": job["state"] in TERMINAL_JOB_STATES,
+            "lines": [without_paths(line) for line in text.splitlines()],
+        }
+
+    def _log_path(self, job_id: int) -> Path:
+        return self.log_dir / f"{int(job_id)}.log"
+
+    def _write_log(self, job_id: int, lines: list[str]) -> None:
+        """Keep a job's log (a failure to write it is logged, never the job's failure)."""
+        try:
+            self.log_dir.mkdir(parents=True, exist_ok=True)
+            path = self._log_path(job_id)
+            tmp = path.with_suffix(".tmp")
+            tmp.write_text("".join(f"{line}\n" for line in lines), encoding="utf-8")
+            tmp.replace(path)
+        except OSError as exc:
+            logger.warning("the log of job %d could not be kept: %s", job_id, exc)
+
+    def _remove_stray_logs(self) -> None:
+        """Remove the logs of jobs that no longer exist (deleted with their results)."""
+        if not self.log_dir.is_dir():
+            return
+        with self.sessions() as session:
+            for path in self.log_dir.glob("*.log"):
+                if (
+                    path.stem.isdigit()
+                    and crud.get_job(session=session, job_id=int(path.stem)) is None
+                ):
+                    with contextlib.suppress(OSError):  # read-only: left for the next start
+                        path.unlink(missing_ok=True)
 
     def recover(self) -> dict[str, int]:
         """Resubmit or fail the jobs a previous server left queued or running."""
@@ -427,7 +494,8 @@ class JobService:
             )
         payload = dict(params)
         payload["robot"] = self.robots.spec(session, params["robot"])
-        if job.kind in ("plan", "simulation") and params.get("template_analysis_id") is not None:
+        has_template = job.kind in ("plan", "simulation", "front")
+        if has_template and params.get("template_analysis_id") is not None:
             payload["template"] = self.analysis_template(session, params["template_analysis_id"])
         payload.pop("template_analysis_id", None)
         return payload
@@ -473,6 +541,8 @@ class JobService:
         self._publish(job_id)
 
     def _apply(self, ev: JobEvent) -> None:
+        if ev.log is not None:  # before the end it comes with: a client that sees it finds it
+            self._write_log(ev.job_id, ev.log)
         if ev.type == "started":
             self._update(
                 ev.job_id,

@@ -11,6 +11,7 @@ relative to the human template's A/B/C phases.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -38,6 +39,8 @@ if TYPE_CHECKING:
     from app.planning.human_template import HumanTemplate
     from app.planning.planner import PlanResult, PlanTask
     from app.planning.robots import Robot
+
+logger = logging.getLogger("bioplan.simulation")
 
 __all__ = [
     "AGREEMENT_PCT",
@@ -476,6 +479,13 @@ def simulate_comparison(
         damping_ratio=damping_ratio,
     )
     by_name = dict(zip(names_, runs, strict=True))
+    for name, run in by_name.items():
+        logger.info(
+            "%s: simulated at %g ms steps (%s feed-forward): abs_work %.4g J, tracking error "
+            "up to %.3g deg%s", name, 1000 * run.timestep, run.feedforward,
+            run.metrics.abs_work, math.degrees(float(np.max(run.tracking_max))),
+            "" if run.tracking_ok else " (poor tracking)",
+        )  # fmt: skip
     conditions = _conditions(robot, result, by_name["quintic"], locals())
     out = SimulationResult(
         plan=result,

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import math
 import os
 import time
@@ -52,6 +53,8 @@ from app.simulation.tracking import (
 
 if TYPE_CHECKING:
     from app.planning.robots import Robot
+
+logger = logging.getLogger("bioplan.simulation")
 
 __all__ = [
     "AGREEMENT_PCT",
@@ -727,6 +730,8 @@ def _run_jobs(clean: Robot, jobs: list[_CellJob], n_workers: int, on_cell: Any) 
         # ``if __name__ == "__main__":`` guard (or code piped to stdin) cannot be
         # re-imported. Finish in this process rather than fail.
         todo = [j for j in jobs if (j.duration, j.payload, j.objective) not in finished]
+        logger.warning("the process pool failed (%s): %d cell(s) run in this process", exc,
+                       len(todo))  # fmt: skip
         run_here(todo)
         return 1, (
             f"the process pool failed ({exc}); {len(todo)} cells ran in this process "
@@ -830,6 +835,12 @@ def run_sweep(
 
     def on_cell(cell: SweepCell) -> None:
         results.append(cell)
+        log = logger.info if cell.status == "ok" else logger.warning
+        log(
+            "sweep cell %d/%d: T=%g s, m=%g kg, %s: %s in %.2f s%s",
+            len(results), len(jobs), cell.duration, cell.payload, cell.objective, cell.status,
+            cell.seconds, f" ({cell.message})" if cell.message else "",
+        )  # fmt: skip
         report(
             progress,
             "sweep",
@@ -840,6 +851,14 @@ def run_sweep(
         )
 
     report(progress, "sweep", 0, len(jobs), message=f"{len(jobs)} cells on {n_workers} worker(s)")
+    logger.info(
+        "sweep of %s: %d cell(s) (%d durations x %d payloads x %d objectives), methods %s, PSO "
+        "%d particles x %d iterations, seeds %s, on %s",
+        robot.name, len(jobs), len(durs), len(pays), len(objs), ", ".join(chosen),
+        int(particles), int(iterations), ", ".join(str(s) for s in (int(seed), *checks)),
+        f"{n_workers} local worker(s)" if isinstance(executor, str) and executor == LOCAL_EXECUTOR
+        else "Dask",
+    )  # fmt: skip
     # A copy without cached Pinocchio/MuJoCo objects, so it pickles to the workers.
     clean = dataclasses.replace(robot)
     used: dict[str, int] = {}

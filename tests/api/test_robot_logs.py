@@ -354,12 +354,12 @@ def test_identification_requests_refused_before_a_job(
     assert client.get("/api/identifications?robot=other").json()["items"] == []
 
 
-def test_a_zipped_ros2_bag_is_read(client: TestClient, arm: dict[str, Any]) -> None:
+def test_a_zipped_ros2_bag_is_read(client: TestClient, arm: dict[str, Any], tmp_path: Path) -> None:
     _upload_robot(client, arm)
     rows = slice(0, 600)
     other = 2.0 * arm["tau"][rows]  # the same motion, torques doubled, on a second topic
     bag = write_bag(
-        arm["folder"] / "bag",
+        tmp_path / "bag",  # per test: the arm's folder is shared by the database variants
         arm["t"][rows],
         arm["names"],
         arm["q"][rows],

@@ -67,6 +67,12 @@ def test_a_finished_job_links_to_its_result(live_server: Server, page: Any) -> N
         page.click("#jobs-button")
     job = live_server.post("/api/plans", json=TINY).json()
     wait_for(lambda: _state(page, job["id"]) == "succeeded", 180, "the job succeeding")
+    # Its log (issue 24 item 6): what the planner said, as the API serves it.
+    page.click(f"{_item(job['id'])} .job-log-toggle")
+    log = page.wait_for_selector(f"{_item(job['id'])} pre.job-log:has-text('PSO of 8 particles')")
+    assert log.inner_text().splitlines() == live_server.get(f"/api/jobs/{job['id']}/log")["lines"]
+    page.click(f"{_item(job['id'])} .job-log-toggle")
+    assert page.locator(f"{_item(job['id'])} pre.job-log").count() == 0
     page.click(f"{_item(job['id'])} a.job-open")
     page.wait_for_selector("#metrics-table", timeout=120_000)
     assert page.url.endswith(f"#/compare/plan/{job['id']}")

@@ -67,6 +67,8 @@ _TOP += ("effort_limits", "base_link", "tip_link")
 _TOP += ("obstacles", "mount_plane", "srdf")
 #: Actuator limits per joint: torque–speed envelope and RMS torque (``app.planning.actuators``).
 _TOP += ("actuators",)
+#: Controller limits a robot states (the export gates them; a URDF has no such field).
+_TOP += ("acceleration_limits", "jerk_limits")
 _PAYLOAD = ("mass", "body", "com", "size")
 
 
@@ -93,6 +95,8 @@ class Sidecar:
         motors: joint -> motor model (empty: motors not modelled).
         velocity_limits: joint -> speed limit [rad/s or m/s] overriding the model file's.
         effort_limits: joint -> torque [Nm] or force [N] limit overriding the model file's.
+        acceleration_limits, jerk_limits: joint -> the controller's acceleration [rad/s^2]
+            and jerk [rad/s^3] limit (stated limits: exports are refused past them).
         base_link, tip_link: the arm's base and end link on a branched robot, or None.
         links: link -> identified ``LinkInertial`` replacing the URDF's inertial.
         friction: joint -> identified ``JointFriction`` (viscous, Coulomb, torque offset).
@@ -111,6 +115,8 @@ class Sidecar:
     motors: Mapping[str, MotorModel] = field(default_factory=dict)
     velocity_limits: Mapping[str, float] = field(default_factory=dict)
     effort_limits: Mapping[str, float] = field(default_factory=dict)
+    acceleration_limits: Mapping[str, float] = field(default_factory=dict)
+    jerk_limits: Mapping[str, float] = field(default_factory=dict)
     base_link: str | None = None
     tip_link: str | None = None
     links: Mapping[str, Any] = field(default_factory=dict)
@@ -172,7 +178,7 @@ class _Fields:
         if extra:
             prefix = f"{where}." if where else ""
             raise RobotError(
-                f"{self.file}: unknown field {one_line(prefix + extra[0], 60)}: expected one of "
+                f"{self.file}: unknown field {one_line(prefix + extra[0], 40)}: expected one of "
                 f"{', '.join(known)}"
             )
 
@@ -246,6 +252,13 @@ def read_sidecar(path: str | Path) -> Sidecar:
         name: fields.number(f"effort_limits.{name}", value, lower=0.0, strict=True)
         for name, value in fields.mapping("effort_limits", top.get("effort_limits")).items()
     }
+    controller = {
+        key: {
+            name: fields.number(f"{key}.{name}", value, lower=0.0, strict=True)
+            for name, value in fields.mapping(key, top.get(key)).items()
+        }
+        for key in ("acceleration_limits", "jerk_limits")
+    }
     motors = {
         name: _motor(fields, name, value)
         for name, value in fields.mapping("motors", top.get("motors")).items()
@@ -269,6 +282,8 @@ def read_sidecar(path: str | Path) -> Sidecar:
         motors=motors,
         velocity_limits=speeds,
         effort_limits=efforts,
+        acceleration_limits=controller["acceleration_limits"],
+        jerk_limits=controller["jerk_limits"],
         base_link=fields.text("base_link", top.get("base_link")),
         tip_link=fields.text("tip_link", top.get("tip_link")),
         links=links,

@@ -146,6 +146,11 @@ class Robot:
             ``qd_max / DEFAULT_RAMP_TIME`` (full speed in 0.25 s).
         jerk_max: (n,) jerk limits [rad/s^3]; None = the table's ``<joint>.jerk`` rows, else
             ``qdd_max / DEFAULT_JERK_TIME`` (full acceleration in 0.05 s).
+        stated_limits: ``acceleration`` and ``jerk`` -> the joints whose limit of that kind
+            the robot states (a sidecar's ``acceleration_limits``/``jerk_limits``; every joint
+            when ``qdd_max``/``jerk_max`` are given explicitly). Assumed limits (the built-in
+            robots' table rows, the defaults) serve the jerk-limited baseline but are not
+            stated: exports gate only stated ones (``app.planning.export``).
     """
 
     name: str
@@ -170,6 +175,7 @@ class Robot:
     spec: Mapping[str, Any] = field(default_factory=dict)
     qdd_max: NDArray[np.float64] | None = None
     jerk_max: NDArray[np.float64] | None = None
+    stated_limits: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     _cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -220,6 +226,17 @@ class Robot:
 
     def _controller_limits(self, n: int) -> None:
         """Acceleration and jerk limits: given, from the parameter table, or the defaults."""
+        stated = {str(k): tuple(str(j) for j in v) for k, v in self.stated_limits.items()}
+        for kind, given in (("acceleration", self.qdd_max), ("jerk", self.jerk_max)):
+            if kind not in stated:  # explicit limits are stated ones (kept through replace())
+                stated[kind] = tuple(self.joint_names) if given is not None else ()
+        unknown = sorted({j for v in stated.values() for j in v} - set(self.joint_names))
+        if set(stated) != {"acceleration", "jerk"} or unknown:
+            raise RobotError(
+                f"robot '{self.name}' stated_limits {stated}: expected acceleration and jerk "
+                "mapped to its joints"
+            )
+        object.__setattr__(self, "stated_limits", stated)
         qdd = self.qdd_max if self.qdd_max is not None else self._table_limits("acceleration")
         if qdd is None:
             qdd = np.asarray(self.qd_max) / DEFAULT_RAMP_TIME

@@ -27,7 +27,13 @@ from numpy.typing import NDArray
 from app.planning.energy import NOT_MODELLED, MotorModel
 from app.planning.robots._identified import identified_urdf, with_friction
 from app.planning.robots._sidecar import Sidecar, read_sidecar
-from app.planning.robots._types import Payload, Robot, RobotError
+from app.planning.robots._types import (
+    DEFAULT_JERK_TIME,
+    DEFAULT_RAMP_TIME,
+    Payload,
+    Robot,
+    RobotError,
+)
 from app.planning.robots._urdf import UrdfJoint, UrdfModel, parse_urdf, read_xml
 
 __all__ = ["locks_from_display", "missing_meshes", "mujoco_ready_urdf", "user_robot"]
@@ -326,7 +332,7 @@ def _roles(
                 f"{file.name}: shoulder and elbow are both '{shoulder}': expected two joints"
             )
         return free.index(shoulder), free.index(elbow), "given"
-    pair = _pitch_pair(file, locks, free)
+    pair = _pitch_pair(unique_frame_names(file)[0], locks, free)
     how = "first two parallel horizontal revolute axes a link apart"
     if pair is None:
         pair = (1, 2) if len(free) >= 3 else (0, 1)
@@ -553,6 +559,79 @@ def _effort_limits(
     return np.array(out)
 
 
+def unique_frame_names(
+    urdf: Path, package_dirs: Sequence[Path] = ()
+) -> tuple[Path, tuple[str, ...]]:
+    """``urdf``, or a copy in which every fixed joint named like a link is renamed
+    ``NAME_fixed``, and the renames (``"old -> new"``).
+
+    Pinocchio gives a fixed joint and a link frames of their own names; when the names are the
+    same (example-robot-data's b1-z1: ``gripperStator``) locking joints fails with "several
+    frames match". A fixed joint's name names nothing a user plans with, so renaming it changes
+    nothing else. The copy is cached; its mesh references are made absolute (resolved from the
+    original file's folder), so the viewer and the safety check still find the meshes.
+    """
+    from app.planning.robots._loader import write_cached
+    from app.planning.robots._package import resolve_mesh
+
+    root = read_xml(urdf, "URDF")
+    links = {link.get("name") for link in root.findall("link")}
+    taken = links | {joint.get("name") for joint in root.findall("joint")}
+    renamed = []
+    for joint in root.findall("joint"):
+        name = joint.get("name")
+        if joint.get("type") != "fixed" or name not in links:
+            continue
+        new, k = f"{name}_fixed", 2
+        while new in taken:
+            new, k = f"{name}_fixed{k}", k + 1
+        joint.set("name", new)
+        taken.add(new)
+        renamed.append(f"{name} -> {new}")
+    if not renamed:
+        return urdf, ()
+    folder = urdf.resolve().parent
+    for mesh in root.iter("mesh"):
+        reference = mesh.get("filename", "")
+        found = resolve_mesh(reference, base_dir=folder, package_dirs=package_dirs)
+        if reference and found is not None:
+            mesh.set("filename", str(found))
+    text = ET.tostring(root, encoding="unicode")
+    return write_cached(text, urdf.stem + ".frames", ".urdf"), tuple(renamed)
+
+
+def _rename_rows(renamed: Sequence[str]) -> tuple[dict[str, object], ...]:
+    source = "Pinocchio needs unique frame names (a fixed joint named as its link)"
+    return tuple(
+        {"name": "renamed fixed joint", "value": note, "unit": "", "source": source}
+        for note in renamed
+    )
+
+
+def _controller_limits(
+    joints: Sequence[UrdfJoint], car: Sidecar | None, qd_max: NDArray[np.float64]
+) -> dict[str, Any]:
+    """``qdd_max``, ``jerk_max`` and ``stated_limits`` of :class:`Robot`: the sidecar's
+    ``acceleration_limits``/``jerk_limits`` where given (stated), the defaults elsewhere."""
+    if car is None or not (car.acceleration_limits or car.jerk_limits):
+        return {}
+    accelerations = _sidecar_limits(joints, car, "acceleration_limits")
+    jerks = _sidecar_limits(joints, car, "jerk_limits")
+    qdd = [
+        accelerations.get(j.name, v / DEFAULT_RAMP_TIME)
+        for j, v in zip(joints, qd_max, strict=True)
+    ]
+    jerk = [jerks.get(j.name, a / DEFAULT_JERK_TIME) for j, a in zip(joints, qdd, strict=True)]
+    return {
+        "qdd_max": np.array(qdd, dtype=np.float64),
+        "jerk_max": np.array(jerk, dtype=np.float64),
+        "stated_limits": {
+            "acceleration": tuple(j.name for j in joints if j.name in accelerations),
+            "jerk": tuple(j.name for j in joints if j.name in jerks),
+        },
+    }
+
+
 def user_robot(
     urdf: Path,
     *,
@@ -591,6 +670,7 @@ def user_robot(
     motors, motor_source = _motors(urdf.name, free, car)
     motors = with_friction(motors, free, car)
     model_urdf = identified_urdf(urdf, car)  # the sidecar's identified link inertias applied
+    model_urdf, renamed = unique_frame_names(model_urdf, package_dirs)
     if model_urdf != urdf and mjcf is not None and not mjcf_only:
         raise RobotError(
             f"{car.path.name if car else urdf.name}: identified links with MJCF {mjcf.name}: "
@@ -600,6 +680,7 @@ def user_robot(
         car, payload, joints[-1].child, model.links, urdf.name
     )
     start, goal = _default_task(q_min, q_max, shoulder, elbow)
+    qd_max = _speed_limits(joints, car, mjcf_only)
     robot = Robot(
         name=model.name,
         joint_names=tuple(free),
@@ -611,8 +692,9 @@ def user_robot(
         ),
         q_min=q_min,
         q_max=q_max,
-        qd_max=_speed_limits(joints, car, mjcf_only),
+        qd_max=qd_max,
         tau_max=_effort_limits(joints, car, (mjcf.name if mjcf_only and mjcf else urdf.name)),
+        **_controller_limits(joints, car, qd_max),
         motors=motors,
         payload=body_payload,
         payload_body=body,
@@ -623,7 +705,8 @@ def user_robot(
         parameters=_parameters(
             urdf, mjcf, mjcf_only, motor_source, body, payload_kind, how, all_locks, auto
         )
-        + _repair_rows(None if mjcf is not None and model_urdf == urdf else model_urdf),
+        + _repair_rows(None if mjcf is not None and model_urdf == urdf else model_urdf)
+        + _rename_rows(renamed),
         locks=all_locks,
         all_joint_names=tuple(order),
         package_dirs=tuple(package_dirs),
