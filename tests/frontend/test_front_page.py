@@ -195,6 +195,14 @@ def test_draw_a_front_click_a_point_and_export(fronts: Server, page: Any) -> Non
         assert data == res.read()
     assert f"/points/{pid}/" in (link.get_attribute("href") or "")
 
+    # The job drawer links the finished front to this page.
+    if page.locator("#job-drawer[hidden]").count():
+        page.click("#jobs-button")
+    opener = page.locator(f'#job-list li[data-job-id="{front_id}"] a.job-open')
+    opener.wait_for(timeout=120_000)
+    assert opener.get_attribute("href") == f"#/compare/fronts/{front_id}"
+    assert "Pareto front" in page.inner_text(f'#job-list li[data-job-id="{front_id}"]')
+
 
 def test_cancel_a_front_while_it_runs(fronts: Server, page: Any) -> None:
     _open_form(page, fronts)

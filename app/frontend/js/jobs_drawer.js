@@ -15,7 +15,7 @@ const POLL_SECONDS = 5;
 /** Seconds before a refused job stream is tried again (polling meanwhile). */
 const RETRY_STREAM_SECONDS = 60;
 
-const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", simulation: "Simulation", sweep: "Sweep", profiles: "Profiles", cohort: "Cohort", identify: "Identify robot" };
+const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", simulation: "Simulation", sweep: "Sweep", profiles: "Profiles", cohort: "Cohort", identify: "Identify robot", front: "Pareto front" };
 
 /** Where a finished job's result is shown in the dashboard (null: nowhere). */
 export function resultLink(job) {
@@ -24,6 +24,7 @@ export function resultLink(job) {
   if (job.kind === "sweep") return [`#/compare?sweep=${job.id}`, "Heat maps"];
   if (job.kind === "cohort") return [`#/cohort/${job.id}`, "Groups and tests"];
   if (job.kind === "identify") return ["#/validate", "Validate"];
+  if (job.kind === "front") return [`#/compare/fronts/${job.id}`, "Trade-offs"];
   return null;
 }
 
