@@ -15,6 +15,7 @@ bad input, anything else for a bug) is raised again here unchanged, so a reader'
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import multiprocessing as mp
 import os
@@ -23,7 +24,7 @@ from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any, TypeVar
 
-from app.jobs.runner import address_space
+from app.jobs.runner import address_space, ensure_forkserver
 from app.services.errors import ParseLimitError
 
 T = TypeVar("T")
@@ -36,16 +37,20 @@ REAP_SECONDS = 5.0
 
 def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extra: int) -> None:
     """Run ``fn(*args)`` with at most ``extra`` bytes more address space; send (ok, value)."""
-    from app.jobs.tasks import READER_MODULES
+    from app.jobs.tasks import preload
 
-    for name in READER_MODULES:  # already there when forked from the runner's fork server
-        importlib.import_module(name)
+    # Everything a reader may import, before the limit: already there when forked from the
+    # runner's warm fork server, imported here otherwise, so the limit counts the file's data
+    # and never the libraries (found under load: a 100 kB CSV refused at 128 MB because SciPy
+    # and the readers were imported inside the limit).
+    preload()
     # Arrow's thread pools would reserve a stack per core, and its default allocator whole
     # arenas, inside the limit: one thread each, and plain malloc, so the limit counts data.
     pyarrow = importlib.import_module("pyarrow")
     pyarrow.set_cpu_count(1)
     pyarrow.set_io_thread_count(1)
     pyarrow.set_memory_pool(pyarrow.system_memory_pool())
+    _one_malloc_arena()
     # Below the API process in the scheduler's eyes, so reads stay quick while a file is read.
     os.nice(NICENESS)
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
@@ -67,6 +72,21 @@ def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extr
         send.send((False, RuntimeError(f"{type(outcome[1]).__name__}: {outcome[1]} ({exc})")))
 
 
+#: glibc's ``mallopt`` parameter for the most malloc arenas.
+_M_ARENA_MAX = -8
+
+
+def _one_malloc_arena() -> None:
+    """One malloc arena for every thread of the child. glibc gives a thread that finds the main
+    arena busy an arena of its own, reserving 64 MB of address space, which ``RLIMIT_AS``
+    counts: under load (threads preempted holding the lock) Arrow's reader threads took enough
+    to refuse a 100 kB CSV at 128 MB. Elsewhere than glibc, nothing to do."""
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).mallopt(_M_ARENA_MAX, 1)
+
+
 class ParseSandbox:
     """Runs reader calls in a child process with limits.
 
@@ -86,6 +106,9 @@ class ParseSandbox:
             ParseLimitError: the call needed more memory or time than the limits.
             Exception: whatever ``fn`` raised, unchanged.
         """
+        # From the keeper thread that outlives every request (a fork server started from a
+        # request's thread would die with it), with the runner's preload when one is set.
+        ensure_forkserver()
         ctx = mp.get_context("forkserver")
         recv, send = ctx.Pipe(duplex=False)
         extra = int(self.memory_mb * 1024 * 1024)
