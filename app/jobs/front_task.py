@@ -61,19 +61,20 @@ def _pareto_front(
 ) -> Any:
     """``pareto_front`` with the payload's options (progress: its first ``FRONT_SHARE``)."""
     pareto_front = _entry("app.planning.front", "pareto_front")
-    duration = payload.get("duration")
+    # The request's names -> the library's; a field left out keeps the library's default (the
+    # defaults live there once, not here again).
+    names = {"intervals": "n_intervals"} | {
+        k: k for k in ("method", "points", "max_duration", "tolerance", "duration")
+    }
+    options = {arg: payload[key] for key, arg in names.items() if payload.get(key) is not None}
+    if "allow_reversal" in payload:
+        options["no_reversal"] = not bool(payload["allow_reversal"])
     return pareto_front(
         robot,
         task,
         objectives=list(payload["objectives"]),
-        duration=None if duration is None else float(duration),
-        method=str(payload.get("method", "bound")),
-        points=int(payload.get("points", 9)),
         template=template,
-        n_intervals=int(payload.get("intervals", 40)),
-        no_reversal=not bool(payload.get("allow_reversal", False)),
-        max_duration=payload.get("max_duration"),
-        tolerance=float(payload.get("tolerance", 1e-3)),
+        **options,
         progress=within(progress, 0.0, FRONT_SHARE),
     )
 
