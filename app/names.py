@@ -56,6 +56,8 @@ METRICS: dict[str, MetricInfo] = {
 
 #: Metrics a planner can minimise, in table order.
 OBJECTIVES: tuple[str, ...] = tuple(METRICS)
+#: The metric planning minimises unless told otherwise (``PlanOptions.objective``, sweeps).
+DEFAULT_OBJECTIVE = "abs_work"
 
 #: Metrics with one value per trajectory (everything but ``peak_torque``).
 SCALAR_METRICS: tuple[str, ...] = tuple(n for n, m in METRICS.items() if not m.per_joint)
@@ -152,8 +154,17 @@ ON_REQUEST_METHODS: tuple[str, ...] = ("bound_unrestricted",)
 STANDARD_METHODS: tuple[str, ...] = tuple(m for m in METHODS if m not in ON_REQUEST_METHODS)
 
 #: ``human_optimal``'s human-likeness constraints (``app.planning.optimal.HUMAN_CONSTRAINTS``):
-#: the elbow fastest at the template's angle, the A/B/C phase shares, or none.
-HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "none")
+#: the elbow fastest at the template's angle, the A/B/C phase shares, the recorded lifts'
+#: elbow-speed shape (mean ± SD; a template from recorded lifts only), or none.
+HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "shape", "none")
+#: What each human constraint asks of ``human_optimal``, as the pages offer it.
+HUMAN_CONSTRAINT_TEXT: dict[str, str] = {
+    "peak": "the elbow is fastest where it passes the template's angle (one peak)",
+    "phases": "A/B/C time shares within the template's spread",
+    "shape": "the elbow's speed inside the recorded lifts' band (mean ± SD); a template from "
+    "recorded lifts only",
+    "none": "no human constraint (then it equals the physical bound)",
+}
 #: Constant-jerk intervals of the optimal-control transcription by default
 #: (``app.planning.optimal.DEFAULT_INTERVALS``).
 OPTIMAL_INTERVALS = 40
@@ -170,6 +181,36 @@ FRONT_METRICS: tuple[str, ...] = (
 )
 #: Every axis of a front: the metrics and the duration [s].
 FRONT_AXES: tuple[str, ...] = (*FRONT_METRICS, "duration")
+#: A front's axes it measures differently from ``METRICS`` (or that they do not name): axis ->
+#: (label, unit). A front's peak torque is the largest joint's over its limit (one number); its
+#: jerk is the integral of the squared joint jerks.
+FRONT_AXIS_TEXT: dict[str, tuple[str, str]] = {
+    "peak_torque": ("peak torque over its limit (largest joint)", "τ/τ_max"),
+    "jerk": ("jerk ∫Σ q⃛² dt (smoothness)", "rad²/s⁵"),
+    "duration": ("duration", "s"),
+}
+#: Each physical floor's formula as printed (``app.planning.energy.Floors``), by floor or metric
+#: name; ΔPE is the potential-energy change [J], T the duration [s].
+FLOOR_FORMULAS: dict[str, str] = {
+    "abs_work": "|ΔPE|",
+    "pos_work": "max(ΔPE, 0)",
+    "peak_power": "|ΔPE|/T (loose: the bound is the reference)",
+    "electrical_energy": "ΔPE + friction",
+    "delta_potential": "ΔPE",
+    "min_peak_power": "ΔPE/T (loose: the bound is the reference)",
+}
+#: Older results name their floors after the physics only: metric -> that floor's name.
+LEGACY_FLOOR_KEYS: dict[str, str] = {
+    "abs_work": "delta_potential",
+    "pos_work": "delta_potential",
+    "peak_power": "min_peak_power",
+}
+#: What the floors mean, the sentence the Compare page prints under its metrics table.
+FLOOR_NOTE = (
+    "Floors: no rest-to-rest motion does less work than |ΔPE| or has a lower peak power than "
+    "|ΔPE|/T (a loose floor: the bound is the reference); electrical energy adds the friction "
+    "no motion avoids; tau_sq and peak torque have no floor."
+)
 #: Seeds of the paper's PSO per sweep cell (``app.simulation.sweep.SWEEP_SEEDS``): a verdict is
 #: certain only when all agree.
 SWEEP_SEEDS = 3
@@ -243,4 +284,12 @@ def as_json() -> dict[str, Any]:
         "pso_defaults": asdict(PSO_DEFAULTS),
         "job_states": list(JOB_STATES),
         "terminal_job_states": sorted(TERMINAL_JOB_STATES),
+        "front_axes": list(FRONT_AXES),
+        "front_axis_text": {a: {"label": t[0], "unit": t[1]} for a, t in FRONT_AXIS_TEXT.items()},
+        "floor_formulas": dict(FLOOR_FORMULAS),
+        "legacy_floor_keys": dict(LEGACY_FLOOR_KEYS),
+        "floor_note": FLOOR_NOTE,
+        "human_constraints": [
+            {"name": c, "description": HUMAN_CONSTRAINT_TEXT[c]} for c in HUMAN_CONSTRAINTS
+        ],
     }

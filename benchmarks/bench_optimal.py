@@ -15,6 +15,15 @@ Run: ``.venv/bin/python benchmarks/bench_optimal.py [--runs 5] [--json] [--only 
    (human_optimal vs bound), per robot and objective; the minimum-torque-change baseline with
    the joint limits.
 4. ``cli``: ``bioplan plan`` with every method, process start to JSON.
+5. ``converged`` (issue 25, items 1 and 6): ``plan(..., converge=True)`` with the paper's PSO,
+   ``human_optimal`` and ``bound`` on each robot and objective of ``--cases``, each variant in
+   its own child process (cold: nothing cached): ``before`` (every refined mesh solved with
+   IPOPT's default start, interpreted dynamics, the change-only stop) and ``after`` (the
+   defaults: small initial barrier parameter from the coarser optimum, the per-point dynamics
+   compiled to C from ``optimal.COMPILE_FROM_POINTS`` points, the Richardson stop). CPU
+   seconds of the process per method (the machine is shared: wall time counts the others'
+   load) and of the C compiler (child processes, all methods together), the mesh sequences,
+   and (human_optimal + bound) / PSO.
 """
 
 from __future__ import annotations
@@ -22,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -199,23 +209,128 @@ def bench_cli(runs: int) -> dict[str, Any]:
             "median_seconds": statistics.median(times)}  # fmt: skip
 
 
+#: ``--only converged`` cases: robot, payload [kg], objective.
+CONVERGED_CASES = (
+    ("human_arm_2dof", 12.0, "tau_sq"),
+    ("human_arm_2dof", 12.0, "peak_power"),
+    ("curtain_wall_6dof", 4.0, "tau_sq"),
+    ("curtain_wall_6dof", 4.0, "peak_power"),
+)
+
+
+def _converged_child(robot_name: str, payload: float, objective: str, variant: str) -> None:
+    """One converged plan in this process; prints one JSON line."""
+    from app.planning import methods, optimal, planner
+    from app.planning.robots import load_robot
+
+    if variant == "before":
+        optimal.COMPILE_FROM_POINTS = 10**12
+        optimal._WARM.clear()  # the warm-flagged solve then runs with IPOPT's defaults
+
+        def change_only(values: Any) -> tuple[float, bool]:
+            return abs(values[-1] - values[-2]) / max(abs(values[-2]), abs(values[-1])), False
+
+        methods.mesh_error_estimate = change_only  # type: ignore[assignment]
+    cpu: dict[str, float] = {}
+
+    def timed(fn: Any, key: Any) -> Any:
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            name = key(args, kwargs)
+            t0 = time.process_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                cpu[name] = cpu.get(name, 0.0) + time.process_time() - t0
+
+        return wrapper
+
+    planner.run_paper = timed(planner.run_paper, lambda a, k: "paper")
+    for fn_name in ("run_optimal", "run_bound", "refine_to_convergence"):
+        original = getattr(planner, fn_name)
+        setattr(planner, fn_name, timed(original, lambda a, k: k.get("name") or a[2].name))
+    robot = load_robot(robot_name, payload=payload)
+    t0, c0 = time.perf_counter(), time.process_time()
+    result = planner.plan(
+        robot, objective=objective, methods=("quintic", "paper", "human_optimal", "bound"),
+        converge=True,
+    )  # fmt: skip
+    wall, total = time.perf_counter() - t0, time.process_time() - c0
+    # The C compiler runs in child processes: its CPU time is not in process_time().
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    data = result.to_dict()["methods"]
+    out = {"robot": robot_name, "objective": objective, "variant": variant, "cpu": cpu,
+           "cpu_total": total, "cpu_compiler": children.ru_utime + children.ru_stime,
+           "wall_total": wall, "load": os.getloadavg()[0]}  # fmt: skip
+    for name in ("human_optimal", "bound"):
+        conv = (data[name].get("solver") or {}).get("convergence") or {}
+        out[name] = {"value": data[name][objective], **conv}
+    print(json.dumps(out, default=float), flush=True)
+
+
+def bench_converged(runs: int, cases: str | None) -> list[dict[str, Any]]:
+    chosen = [c for c in CONVERGED_CASES if cases is None or f"{c[0]}:{c[2]}" in cases.split(",")]
+    rows: list[dict[str, Any]] = []
+    for robot_name, payload, objective in chosen:
+        for variant in ("before", "after"):
+            for _ in range(runs):
+                cmd = [sys.executable, __file__, "--converged-child",
+                       f"{robot_name}:{payload}:{objective}:{variant}"]  # fmt: skip
+                proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
+                row = json.loads(proc.stdout.strip().splitlines()[-1])
+                rows.append(row)
+                cpu = row["cpu"]
+                oc = cpu.get("human_optimal", 0.0) + cpu.get("bound", 0.0)
+                pso = max(cpu.get("paper", 0.0), 1e-9)
+                meshes = {
+                    m: (
+                        [st.get("n_intervals") for st in row[m]["sequence"]],
+                        f"{row[m]['value']:.6g}",
+                        f"est {row[m]['error_estimate']:.2g}",
+                    )
+                    for m in ("human_optimal", "bound")
+                }
+                print(
+                    f"{robot_name} {objective} {variant}: CPU human_optimal "
+                    f"{cpu.get('human_optimal', 0):.1f} s, bound {cpu.get('bound', 0):.1f} s, "
+                    f"PSO {pso:.2f} s, ratio {oc / pso:.1f}x; C compiler "
+                    f"{row.get('cpu_compiler', 0.0):.1f} s; wall {row['wall_total']:.1f} s "
+                    f"(load {row['load']:.1f}); {meshes}",
+                    flush=True,
+                )
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5, help="repetitions per timing")
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.add_argument(
-        "--only", choices=("speed", "convergence", "shares", "cli"), default=None,
+        "--only", choices=("speed", "convergence", "shares", "cli", "converged"), default=None,
         help="run one part only",
     )  # fmt: skip
+    parser.add_argument(
+        "--cases", default=None,
+        help="converged: robot:objective pairs, comma-separated (default: all four)",
+    )  # fmt: skip
+    parser.add_argument("--converged-child", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.converged_child:
+        robot_name, payload, objective, variant = args.converged_child.split(":")
+        _converged_child(robot_name, float(payload), objective, variant)
+        return
     print(f"load average {os.getloadavg()[0]:.2f}", flush=True)
     parts = {
         "speed": lambda: bench_speed(args.runs),
         "convergence": bench_convergence,
         "shares": bench_shares,
         "cli": lambda: bench_cli(args.runs),
+        "converged": lambda: bench_converged(args.runs, args.cases),
     }
-    results = {name: fn() for name, fn in parts.items() if args.only is None or args.only == name}
+    results = {
+        name: fn()
+        for name, fn in parts.items()
+        if (args.only is None and name != "converged") or args.only == name
+    }
     if args.json:
         print(json.dumps(results, indent=2, default=float))
 

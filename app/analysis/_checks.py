@@ -1,5 +1,6 @@
 """Input checks shared by the analysis modules: bad input becomes a RecordingError that names the
-channel and what was expected, before numpy or scipy can fail deep inside."""
+channel and what was expected, before numpy or scipy can fail deep inside. Also the small array
+helpers they share (runs of a mask, the lazily imported ``scipy.signal``)."""
 
 from __future__ import annotations
 
@@ -115,3 +116,9 @@ def scipy_signal() -> ModuleType:
 
     module: ModuleType = signal
     return module
+
+
+def true_runs(mask: ArrayLike) -> NDArray[np.intp]:
+    """(M, 2) [start, stop) index pairs of the runs of True in a (T,) boolean mask."""
+    padded = np.concatenate(([False], np.asarray(mask, dtype=bool), [False]))
+    return np.flatnonzero(padded[1:] != padded[:-1]).reshape(-1, 2)

@@ -23,7 +23,7 @@ import math
 import re
 from collections import Counter
 from collections.abc import Mapping, Sequence
-from dataclasses import MISSING, asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from app.analysis.pipeline import RecordingAnalysis, analyze_recordings
 from app.analysis.template import build_template, consensus_order
 from app.errors import BioPlanError
+from app.options import Options, OptionsError, check_option, option, option_specs
 from app.planning.human_template import HumanTemplate
 from app.recordings import bids_entities
 from app.recordings.types import Recording
@@ -86,43 +87,11 @@ class CohortError(BioPlanError):
     """A cohort that cannot be compared (too few groups, an empty group, a bad option)."""
 
 
-def _check_option(name: str, value: Any, allowed: Sequence[Any]) -> None:
-    """One message for an option outside its allowed values."""
-    if value not in allowed:
-        shown = ", ".join(repr(a) for a in allowed)
-        raise CohortError(f"option {name} is {value!r}: expected one of {shown}")
-
-
-def _check_range(name: str, value: Any, meta: Mapping[str, Any]) -> None:
-    """One message for a number outside the range its field's metadata states: ``low`` and
-    ``high`` exclusive, ``minimum`` an inclusive integer bound."""
-    low, high, minimum = meta.get("low"), meta.get("high"), meta.get("minimum")
-    unit = f" {meta['unit']}" if "unit" in meta else ""
-    if minimum is not None:
-        expected = f"an integer >= {minimum}"
-    elif high is not None:
-        expected = f"a value in ({low:g}, {high:g}){unit}"
-    else:
-        expected = f"a value > {low:g}{unit}"
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise CohortError(f"option {name} is {value!r}: expected {expected}") from None
-    ok = math.isfinite(x)
-    ok = ok and (low is None or x > low) and (high is None or x < high)
-    ok = ok and (minimum is None or (x == int(x) and x >= minimum))
-    if not ok:
-        raise CohortError(f"option {name} is {value!r}: expected {expected}")
-
-
-def _opt(default: Any, help: str, **meta: Any) -> Any:
-    return field(default=default, metadata={"help": help, **meta})
-
-
 @dataclass(frozen=True)
-class CohortOptions:
-    """Options of a cohort comparison; each field's metadata holds its help, unit, choices or
-    range, from which ``bioplan cohort`` builds its flags.
+class CohortOptions(Options):
+    """Options of a cohort comparison; each field (:func:`app.options.option`) holds its
+    default, help, unit, choices or range, from which ``bioplan cohort`` builds its flags and
+    the API its request model.
 
     Attributes:
         emg_rate: true EMG sampling rate [Hz] for files that state a wrong one (None: each
@@ -140,44 +109,52 @@ class CohortOptions:
         min_n: fewest values per group (pairs when paired) for a test, >= 2.
     """
 
-    emg_rate: float | None = _opt(
-        None, "true EMG sampling rate for files that state a wrong one", unit="Hz", low=0.0
+    emg_rate: float | None = option(
+        None,
+        help="true EMG sampling rate for files that state a wrong one",
+        unit="Hz",
+        gt=0.0,
+        metavar="HZ",
+        none_means="each file's own",
     )
-    subject_pattern: str = _opt(
+    subject_pattern: str = option(
         r"sub-([A-Za-z0-9]+)",
-        "regex searched in the file name when it has no BIDS subject; its first group is the"
-        " subject, without a match the file stem is",
+        help="regex searched in the file name when it has no BIDS subject; its first group is"
+        " the subject, without a match the file stem is",
         metavar="REGEX",
     )
-    paired: str = _opt(
+    paired: str = option(
         "auto",
-        "auto: pair two groups holding the same subjects once each; yes: pair by subject;"
+        help="auto: pair two groups holding the same subjects once each; yes: pair by subject;"
         " no: independent groups",
         choices=("auto", "yes", "no"),
     )
-    test: str = _opt(
+    test: str = option(
         "auto",
-        "auto: Shapiro-Wilk on each group (paired: the differences), parametric when all have"
-        " n>=3 and p>alpha, else rank; parametric: Welch/paired t; rank: Mann-Whitney U/Wilcoxon",
+        help="auto: Shapiro-Wilk on each group (paired: the differences), parametric when all"
+        " have n>=3 and p>alpha, else rank; parametric: Welch/paired t; rank: Mann-Whitney"
+        " U/Wilcoxon",
         choices=("auto", "parametric", "rank"),
     )
-    alpha: float = _opt(
-        0.05, "significance level (tests and normality checks)", low=0.0, high=1.0, metavar="A"
+    alpha: float = option(
+        0.05,
+        help="significance level (tests and normality checks)",
+        gt=0.0,
+        lt=1.0,
+        metavar="A",
     )
-    correction: str = _opt(
-        "holm", "multiple-comparison correction over all tests reported", choices=CORRECTIONS
+    correction: str = option(
+        "holm", help="multiple-comparison correction over all tests reported", choices=CORRECTIONS
     )
-    min_n: int = _opt(
-        3, "fewest values per group (pairs when paired) for a test", minimum=2, metavar="N"
+    min_n: int = option(
+        3, help="fewest values per group (pairs when paired) for a test", ge=2, metavar="N"
     )
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if "choices" in f.metadata:
-                _check_option(f.name, value, f.metadata["choices"])
-            elif value is not None and {"low", "high", "minimum"} & set(f.metadata):
-                _check_range(f.name, value, f.metadata)
+        try:
+            super().__post_init__()
+        except OptionsError as exc:  # one error type for a cohort that cannot be compared
+            raise CohortError(str(exc)) from None
         try:
             re.compile(self.subject_pattern)
         except re.error as exc:
@@ -186,12 +163,10 @@ class CohortOptions:
                 f" ({exc})"
             ) from None
 
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
     @classmethod
     def defaults(cls) -> dict[str, Any]:
-        return {f.name: f.default for f in fields(cls) if f.default is not MISSING}
+        """Option name -> the library's default."""
+        return {spec.name: spec.default for spec in option_specs(cls)}
 
 
 # -- per recording ---------------------------------------------------------------------------
@@ -552,7 +527,10 @@ class TestResult:
 def adjust_p(p: Sequence[float], method: str) -> list[float]:
     """Adjusted p-values: ``holm`` (step-down), ``bonferroni``, ``fdr_bh`` (Benjamini-Hochberg
     step-up) or ``none``; each capped at 1 and kept monotone in the raw p order."""
-    _check_option("correction", method, CORRECTIONS)
+    try:
+        check_option("correction", method, CORRECTIONS)
+    except OptionsError as exc:
+        raise CohortError(str(exc)) from None
     x = np.asarray(p, dtype=np.float64)
     m = x.size
     if m == 0 or method == "none":

@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from app.analysis._checks import as_signal, channel_label, check_rate, scipy_signal
+from app.analysis._checks import as_signal, channel_label, check_rate, scipy_signal, true_runs
 from app.recordings.types import RecordingError
 
 EnvelopeMethod = Literal["lowpass", "rms"]
@@ -340,17 +340,10 @@ def saturation_flags(
         at_rail = (col == col.max()) | (col == col.min())
         if np.count_nonzero(at_rail) < min_run:  # the usual case: no plateau possible
             continue
-        for start, stop in _runs(at_rail):
+        for start, stop in true_runs(at_rail):
             if stop - start >= min_run:
                 flags[start:stop, j] = True
     return flags.reshape(arr.shape)
-
-
-def _runs(mask: NDArray[np.bool_]) -> NDArray[np.intp]:
-    """(M, 2) [start, stop) index pairs of the True runs of a 1-D mask."""
-    padded = np.concatenate(([False], mask, [False]))
-    edges = np.flatnonzero(padded[1:] != padded[:-1])
-    return edges.reshape(-1, 2)
 
 
 def tkeo(x: ArrayLike) -> NDArray[np.float64]:
@@ -485,7 +478,7 @@ def active_runs(
     Pauses shorter than ``min_gap`` [s] are bridged first, then runs shorter than
     ``min_duration`` [s] are dropped.
     """
-    runs = _runs(active)
+    runs = true_runs(active)
     if len(runs) > 1:
         bridged = (runs[1:, 0] - runs[:-1, 1]) < min_gap * rate
         # A merged run starts after every pause that is not bridged and ends before one.

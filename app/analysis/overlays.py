@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +27,7 @@ from app.errors import BioPlanError
 from app.jsonsafe import json_safe
 
 if TYPE_CHECKING:
-    from app.analysis.pipeline import AnalysisResult, RecordingAnalysis
+    from app.analysis.pipeline import AnalysisResult, LiftReport, RecordingAnalysis
 
 FloatArray = NDArray[np.float64]
 
@@ -39,6 +39,55 @@ _ANGLE_SERIES = ("shoulder_deg", "elbow_deg", "shoulder_velocity_deg_s", "elbow_
 
 class OverlaysError(BioPlanError):
     """Stored overlays that this module did not write, or an impossible window."""
+
+
+class PhaseMeta(TypedDict):
+    """A phase of a lift in the overlays' meta: times [s] on its file's clock."""
+
+    name: str
+    part: str
+    start_s: float
+    end_s: float
+
+
+class LiftMeta(TypedDict):
+    """A lift in the overlays' meta (``meta["lifts"]``): times [s] on its file's clock."""
+
+    file: str
+    index: int
+    source: str
+    start_s: float
+    top_s: float
+    hold_s: list[float]
+    end_s: float
+    peak_velocity_angle_deg: float
+    phases: list[PhaseMeta]
+    activation_order: list[str]
+
+
+def _lift_meta(source: str, report: LiftReport) -> LiftMeta:
+    """One lift of file ``source``: its times [s] on the file's clock, phases and order."""
+    lift = report.lift
+    return {
+        "file": source,
+        "index": report.index,
+        "source": lift.source,
+        "start_s": lift.start,
+        "top_s": lift.top,
+        "hold_s": list(lift.hold),
+        "end_s": lift.end,
+        "peak_velocity_angle_deg": math.degrees(report.profile.peak_velocity_angle),
+        "phases": [
+            {
+                "name": p.phase.name,
+                "part": p.phase.part,
+                "start_s": p.phase.start,
+                "end_s": p.phase.end,
+            }
+            for p in report.phases
+        ],
+        "activation_order": list(report.activation_order),
+    }
 
 
 def _file_meta(rec: RecordingAnalysis) -> dict[str, Any]:
@@ -143,7 +192,7 @@ class AnalysisOverlays:
 
         emg: list[dict[str, Any]] = []
         angles: dict[str, Any] | None = None
-        lifts: list[dict[str, Any]] = []
+        lifts: list[LiftMeta] = []
         files: list[dict[str, Any]] = []
         for rec in result.recordings:
             for m in rec.emg:
@@ -166,30 +215,7 @@ class AnalysisOverlays:
                     keep(f"files.{k}.angles.{name}", t, np.degrees(values_rad))
                 angles = angles or {"file": rec.source, "side": a.side}
             files.append(_file_meta(rec))
-            for report in rec.lifts:
-                lift = report.lift
-                lifts.append(
-                    {
-                        "file": rec.source,
-                        "index": report.index,
-                        "source": lift.source,
-                        "start_s": lift.start,
-                        "top_s": lift.top,
-                        "hold_s": list(lift.hold),
-                        "end_s": lift.end,
-                        "peak_velocity_angle_deg": math.degrees(report.profile.peak_velocity_angle),
-                        "phases": [
-                            {
-                                "name": p.phase.name,
-                                "part": p.phase.part,
-                                "start_s": p.phase.start,
-                                "end_s": p.phase.end,
-                            }
-                            for p in report.phases
-                        ],
-                        "activation_order": list(report.activation_order),
-                    }
-                )
+            lifts.extend(_lift_meta(rec.source, report) for report in rec.lifts)
         meta = {
             "rate": rate,
             "span": span,  # inf (no series at all) becomes null

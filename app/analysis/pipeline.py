@@ -15,7 +15,7 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,7 +33,8 @@ from app.analysis.pose import ArmAngles, angles_from_channels, arm_angles
 from app.analysis.segmentation import Lift, Phase, detect_emg_lifts, detect_lifts, split_phases
 from app.analysis.sync import estimate_offset
 from app.analysis.template import LiftProfile, build_template, consensus_order, lift_profile
-from app.names import MAX_VIDEO_SECONDS
+from app.names import MAX_VIDEO_SECONDS, PHASE_BOUNDS_DEG
+from app.options import Options, option
 from app.planning.human_template import HumanTemplate
 from app.recordings.types import SITES, Channel, RateCheck, Recording, RecordingError, rate_check
 
@@ -320,43 +321,7 @@ class AnalysisResult:
                 )
             lines.append(f"  lifts: {len(rec.lifts)}")
             for r in rec.lifts:
-                lift = r.lift
-                head = (
-                    f"    #{r.index} {lift.start:7.2f}-{lift.top:7.2f}-{lift.end:7.2f} s"
-                    f" ({lift.source})"
-                )
-                if np.isfinite(lift.top_angle):
-                    head += f"  elbow {_deg(lift.start_angle):.0f}->{_deg(lift.top_angle):.0f} deg"
-                if np.isfinite(r.profile.peak_velocity):
-                    head += (
-                        f"  v_peak {_deg(r.profile.peak_velocity):.0f} deg/s"
-                        f" at {_deg(r.profile.peak_velocity_angle):.0f} deg"
-                    )
-                if r.low_quality:
-                    head += (
-                        f"  LOW POSE QUALITY ({100 * (r.low_quality_share or 0):.0f}% of frames)"
-                    )
-                lines.append(head)
-                for p in r.phases:
-                    if p.phase.part != "concentric":
-                        continue
-                    emg = " ".join(f"{m}={v:.2f}" for m, v in p.emg_mean.items() if m in shown)
-                    lines.append(
-                        f"       {p.phase.name}: {p.phase.duration:.2f} s"
-                        + (f"  EMG mean {emg}" if emg else "")
-                    )
-                if r.activation_order:
-                    onset = ", ".join(
-                        f"{m} {r.onsets[m]:+.2f}s" for m in r.activation_order if m in shown
-                    )
-                    lines.append(f"       onsets: {onset}")
-                if r.energetics is not None:
-                    m = r.energetics.metrics
-                    lines.append(
-                        f"       energy: pos_work {m['pos_work']:.1f} J"
-                        f" (floor dPE {m['delta_potential']:.1f} J),"
-                        f" peak power {m['peak_power']:.0f} W"
-                    )
+                lines.extend(_lift_lines(r, shown))
             for w in rec.warnings:
                 lines.append(f"  warning: {w}")
         tpl = self.template
@@ -380,6 +345,43 @@ class AnalysisResult:
         for w in self.warnings:
             lines.append(f"warning: {w}")
         return "\n".join(lines)
+
+
+def _lift_lines(r: LiftReport, shown: set[str]) -> list[str]:
+    """The summary lines of one lift: times, angles, peak velocity, then per concentric phase
+    its duration and mean EMG, the onsets and the energetics (EMG of muscles ``shown`` only)."""
+    lines: list[str] = []
+    lift = r.lift
+    head = f"    #{r.index} {lift.start:7.2f}-{lift.top:7.2f}-{lift.end:7.2f} s ({lift.source})"
+    if np.isfinite(lift.top_angle):
+        head += f"  elbow {_deg(lift.start_angle):.0f}->{_deg(lift.top_angle):.0f} deg"
+    if np.isfinite(r.profile.peak_velocity):
+        head += (
+            f"  v_peak {_deg(r.profile.peak_velocity):.0f} deg/s"
+            f" at {_deg(r.profile.peak_velocity_angle):.0f} deg"
+        )
+    if r.low_quality:
+        head += f"  LOW POSE QUALITY ({100 * (r.low_quality_share or 0):.0f}% of frames)"
+    lines.append(head)
+    for p in r.phases:
+        if p.phase.part != "concentric":
+            continue
+        emg = " ".join(f"{m}={v:.2f}" for m, v in p.emg_mean.items() if m in shown)
+        lines.append(
+            f"       {p.phase.name}: {p.phase.duration:.2f} s"
+            + (f"  EMG mean {emg}" if emg else "")
+        )
+    if r.activation_order:
+        onset = ", ".join(f"{m} {r.onsets[m]:+.2f}s" for m in r.activation_order if m in shown)
+        lines.append(f"       onsets: {onset}")
+    if r.energetics is not None:
+        m = r.energetics.metrics
+        lines.append(
+            f"       energy: pos_work {m['pos_work']:.1f} J"
+            f" (floor dPE {m['delta_potential']:.1f} J),"
+            f" peak power {m['peak_power']:.0f} W"
+        )
+    return lines
 
 
 def _deg(x: float) -> float | None:
@@ -548,7 +550,7 @@ def _abs_peak(t: NDArray[np.float64], x: NDArray[np.float64], t0: float, t1: flo
 
 
 @dataclass(frozen=True)
-class AnalysisOptions:
+class AnalysisOptions(Options):
     """What the user chose for one analysis; the same options rerun it unchanged.
 
     Attributes:
@@ -564,14 +566,48 @@ class AnalysisOptions:
             by default they are flagged and left out.
     """
 
-    emg_rate: float | None = None
-    muscle_map: Mapping[str, str] | None = None
-    exclude_channels: frozenset[str] = frozenset()
-    bounds: tuple[float, float] = (float(np.deg2rad(40.0)), float(np.deg2rad(90.0)))
-    offset: float | Literal["auto"] | None = None
-    emg_options: Mapping[str, Any] = field(default_factory=dict)
-    pose_options: Mapping[str, Any] = field(default_factory=dict)
-    keep_low_quality_lifts: bool = False
+    emg_rate: float | None = option(
+        None,
+        help="true EMG sampling rate when the file states a wrong one",
+        unit="Hz",
+        gt=0,
+        none_means="the stored rate",
+    )
+    muscle_map: Mapping[str, str] | None = option(
+        None, help="channel label -> EMG site (deltoid, triceps, biceps, forearm)"
+    )
+    exclude_channels: frozenset[str] = option(
+        frozenset(), help="channel names left out of the analysis (case-insensitive)"
+    )
+    bounds: tuple[float, float] = option(
+        (float(np.deg2rad(PHASE_BOUNDS_DEG[0])), float(np.deg2rad(PHASE_BOUNDS_DEG[1]))),
+        help="A/B and B/C elbow-flexion thresholds",
+        unit="rad",
+        api=False,  # the API and the CLI take them in degrees (phase_bounds_deg)
+    )
+    offset: float | Literal["auto"] | None = option(
+        None,
+        help='t_emg = t_pose + offset; "auto": by cross-correlation',
+        unit="s",
+        none_means="0",
+    )
+    emg_options: Mapping[str, Any] = option(
+        help="options of emg_process (band, envelope)", default_factory=dict, api=False
+    )
+    pose_options: Mapping[str, Any] = option(
+        help="options of arm_angles (side, min_visibility...)", default_factory=dict, api=False
+    )
+    keep_low_quality_lifts: bool = option(
+        False,
+        help="keep lifts on mostly low-quality pose frames (another person tracked, arm poorly "
+        "seen, implausible limb lengths) in the template; default: flagged, left out",
+    )
+
+    def __post_init__(self) -> None:
+        # JSON gives lists: the channels are a set, the bounds a pair.
+        object.__setattr__(self, "exclude_channels", frozenset(self.exclude_channels))
+        object.__setattr__(self, "bounds", tuple(float(b) for b in self.bounds))
+        super().__post_init__()
 
 
 def _without_excluded(recording: Recording, exclude: frozenset[str]) -> Recording:
@@ -985,6 +1021,27 @@ def analyze_recordings(
     warnings: list[str] = []
     dynamics = _arm_model(body_mass, body_height, load_mass, warnings)
     analyses = [_analyze_one(rec, options, dynamics) for rec in recs]
+    template = _pooled_template(recordings, analyses, options, bounds_deg, warnings)
+    settings = _settings_echo(
+        options,
+        bounds_deg=bounds_deg,
+        body=(body_mass, body_height, load_mass),
+        together=together,
+    )
+    return AnalysisResult(
+        recordings=analyses, template=template, settings=settings, warnings=warnings
+    )
+
+
+def _pooled_template(
+    recordings: Sequence[Recording],
+    analyses: Sequence[RecordingAnalysis],
+    options: AnalysisOptions,
+    bounds_deg: tuple[float, float],
+    warnings: list[str],
+) -> HumanTemplate:
+    """The template from every analysed lift (low-quality ones left out unless kept);
+    appends to ``warnings`` what the template assumed or could not measure."""
     assumptions = [a for rec in recordings if (a := image_size_assumption(rec))]
     lifts = [r for a in analyses for r in a.lifts]
     kept = [r for r in lifts if options.keep_low_quality_lifts or not r.low_quality]
@@ -1010,15 +1067,7 @@ def analyze_recordings(
             f"peak velocity at {template.peak_velocity_angle_deg:g} deg, not measured here"
         )
     warnings.extend(assumptions)
-    settings = _settings_echo(
-        options,
-        bounds_deg=bounds_deg,
-        body=(body_mass, body_height, load_mass),
-        together=together,
-    )
-    return AnalysisResult(
-        recordings=analyses, template=template, settings=settings, warnings=warnings
-    )
+    return template
 
 
 def _settings_echo(
@@ -1099,32 +1148,40 @@ def _arm_model(
     return dynamics
 
 
+class AnalysisKeywords(TypedDict, total=False):
+    """The keyword arguments of :func:`analyze_recordings` (its signature holds the defaults),
+    for functions that pass them through."""
+
+    emg_rate: float | None
+    muscle_map: Mapping[str, str] | None
+    exclude_channels: Collection[str]
+    phase_bounds_deg: tuple[float, float]
+    body_mass: float
+    body_height: float
+    load_mass: float
+    offset: float | Literal["auto"] | None
+    together: bool
+    emg_options: Mapping[str, Any] | None
+    pose_options: Mapping[str, Any] | None
+    keep_low_quality_lifts: bool
+
+
 def analyze_files(
     paths: Sequence[str | Path],
     *,
-    emg_rate: float | None = None,
-    muscle_map: Mapping[str, str] | None = None,
-    exclude_channels: Collection[str] = (),
-    phase_bounds_deg: tuple[float, float] = (40.0, 90.0),
-    body_mass: float = 75.0,
-    body_height: float = 1.75,
-    load_mass: float = 12.0,
-    offset: float | Literal["auto"] | None = None,
-    together: bool = False,
-    emg_options: Mapping[str, Any] | None = None,
-    pose_options: Mapping[str, Any] | None = None,
-    keep_low_quality_lifts: bool = False,
     frame_rate: float | None = None,
     image_size: tuple[int, int] | None = None,
     pose_python: str | Path | None = None,
     max_video_seconds: float = MAX_VIDEO_SECONDS,
+    **options: Unpack[AnalysisKeywords],
 ) -> AnalysisResult:
     """Read files with ``app.recordings.read_recording`` and analyse them.
 
     ``frame_rate`` [Hz] and ``image_size`` (width, height) [px] go to the reader for pose
     files that do not state them (MediaPipe CSV without timestamps). Videos (mp4, mov, avi)
     become pose first (:func:`app.recordings.extract_pose`, with ``pose_python`` and
-    ``max_video_seconds``). The other options are those of :func:`analyze_recordings`.
+    ``max_video_seconds``). ``options`` are those of :func:`analyze_recordings`; its
+    ``emg_rate`` and ``muscle_map`` also go to the reader.
     """
     from app.recordings import extract_pose, is_video, read_recording
 
@@ -1133,28 +1190,14 @@ def analyze_files(
         if is_video(p)
         else read_recording(
             p,
-            emg_rate=emg_rate,
-            muscle_map=muscle_map,
+            emg_rate=options.get("emg_rate"),
+            muscle_map=options.get("muscle_map"),
             frame_rate=frame_rate,
             image_size=image_size,
         )
         for p in paths
     ]
-    result = analyze_recordings(
-        recordings,
-        emg_rate=emg_rate,
-        muscle_map=muscle_map,
-        exclude_channels=exclude_channels,
-        phase_bounds_deg=phase_bounds_deg,
-        body_mass=body_mass,
-        body_height=body_height,
-        load_mass=load_mass,
-        offset=offset,
-        together=together,
-        emg_options=emg_options,
-        pose_options=pose_options,
-        keep_low_quality_lifts=keep_low_quality_lifts,
-    )
+    result = analyze_recordings(recordings, **options)
     result.settings["frame_rate_hz"] = frame_rate
     result.settings["image_size_px"] = list(image_size) if image_size else None
     return result

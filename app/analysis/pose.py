@@ -21,8 +21,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from app.analysis._checks import scipy_signal
-from app.recordings._pose_quality import FrameQuality, arm_quality, image_landmarks
+from app.analysis._checks import scipy_signal, true_runs
+from app.recordings import FrameQuality, arm_quality, image_landmarks
 from app.recordings.types import Channel, Recording, RecordingError
 
 Side = Literal["left", "right"]
@@ -426,11 +426,6 @@ def _confidence(channels: list[Channel], min_visibility: float) -> tuple[float, 
 # time-series cleaning
 
 
-def _nan_runs(mask: NDArray[np.bool_]) -> NDArray[np.intp]:
-    padded = np.concatenate(([False], mask, [False]))
-    return np.flatnonzero(padded[1:] != padded[:-1]).reshape(-1, 2)
-
-
 def _segments(
     t: NDArray[np.float64],
     y: NDArray[np.float64],
@@ -458,7 +453,7 @@ def _segments(
         jump = step > max_speed * np.diff(t[idx])
         breaks[idx[1:][jump] - 1] = True
     # Fill holes short enough and not crossing a break.
-    for start, stop in _nan_runs(~finite):
+    for start, stop in true_runs(~finite):
         if start == 0 or stop == n:
             continue
         if (stop - start) / rate > max_gap or breaks[start - 1 : stop].any():
@@ -467,7 +462,7 @@ def _segments(
         w = (t[start:stop] - t[lo]) / (t[hi] - t[lo])
         y[start:stop] = y[lo] + w[:, None] * (y[hi] - y[lo])
     ok = np.asarray(np.isfinite(y).all(axis=1), dtype=bool)
-    runs = _nan_runs(ok)
+    runs = true_runs(ok)
     segs: list[tuple[int, int]] = []
     for start, stop in runs:
         cuts = start + 1 + np.flatnonzero(breaks[start : stop - 1])
@@ -706,20 +701,56 @@ def arm_angles(
             file=recording.source,
             expected=f"landmark confidence >= {min_visibility}",
         )
-    stacked = np.column_stack([shoulder_flex, elbow_flex, pts["wrist"]])
+    return _angles_from_series(
+        t,
+        np.column_stack([shoulder_flex, elbow_flex, pts["wrist"]]),
+        _Smoothing(rate, max_gap, max_speed, lowpass, derivative, window),
+        side=chosen_side if sided else "unspecified",
+        position_unit=unit,
+        quality=_quality(recording, found, t, chosen_side, min_visibility),
+    )
+
+
+@dataclass(frozen=True)
+class _Smoothing:
+    """How a series of angles is cleaned and differentiated (see :func:`arm_angles`)."""
+
+    rate: float
+    max_gap: float
+    max_speed: float
+    lowpass: float | None
+    derivative: DerivativeMethod
+    window: float
+
+
+def _angles_from_series(
+    t: NDArray[np.float64],
+    stacked: NDArray[np.float64],
+    how: _Smoothing,
+    *,
+    side: str,
+    position_unit: str,
+    quality: FrameQuality | None = None,
+) -> ArmAngles:
+    """ArmAngles from (T, 2 + D) columns: shoulder and elbow flexion [rad], then D wrist
+    position columns; holes filled, jumps split, smoothed and differentiated per segment."""
     filled, segments, gaps = _segments(
-        t, stacked, rate=rate, max_gap=max_gap, max_speed=max_speed, jump_columns=2
+        t,
+        stacked,
+        rate=how.rate,
+        max_gap=how.max_gap,
+        max_speed=how.max_speed,
+        jump_columns=2,
     )
     smooth, d1, d2 = smooth_and_differentiate(
         t,
         filled,
-        rate=rate,
+        rate=how.rate,
         segments=segments,
-        lowpass=lowpass,
-        derivative=derivative,
-        window=window,
+        lowpass=how.lowpass,
+        derivative=how.derivative,
+        window=how.window,
     )
-    valid = np.isfinite(smooth[:, 1])
     return ArmAngles(
         t=t,
         shoulder=smooth[:, 0],
@@ -729,13 +760,13 @@ def arm_angles(
         shoulder_acceleration=d2[:, 0],
         elbow_acceleration=d2[:, 1],
         wrist_acceleration=d2[:, 2:],
-        valid=valid,
+        valid=np.isfinite(smooth[:, 1]),
         segments=segments,
         gaps=gaps,
-        rate=rate,
-        side=chosen_side if sided else "unspecified",
-        position_unit=unit,
-        quality=_quality(recording, found, t, chosen_side, min_visibility),
+        rate=how.rate,
+        side=side,
+        position_unit=position_unit,
+        quality=quality,
     )
 
 
@@ -841,36 +872,10 @@ def angles_from_channels(
         s = np.asarray(shoulder.data, dtype=np.float64)
     else:
         s = np.zeros_like(e)
-    filled, segments, gaps = _segments(
+    return _angles_from_series(
         t,
         np.column_stack([s, e]),
-        rate=rate,
-        max_gap=max_gap,
-        max_speed=max_speed,
-        jump_columns=2,
-    )
-    smooth, d1, d2 = smooth_and_differentiate(
-        t,
-        filled,
-        rate=rate,
-        segments=segments,
-        lowpass=lowpass,
-        derivative=derivative,
-        window=window,
-    )
-    return ArmAngles(
-        t=t,
-        shoulder=smooth[:, 0],
-        elbow=smooth[:, 1],
-        shoulder_velocity=d1[:, 0],
-        elbow_velocity=d1[:, 1],
-        shoulder_acceleration=d2[:, 0],
-        elbow_acceleration=d2[:, 1],
-        wrist_acceleration=np.zeros((len(t), 0)),
-        valid=np.isfinite(smooth[:, 1]),
-        segments=segments,
-        gaps=gaps,
-        rate=rate,
+        _Smoothing(rate, max_gap, max_speed, lowpass, derivative, window),
         side=_side_of(elbow.name) or "unspecified",
         position_unit="",
     )

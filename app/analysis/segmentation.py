@@ -14,7 +14,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from app.analysis._checks import as_signal, check_rate, scipy_signal
+from app.analysis._checks import as_signal, check_rate, scipy_signal, true_runs
 from app.recordings.types import RecordingError
 
 DEFAULT_PHASE_BOUNDS = (float(np.deg2rad(40.0)), float(np.deg2rad(90.0)))
@@ -140,8 +140,7 @@ def detect_lifts(
         )
     rate = _rate_of(times)
     if segments is None:
-        padded = np.concatenate(([False], np.isfinite(y), [False]))
-        segs = np.flatnonzero(padded[1:] != padded[:-1]).reshape(-1, 2)
+        segs = true_runs(np.isfinite(y))
     else:
         segs = np.asarray(segments, dtype=np.intp).reshape(-1, 2)
     span = float(np.nanmax(y) - np.nanmin(y))

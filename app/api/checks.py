@@ -15,7 +15,7 @@ from app.errors import BioPlanError
 from app.services import ServiceError, Services
 
 
-def _limit(value: Any, default: float) -> float:
+def _limit(value: float | None, default: float) -> float:
     return default if value is None else float(value)
 
 
@@ -107,3 +107,23 @@ def check_task(body: PlanRequest | SimulationRequest, session: Session, services
             # answer names the body's field that points at it.
             exc.field = "template_analysis_id"
             raise
+    _check_shape(body, session, services)
+
+
+def _check_shape(
+    body: PlanRequest | SimulationRequest, session: Session, services: Services
+) -> None:
+    """422 for ``human_constraint: "shape"`` on a template without recorded lifts' profiles."""
+    from app.planning.human_constraints import speed_band
+    from app.planning.human_template import HumanTemplate
+
+    methods = getattr(body, "methods", ())
+    if getattr(body, "human_constraint", None) != "shape" or "human_optimal" not in methods:
+        return
+    data = body.template
+    if data is None and body.template_analysis_id is not None:
+        data = services.jobs.analysis_template(session, body.template_analysis_id)
+    try:
+        speed_band(HumanTemplate() if data is None else HumanTemplate.from_dict(data))
+    except BioPlanError as exc:
+        raise ApiError(422, str(exc), field="human_constraint") from None

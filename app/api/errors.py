@@ -13,7 +13,6 @@ from __future__ import annotations
 import logging
 import re
 from http import HTTPStatus
-from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
@@ -51,7 +50,7 @@ class ApiError(Exception):
         field: str | None = None,
         file: str | None = None,
         headers: dict[str, str] | None = None,
-        extra: dict[str, Any] | None = None,
+        extra: dict[str, object] | None = None,
     ) -> None:
         super().__init__(detail)
         self.status = status
@@ -69,11 +68,11 @@ def problem(
     detail: str | None,
     *,
     headers: dict[str, str] | None = None,
-    members: dict[str, Any] | None = None,
-    **extra: Any,
+    members: dict[str, object] | None = None,
+    **extra: object,
 ) -> JSONResponse:
     """A problem response; ``extra`` members are left out when None, ``members`` never are."""
-    body: dict[str, Any] = {"type": "about:blank", "title": title, "status": status}
+    body: dict[str, object] = {"type": "about:blank", "title": title, "status": status}
     body["detail"] = detail
     body.update({k: v for k, v in extra.items() if v is not None})
     body.update(jsonable_encoder(members or {}))  # e.g. a job's datetimes
@@ -134,7 +133,7 @@ def _allowed_methods(request: Request) -> list[str]:
 _HTTP_METHODS = {"get", "put", "post", "delete", "patch", "options", "head"}
 
 
-def _path_pattern(template: str, operations: dict[str, Any]) -> str:
+def _path_pattern(template: str, operations: dict[str, object]) -> str:
     integers = {
         p["name"]
         for op in operations.values()
@@ -154,7 +153,7 @@ def _path_pattern(template: str, operations: dict[str, Any]) -> str:
 _UNION_MEMBERS = {"float", "int", "str", "bool", "none", "list", "dict", "tuple"}
 
 
-def _field_of(loc: tuple[Any, ...]) -> str:
+def _field_of(loc: tuple[int | str, ...]) -> str:
     """The request field of a validation error: ``durations.0``, ``offset`` (not
     ``offset.constrained-float``: a union member's tag is no field)."""
     parts = [str(p) for p in loc]

@@ -23,7 +23,9 @@ from pydantic import (
     field_validator,
 )
 
+from app.kinds import KindName
 from app.names import (
+    DEFAULT_OBJECTIVE,
     FRONT_AXES,
     HUMAN_CONSTRAINTS,
     JOB_STATES,
@@ -35,13 +37,15 @@ from app.names import (
     PHASE_BOUNDS_DEG,
     PSO_DEFAULTS,
     STANDARD_METHODS,
-    SWEEP_SEEDS,
     MethodInfo,
     MetricInfo,
     PhaseInfo,
     PsoDefaults,
 )
+from app.options import OptionSpec, option_specs
+from app.planning.options import PlanOptions
 from app.recordings import FORMATS
+from app.simulation.options import SimulationOptions, SweepGrid
 
 if TYPE_CHECKING:
     Objective = str
@@ -58,9 +62,7 @@ else:
     MethodName = Literal[tuple(METHODS)]
     HumanConstraint = Literal[HUMAN_CONSTRAINTS]
     ReaderFormat = Literal[FORMATS]
-JobKind = Literal[
-    "analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify", "front"
-]
+JobKind = KindName  # one home: ``app.kinds``
 
 ROBOT_NAME = r"^[A-Za-z0-9_.\-]{1,100}$"
 #: ``WIDTHxHEIGHT`` in pixels (1 to 99999 each), or blank for none.
@@ -70,7 +72,7 @@ T = TypeVar("T")
 _strict = ConfigDict(extra="forbid")
 
 
-def _no_repeats(values: list[Any]) -> list[Any]:
+def _no_repeats(values: list[T]) -> list[T]:
     """A list whose values are all different, else the error names the repeated ones."""
     repeated = sorted({x for x in values if values.count(x) > 1}, key=str)
     if repeated:
@@ -86,14 +88,14 @@ Distinct = Annotated[
 ]
 
 
-def blank_label_is_none(value: Any) -> Any:
+def blank_label_is_none(value: object) -> object:
     """A label without its surrounding blanks; an empty one is no label."""
     return (value.strip() or None) if isinstance(value, str) else value
 
 
-def _types_in(annotation: Any) -> set[Any]:
+def _types_in(annotation: object) -> set[object]:
     """Every type an annotation names, nested ones included (``list[float] | None``...)."""
-    found: set[Any] = {annotation}
+    found: set[object] = {annotation}
     for arg in get_args(annotation):
         found |= _types_in(arg)
     return found
@@ -108,7 +110,7 @@ class _Request(BaseModel):
 
     @field_validator("*", mode="before")
     @classmethod
-    def _booleans_are_booleans(cls, value: Any, info: ValidationInfo) -> Any:
+    def _booleans_are_booleans(cls, value: object, info: ValidationInfo) -> object:
         field = cls.model_fields.get(info.field_name or "")
         if field is None:
             return value
@@ -126,6 +128,70 @@ class _Request(BaseModel):
 def left_out(body: BaseModel) -> set[str]:
     """The fields a request did not give (they hold their defaults)."""
     return set(type(body).model_fields) - body.model_fields_set
+
+
+# ------------------------------------------------------------------- options, defined once
+# The options of plan, simulate and sweep live in their dataclasses (``PlanOptions``,
+# ``SimulationOptions``, ``SweepGrid``): each request field below takes its default, bounds,
+# length and description from there (``option_field``), and ``options_model`` builds a whole
+# request model from a dataclass (tests/test_options.py checks the two agree field by field).
+
+
+def _spec(cls: type, name: str) -> OptionSpec:
+    return next(s for s in option_specs(cls) if s.name == name)
+
+
+def _item_type(spec: OptionSpec) -> Any:
+    """The pydantic type of one value (of each item of a list option)."""
+    if spec.choices is not None:
+        return Literal[spec.choices]
+    kind = spec.kind if spec.kind in (float, int, str, bool) else Any
+    bounds: dict[str, Any] = spec.bounds() if spec.sequence else {}
+    return Annotated[kind, Field(**bounds)] if bounds else kind
+
+
+def option_type(cls: type, name: str) -> Any:
+    """The annotation of option ``name`` of options dataclass ``cls`` in a request model."""
+    spec = _spec(cls, name)
+    kind = Distinct[_item_type(spec)] if spec.sequence else _item_type(spec)  # type: ignore[misc]
+    return kind | None if spec.nullable else kind
+
+
+def option_field(cls: type, name: str, **extra: object) -> Any:
+    """A request field for option ``name`` of ``cls``: the interface default, the bounds (of
+    each item, in the annotation, for a list), the list's length and the description."""
+    spec = _spec(cls, name)
+    default = spec.interface_default
+    kwargs: dict[str, Any] = {
+        "default": list(default) if isinstance(default, tuple) else default,
+        "description": spec.description(),
+    }
+    if spec.sequence:
+        if "min_items" in spec.meta:
+            kwargs["min_length"] = spec.meta["min_items"]
+        if "max_items" in spec.meta:
+            kwargs["max_length"] = spec.meta["max_items"]
+    else:
+        kwargs.update(spec.bounds())
+    return Field(**{**kwargs, **extra})
+
+
+def options_model(
+    cls: type, name: str, *, base: type[BaseModel] | None = None, doc: str | None = None
+) -> type[BaseModel]:
+    """A request model with every API option of options dataclass ``cls`` (``api`` not False),
+    each from :func:`option_type` and :func:`option_field`."""
+    from pydantic import create_model
+
+    spec = {
+        s.name: (option_type(cls, s.name), option_field(cls, s.name))
+        for s in option_specs(cls)
+        if s.meta.get("api", True)
+    }
+    model: type[BaseModel] = create_model(  # type: ignore[call-overload]
+        name, __base__=base or _Request, __doc__=doc or cls.__doc__, **spec
+    )
+    return model
 
 
 #: The user's short name for a recording, plan or simulation (at most 200 characters).
@@ -149,11 +215,11 @@ class Problem(BaseModel):
     detail: str | None = None
     field: str | None = Field(default=None, description="the request field at fault")
     file: str | None = Field(default=None, description="the uploaded file at fault")
-    files: list[dict[str, Any]] | None = Field(
+    files: list[dict[str, object]] | None = Field(
         default=None, description="every unreadable file of an upload: [{file, detail}]"
     )
-    errors: list[dict[str, Any]] | None = Field(default=None, description="every invalid field")
-    job: dict[str, Any] | None = Field(default=None, description="a job to follow or inspect")
+    errors: list[dict[str, object]] | None = Field(default=None, description="every invalid field")
+    job: dict[str, object] | None = Field(default=None, description="a job to follow or inspect")
 
 
 class Page(BaseModel, Generic[T]):
@@ -255,7 +321,7 @@ class _JobState(BaseModel):
 class Job(_JobState):
     """A background job (analysis, pose, plan, simulation, sweep, profiles or cohort)."""
 
-    params: dict[str, Any] = Field(description="the request, with the CLI's field names")
+    params: dict[str, object] = Field(description="the request, with the CLI's field names")
 
 
 class JobSummary(_JobState):
@@ -308,7 +374,7 @@ class RateCheckInfo(BaseModel):
     median_frequency_hz: float = Field(description="EMG spectral median at the stored rate")
     channels: list[str]
     reason: str
-    rerun: dict[str, Any] = Field(
+    rerun: dict[str, object] = Field(
         description="the request that re-reads the files at the suggested rate and reruns the"
         " analysis: {method, url, json}"
     )
@@ -318,7 +384,7 @@ class PoseStatus(BaseModel):
     """The newest pose extraction of an uploaded video."""
 
     job: Job
-    result: dict[str, Any] | None = Field(
+    result: dict[str, object] | None = Field(
         description="frames, frames_with_pose, fps, image_size, warnings, landmarks_file_id"
     )
 
@@ -329,7 +395,7 @@ class FileInfo(BaseModel):
     format: str
     size: int = Field(description="[bytes]")
     sha256: str
-    metadata: dict[str, Any]
+    metadata: dict[str, object]
     role: FileRole = Field(
         description="recording (read and analysed), sidecar (of parent_id), video (to pose)"
     )
@@ -338,7 +404,7 @@ class FileInfo(BaseModel):
     )
     warnings: list[str] = Field(description="what the reader noted (flat channels, rates...)")
     rate_check: RateCheckInfo | None
-    video: dict[str, Any] | None = Field(
+    video: dict[str, object] | None = Field(
         description="a video's container: duration_s, width, height, frames, fps_hz"
     )
     pose: PoseStatus | None = Field(description="a video's newest pose extraction")
@@ -363,7 +429,7 @@ class RecordingSummary(BaseModel):
 
 
 class RecordingDetail(RecordingSummary):
-    options: dict[str, Any] = Field(
+    options: dict[str, object] = Field(
         description="reader options (rate, emg_rate, muscle_map, image_size, frame_rate, format)"
         " and exclude_channels, as uploaded or last changed"
     )
@@ -549,11 +615,11 @@ class AnalysisSummary(BaseModel):
     template_lifts: int = Field(description="lifts with kinematics in the template")
     peak_velocity_angle_deg: float
     session: SessionMode
-    files: list[dict[str, Any]] = Field(
+    files: list[dict[str, object]] = Field(
         description="per file: file, format, lifts, lifts_with_kinematics, warnings, rate_check"
     )
     warnings: list[str] = Field(description="every warning: the analysis' and each file's")
-    settings: dict[str, Any] = Field(description="every option, as used")
+    settings: dict[str, object] = Field(description="every option, as used")
 
 
 class AnalysisOut(BaseModel):
@@ -561,8 +627,8 @@ class AnalysisOut(BaseModel):
     recording_id: int | None
     job: Job
     summary: AnalysisSummary | None = Field(description="null until the job succeeded")
-    result: dict[str, Any] | None = Field(description="the JSON of `bioplan analyze --json`")
-    template: dict[str, Any] | None = Field(description="the HumanTemplate (planner input)")
+    result: dict[str, object] | None = Field(description="the JSON of `bioplan analyze --json`")
+    template: dict[str, object] | None = Field(description="the HumanTemplate (planner input)")
 
 
 class PoseOut(BaseModel):
@@ -572,97 +638,44 @@ class PoseOut(BaseModel):
     recording_id: int | None
     video_file_id: int | None
     job: Job
-    result: dict[str, Any] | None
+    result: dict[str, object] | None
 
 
 # ----------------------------------------------------------------------------------- plans
 
 
 class _RobotTask(_Request):
+    """The robot and the task of a plan or a simulation; their options are added from
+    ``PlanOptions`` / ``SimulationOptions`` (:func:`options_model`)."""
+
     label: Label = Field(default=None, description="a short name for the result (not planned)")
     robot: str = Field(
         default="curtain_wall_6dof",
         pattern=ROBOT_NAME,
         description="built-in or uploaded robot name",
     )
-    duration: float = Field(default=1.0, gt=0, le=MAX_DURATION, description="motion time [s]")
     payload: float | None = Field(
         default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
     )
-    objective: Objective = "abs_work"
-    seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
         default=None, max_length=32, description="start joint angles (default: the curl task's)"
     )
     goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
         default=None, max_length=32, description="goal joint angles (default: the curl task's)"
     )
-    particles: int = Field(default=PSO_DEFAULTS.particles, ge=2, le=1000)
-    iterations: int = Field(default=PSO_DEFAULTS.iterations, ge=1, le=10000)
-    peak_angle_deg: float | None = Field(
-        default=None, gt=0, lt=180, description="elbow velocity-peak angle (default: template's)"
-    )
-    template: dict[str, Any] | None = Field(
+    template: dict[str, object] | None = Field(
         default=None, description="a HumanTemplate (as written by `bioplan analyze --out`)"
     )
     template_analysis_id: int | None = Field(
         default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
     )
-    # ---- planning methods (issue 10) --------------------------------------------------------
-    methods: Distinct[MethodName] = Field(
-        default=list(STANDARD_METHODS),
-        min_length=1,
-        max_length=len(METHODS),
-        description="methods to plan, as `bioplan plan --method` (default: all five, like the "
-        "CLI; the quintic always runs: it is every saving's reference)",
-    )
-    human_constraint: HumanConstraint = Field(
-        default="peak", description="human_optimal's constraint: peak, phases or none"
-    )
-    no_reversal: bool = Field(
-        default=True, description="the optimal-control methods never move a joint backwards"
-    )
-    n_intervals: int = Field(
-        default=OPTIMAL_INTERVALS,
-        ge=8,
-        le=400,
-        description="constant-jerk intervals of the optimal-control transcription",
-    )
-    converge: bool = Field(
-        default=False,
-        description="refine every optimal-control result on meshes of 2N, 4N, ... intervals "
-        "until its objective changes by less than 0.1 % (evidence in solver.convergence); off "
-        "by default: it makes a plan several times slower",
-    )
 
 
-class PlanRequest(_RobotTask):
-    """Plan the standard and the bio-inspired trajectory (``bioplan plan``)."""
-
-    n_samples: int = Field(
-        default=PSO_DEFAULTS.n_samples, ge=10, le=100000, description="optimiser grid points"
-    )
-
-
-class SimulationRequest(_RobotTask):
-    """Plan, then simulate both trajectories in MuJoCo (``bioplan simulate``)."""
-
-
-class SweepRequest(_Request):
-    """Savings over a grid (``bioplan sweep``)."""
+class _SweepTarget(_Request):
+    """The robot and the workers of a sweep; the grid and the cells' options are added from
+    ``SweepGrid`` (:func:`options_model`)."""
 
     robot: str = Field(default="curtain_wall_6dof", pattern=ROBOT_NAME)
-    # The ranges are in the schema, so a client (or a fuzzer) knows 0 s is no duration.
-    durations: Distinct[Annotated[float, Field(gt=0, le=MAX_DURATION)]] = Field(
-        default=[0.5, 0.75, 1.0, 1.5, 2.0], min_length=1, max_length=50, description="[s]"
-    )
-    payloads: Distinct[Annotated[float, Field(ge=0, le=10000)]] = Field(
-        default=[0.0, 4.0, 8.0, 12.0, 20.0], min_length=1, max_length=50, description="[kg]"
-    )
-    objectives: Distinct[Objective] = Field(default=["abs_work"], min_length=1, max_length=6)
-    seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
-    particles: int | None = Field(default=None, ge=2, le=1000, description="default: sweep's")
-    iterations: int | None = Field(default=None, ge=1, le=10000, description="default: sweep's")
     workers: int | None = Field(
         default=None,
         ge=1,
@@ -670,31 +683,62 @@ class SweepRequest(_Request):
         description="processes for the cells on the local runner (default: the runner's "
         "workers); on Dask every cell is a task on the cluster",
     )
-    # ---- methods and convergence check (issue 10) -------------------------------------------
-    methods: Distinct[MethodName] = Field(
-        default=list(STANDARD_METHODS),
-        min_length=1,
-        max_length=len(METHODS),
-        description="methods per cell, as `bioplan sweep --method` (default: all five)",
+
+
+if TYPE_CHECKING:  # what type checkers see; the models themselves are generated below
+
+    class _MethodFields(_RobotTask):
+        duration: float
+        objective: str
+        seed: int
+        particles: int
+        iterations: int
+        peak_angle_deg: float | None
+        methods: list[str]
+        human_constraint: str
+        no_reversal: bool
+        n_intervals: int
+        converge: bool
+
+    class PlanRequest(_MethodFields):
+        n_samples: int
+
+    class SimulationRequest(_MethodFields):
+        pass
+
+    class SweepRequest(_SweepTarget):
+        durations: list[float]
+        payloads: list[float]
+        objectives: list[str]
+        seed: int
+        particles: int
+        iterations: int
+        methods: list[str]
+        check_seed: int
+        no_check: bool
+        seeds: int
+        converge: bool
+
+else:
+    # Every option field (default, range, choices, unit, help) comes from its dataclass: a new
+    # option there is a new request field here, with nothing written twice.
+    PlanRequest = options_model(
+        PlanOptions,
+        "PlanRequest",
+        base=_RobotTask,
+        doc="Plan the standard and the bio-inspired trajectory (``bioplan plan``).",
     )
-    check_seed: int = Field(
-        default=-1,
-        ge=-1,
-        le=2**32 - 1,
-        description="seed of the second PSO run that checks each cell's verdict (-1: seed + 1)",
+    SimulationRequest = options_model(
+        SimulationOptions,
+        "SimulationRequest",
+        base=_RobotTask,
+        doc="Plan, then simulate both trajectories in MuJoCo (``bioplan simulate``).",
     )
-    no_check: bool = Field(default=False, description="skip the convergence check (one seed)")
-    seeds: int = Field(
-        default=SWEEP_SEEDS,
-        ge=1,
-        le=20,
-        description="seeds the paper's PSO runs with per cell (the cell's seed, then check_seed, "
-        "check_seed + 1, ...); a verdict is certain only when all agree",
-    )
-    converge: bool = Field(
-        default=False,
-        description="refine every optimal-control result until its objective changes by less "
-        "than 0.1 % (several times slower)",
+    SweepRequest = options_model(
+        SweepGrid,
+        "SweepRequest",
+        base=_SweepTarget,
+        doc="Savings over a grid (``bioplan sweep``).",
     )
 
 
@@ -766,7 +810,7 @@ class FrontRequest(_Request):
     goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
         default=None, max_length=32, description="goal joint angles (default: the curl task's)"
     )
-    template: dict[str, Any] | None = Field(
+    template: dict[str, object] | None = Field(
         default=None, description="a HumanTemplate (human_optimal's; default: the paper's)"
     )
     template_analysis_id: int | None = Field(
@@ -775,7 +819,9 @@ class FrontRequest(_Request):
 
     @field_validator("duration")
     @classmethod
-    def _no_duration_on_a_duration_axis(cls, value: float | None, info: ValidationInfo) -> Any:
+    def _no_duration_on_a_duration_axis(
+        cls, value: float | None, info: ValidationInfo
+    ) -> float | None:
         if value is not None and "duration" in (info.data.get("objectives") or ()):
             raise ValueError(
                 "duration is an axis of objectives: expected no fixed duration (max_duration "
@@ -785,7 +831,9 @@ class FrontRequest(_Request):
 
     @field_validator("max_duration")
     @classmethod
-    def _max_duration_needs_the_axis(cls, value: float | None, info: ValidationInfo) -> Any:
+    def _max_duration_needs_the_axis(
+        cls, value: float | None, info: ValidationInfo
+    ) -> float | None:
         objectives = info.data.get("objectives")
         if value is not None and objectives is not None and "duration" not in objectives:
             raise ValueError("max_duration given but duration is not an axis of objectives")
@@ -820,7 +868,7 @@ class ProfilesRequest(_Request):
         max_length=len(METHODS),
         description="planning methods listed beside the profiles ([] = none; default: all)",
     )
-    objective: Objective = Field(default="abs_work", description="the planning methods' one")
+    objective: Objective = Field(default=DEFAULT_OBJECTIVE, description="the planning methods' one")
     seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
     particles: int = Field(default=PSO_DEFAULTS.particles, ge=2, le=1000)
     iterations: int = Field(default=PSO_DEFAULTS.iterations, ge=1, le=10000)
@@ -828,38 +876,11 @@ class ProfilesRequest(_Request):
 
 # ---------------------------------------------------------------------------------- cohorts
 
-#: Python annotation (as the dataclass states it) -> the API field's type.
-_COHORT_TYPES: dict[str, Any] = {
-    "float | None": float | None,
-    "float": float,
-    "int": int,
-    "str": str,
-}
 #: Longest regular expression a request may give (it runs on file names in the job).
 _PATTERN_MAX = 200
 
 
-def _cohort_option_field(f: Any) -> tuple[Any, Any]:
-    """One field of :class:`CohortOptions` as a pydantic (type, Field): its default, help,
-    unit, choices and range come from the dataclass, nothing is written twice."""
-    meta = f.metadata
-    kind = Literal[tuple(meta["choices"])] if "choices" in meta else _COHORT_TYPES[str(f.type)]
-    text = str(meta["help"]) + (f" [{meta['unit']}]" if "unit" in meta else "")
-    bounds: dict[str, Any] = {}
-    if meta.get("low") is not None:
-        bounds["gt"] = meta["low"]
-    if meta.get("high") is not None:
-        bounds["lt"] = meta["high"]
-    if meta.get("minimum") is not None:
-        bounds["ge"] = meta["minimum"]
-    if f.name == "subject_pattern":
-        bounds["max_length"] = _PATTERN_MAX
-    return kind, Field(default=f.default, description=text, **bounds)
-
-
 def _cohort_options_model() -> type[BaseModel]:
-    from dataclasses import fields
-
     from pydantic import create_model
 
     from app.analysis.cohort import CohortError, CohortOptions
@@ -883,7 +904,18 @@ def _cohort_options_model() -> type[BaseModel]:
 
     from pydantic import model_validator
 
-    spec = {f.name: _cohort_option_field(f) for f in fields(CohortOptions)}
+    # Types, defaults, bounds and choices from the options' fields, as every options model.
+    spec = {
+        s.name: (
+            option_type(CohortOptions, s.name),
+            option_field(
+                CohortOptions,
+                s.name,
+                **({"max_length": _PATTERN_MAX} if s.name == "subject_pattern" else {}),
+            ),
+        )
+        for s in option_specs(CohortOptions)
+    }
     model: type[BaseModel] = create_model(  # type: ignore[call-overload]
         "CohortOptionsIn",
         __base__=_Request,
@@ -955,14 +987,14 @@ class CohortOut(BaseModel):
     label: str | None = Field(description="the user's short name for it")
     groups: dict[str, list[int]] = Field(description="group name -> recording ids compared")
     job: Job
-    result: dict[str, Any] | None
+    result: dict[str, object] | None
 
 
 class CohortOptionInfo(BaseModel):
     """One option of a cohort comparison as the page offers it (from ``CohortOptions``)."""
 
     name: str
-    default: Any
+    default: object
     help: str
     unit: str | None = None
     choices: list[str] | None = None
@@ -979,7 +1011,7 @@ class ResultOut(BaseModel):
     robot: str
     label: str | None = Field(description="the user's short name for it")
     job: Job
-    result: dict[str, Any] | None
+    result: dict[str, object] | None
 
 
 class LabelPatch(_Request):
@@ -993,23 +1025,23 @@ class ArraysOut(BaseModel):
 
     id: int
     points: int
-    arrays: dict[str, list[Any]]
+    arrays: dict[str, list[object]]
 
 
 class MetricDiff(BaseModel):
-    a: Any
-    b: Any
-    diff: Any = Field(description="b - a")
-    diff_pct: Any = Field(description="100 (b - a) / |a|")
+    a: object
+    b: object
+    diff: object = Field(description="b - a")
+    diff_pct: object = Field(description="100 (b - a) / |a|")
 
 
 class PlanComparison(BaseModel):
     a: int
     b: int
-    conditions: dict[str, dict[str, Any]]
+    conditions: dict[str, dict[str, object]]
     standard: dict[str, MetricDiff]
     optimized: dict[str, MetricDiff]
-    improvement_pct: dict[str, dict[str, Any]]
+    improvement_pct: dict[str, dict[str, object]]
 
 
 # ----------------------------------------------------------------------------------- robots
@@ -1070,14 +1102,14 @@ class RobotInfo(BaseModel):
         description="mesh references of the URDF that resolve to no file: the viewer draws "
         "those links without bodies (upload a package zip holding them)",
     )
-    default_task_safety: dict[str, Any] | None = Field(
+    default_task_safety: dict[str, object] | None = Field(
         default=None,
         description="the safety check of the default task's quintic, run at upload: {ok "
         "(null: not checked), checked, reason, min_clearance [m], duration [s], findings "
         "(count), worst (the deepest finding: links, kind, obstacle, depth [m], "
         "deepest_time [s]), summary}",
     )
-    identified_from: dict[str, Any] | None = Field(
+    identified_from: dict[str, object] | None = Field(
         default=None,
         description="a version identified from robot logs: {robot (the nominal one), log_ids, "
         "job_id}; null for a robot as uploaded",
@@ -1103,7 +1135,7 @@ class RobotLogOut(BaseModel):
     duration_s: float = Field(description="[s]")
     notes: list[str] = Field(description="repairs made while reading, how torque was obtained")
     joint_names: list[str]
-    validation: dict[str, Any] = Field(
+    validation: dict[str, object] = Field(
         description="joints {name: {rms_measured, residual_rms [Nm], r2}}, abs_work {measured, "
         "predicted} [J], filter, electrical_energy when currents and motors exist"
     )
@@ -1139,4 +1171,4 @@ class IdentificationOut(BaseModel):
     robot: str
     version: str = Field(description="the robot the identified model is stored as")
     job: Job
-    result: dict[str, Any] | None
+    result: dict[str, object] | None

@@ -9,13 +9,16 @@ import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TypeVar
 
 from app.errors import BioPlanError
 from app.names import MAX_DURATION, METHODS, METRICS
+from app.options import Options, OptionsError, OptionSpec, check_value, option_specs
+from app.planning.options import PlanOptions
 from app.progress import Progress, ProgressFn
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+OptionsT = TypeVar("OptionsT", bound=Options)
 
 
 class CliError(BioPlanError):
@@ -117,8 +120,107 @@ def duration(name: str, value: float) -> float:
     return value
 
 
+def _cli_spec(spec: OptionSpec) -> tuple[str, float, str | None]:
+    """(flag, scale, unit) of an option on the command line."""
+    flag = spec.meta.get("flag") or "--" + spec.name.replace("_", "-")
+    return flag, float(spec.meta.get("cli_scale", 1.0)), spec.meta.get("cli_unit", spec.unit)
+
+
+def _cli_help(spec: OptionSpec) -> str:
+    """The option's help with its unit, range and (for lists) "comma-separated"."""
+    _, scale, unit = _cli_spec(spec)
+    text = spec.help + (f" [{unit}]" if unit else "")
+    if spec.sequence:
+        text = "comma-separated " + text
+    signs = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
+    bounds = [f"{signs[k]} {_number_text(v * scale)}" for k, v in spec.bounds().items()]
+    if bounds:
+        text += "; " + " and ".join(bounds)
+    if "none_means" in spec.meta:
+        text += f" (default: {spec.meta['none_means']})"
+    if spec.choices is not None and spec.sequence:
+        text += "; some of " + ", ".join(str(c) for c in spec.choices)
+    return text.replace("%", "%%")  # argparse formats help with %
+
+
+def _number_text(value: float) -> str:
+    """A bound as people write it: 600, 0.1, 4294967295 (not 4.29497e+09)."""
+    return str(int(value)) if float(value).is_integer() else f"{value:g}"
+
+
+def _items(text: str) -> list[str]:
+    return [v.strip() for v in text.split(",") if v.strip()]
+
+
+def add_options(
+    p: argparse.ArgumentParser,
+    cls: type,
+    *,
+    exclude: Sequence[str] = (),
+) -> None:
+    """One flag per option of an options dataclass (``PlanOptions``...), built from its field:
+    the flag, type, default, choices, unit and range all come from there.
+
+    Args:
+        p: the command's parser.
+        cls: the options dataclass; only its fields offered on the command line (``cli``).
+        exclude: options this command does not offer although the dataclass has them.
+    """
+    for spec in option_specs(cls):
+        if not spec.meta.get("cli", True) or spec.name in exclude:
+            continue
+        flag, scale, _ = _cli_spec(spec)
+        kwargs: dict[str, Any] = {"dest": spec.name, "help": _cli_help(spec)}
+        flagged = spec.kind is bool or (spec.choices is not None and not spec.sequence)
+        if not flagged or "metavar" in spec.meta:  # else argparse's own: none, or {a,b,c}
+            metavar = flag.removeprefix("--").replace("-", "_").upper()
+            kwargs["metavar"] = spec.meta.get("metavar", metavar)
+        if spec.kind is bool and not spec.sequence:
+            negated = bool(spec.meta.get("negated"))
+            kwargs["action"] = "store_false" if negated else "store_true"
+            kwargs["default"] = spec.interface_default
+        elif spec.sequence:  # numbers stay text: read by floats(), naming the flag
+            kwargs["type"] = str if spec.kind in (int, float) else _items
+            kwargs["default"] = ",".join(f"{v:g}" if isinstance(v, float) else str(v)
+                                         for v in spec.interface_default)  # fmt: skip
+        else:
+            kwargs["type"] = spec.kind if spec.kind in (int, float, str) else str
+            default = spec.interface_default
+            kwargs["default"] = default * scale if default is not None and scale != 1 else default
+            if spec.choices is not None:
+                kwargs["choices"] = spec.choices
+        p.add_argument(flag, **kwargs)
+
+
+def options_from_args(cls: type[OptionsT], args: argparse.Namespace) -> OptionsT:
+    """The options dataclass ``cls`` from parsed flags; options without a flag on this command
+    keep their defaults.
+
+    Raises:
+        CliError: a value out of its range or choices, naming the flag.
+    """
+    given = vars(args)
+    values: dict[str, Any] = {}
+    for spec in option_specs(cls):
+        if spec.name not in given:
+            continue
+        flag, scale, _ = _cli_spec(spec)
+        value = given[spec.name]
+        if spec.sequence and spec.kind in (int, float) and isinstance(value, str):
+            value = floats(value, flag.removeprefix("--"))
+        if scale != 1 and value is not None:
+            value = value / scale
+        try:
+            values[spec.name] = check_value(spec, value)
+        except OptionsError as exc:
+            raise CliError(f"{flag}: {exc}") from None
+    return cls(**values)
+
+
 #: The help of ``--duration`` (and ``--durations``): the cap, as the API states it.
 DURATION_HELP = f"motion time [s], above 0 and at most {MAX_DURATION:g}"
+#: The task's duration option (its default and range live in ``PlanOptions``).
+_TASK_DURATION = next(s for s in option_specs(PlanOptions) if s.name == "duration")
 
 
 def floats(text: str, name: str) -> list[float]:
@@ -147,7 +249,7 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
         "compiles the URDF itself)",
     )
     add_onboarding_args(p)
-    p.add_argument("--duration", type=float, default=1.0, help=DURATION_HELP)
+    p.add_argument("--duration", type=float, default=_TASK_DURATION.default, help=DURATION_HELP)
     p.add_argument(
         "--payload",
         type=float,
@@ -232,7 +334,7 @@ def load_robot(args: argparse.Namespace) -> Any:
     locks = parse_locks(getattr(args, "lock", []) or [])
     robot_file = str(args.robot)
     if locks and robot_file.lower().endswith((".xml", ".mjcf")):
-        from app.planning.robots._mjcf_urdf import urdf_from_mjcf
+        from app.planning.robots import urdf_from_mjcf
 
         locks = locks_from_display(urdf_from_mjcf(Path(robot_file)), locks)
     elif locks and Path(robot_file).suffix.lower() == ".urdf":

@@ -222,6 +222,15 @@ def cmd_pose_env(args: argparse.Namespace) -> int:
 def register(sub: Any) -> None:
     """Add ``analyze`` and ``pose-env`` to the ``bioplan`` subcommands."""
     p = sub.add_parser("analyze", help="analyse EMG, pose and video recordings into a template")
+    _add_input_arguments(p)
+    _add_analysis_arguments(p)
+    _add_output_arguments(p)
+    p.set_defaults(handler=cmd_analyze)
+    _register_pose_env(sub)
+
+
+def _add_input_arguments(p: argparse.ArgumentParser) -> None:
+    """``analyze``'s files and how to read them (rates, channels, landmarks, clocks)."""
     p.add_argument(
         "files",
         nargs="+",
@@ -269,6 +278,11 @@ def register(sub: Any) -> None:
         action="store_true",
         help="the files were recorded at the same time (one clock); default: separate trials",
     )
+
+
+def _add_analysis_arguments(p: argparse.ArgumentParser) -> None:
+    """``analyze``'s analysis settings: lift quality, phases, the subject, the load and how
+    videos are turned into pose (the pose environment, the longest video)."""
     p.add_argument(
         "--keep-low-quality-lifts",
         action="store_true",
@@ -291,14 +305,20 @@ def register(sub: Any) -> None:
         default=MAX_VIDEO_SECONDS,
         help="longest video accepted [s]",
     )
+
+
+def _add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """``analyze``'s outputs: skeleton frames, JSON, the template file and figures."""
     p.add_argument(
         "--skeletons", default=None, metavar="DIR", help="write video frames with the skeleton"
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="write the HumanTemplate JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write figures into DIR")
-    p.set_defaults(handler=cmd_analyze)
 
+
+def _register_pose_env(sub: Any) -> None:
+    """Add ``pose-env``, which creates the environment that extracts pose from videos."""
     e = sub.add_parser("pose-env", help="create the environment that extracts pose from videos")
     e.add_argument(
         "dir",

@@ -6,55 +6,11 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError
+from app.cli._common import CliError, add_options, options_from_args
 from app.jsonsafe import json_safe
-
-#: Annotation of an options field -> the argparse type of its flag.
-_TYPES: dict[str, Any] = {"float | None": float, "float": float, "int": int, "str": str}
-
-
-def _flag(name: str) -> str:
-    return "--" + name.replace("_", "-")
-
-
-def _help(meta: Any, default: Any) -> str:
-    text = str(meta["help"])
-    if "unit" in meta:
-        text += f" [{meta['unit']}]"
-    low, high = meta.get("low"), meta.get("high")
-    if low is not None and high is not None:
-        text += f"; between {low:g} and {high:g}"
-    elif low is not None:
-        text += f"; above {low:g}"
-    if "minimum" in meta:
-        text += f"; at least {meta['minimum']}"
-    if default is None:
-        text += " (default: none)"
-    return text
-
-
-def _add_option_args(p: argparse.ArgumentParser) -> None:
-    """One flag per :class:`CohortOptions` field, with its help, unit, range and default."""
-    from app.analysis.cohort import CohortOptions
-
-    for f in fields(CohortOptions):
-        default = None if f.default is MISSING else f.default
-        kwargs: dict[str, Any] = {
-            "default": default,
-            "help": _help(f.metadata, default),
-            "type": _TYPES[str(f.type)],
-        }
-        if "choices" in f.metadata:
-            kwargs["choices"] = f.metadata["choices"]
-        if "metavar" in f.metadata:
-            kwargs["metavar"] = f.metadata["metavar"]
-        elif "unit" in f.metadata:
-            kwargs["metavar"] = f.metadata["unit"].upper()
-        p.add_argument(_flag(f.name), dest=f.name, **kwargs)
 
 
 def _groups(raw: list[list[str]] | None) -> dict[str, list[str]]:
@@ -83,7 +39,7 @@ def cmd_cohort(args: argparse.Namespace) -> int:
     from app.recordings import read_recording
 
     groups = _groups(args.group)
-    options = CohortOptions(**{f.name: getattr(args, f.name) for f in fields(CohortOptions)})
+    options = options_from_args(CohortOptions, args)
     recordings = {
         name: [read_recording(f, emg_rate=options.emg_rate) for f in files]
         for name, files in groups.items()
@@ -126,7 +82,9 @@ def register(sub: Any) -> None:
         required=True,
         help="a group (condition) and its recording files; give at least two groups",
     )
-    _add_option_args(p)
+    from app.analysis.cohort import CohortOptions
+
+    add_options(p, CohortOptions)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
         "--plot",

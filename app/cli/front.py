@@ -23,13 +23,13 @@ from app.cli._common import (
     progress_printer,
     task_from_args,
 )
-from app.names import FRONT_AXES
+from app.names import FRONT_AXES, OPTIMAL_INTERVALS
 
 #: The axes of a front (the metrics and the duration).
 AXES = FRONT_AXES
 METHOD_CHOICES = ("bound", "human_optimal")
 #: The transcription's coarsest mesh (``app.planning.optimal.DEFAULT_INTERVALS``).
-DEFAULT_INTERVALS = 40
+DEFAULT_INTERVALS = OPTIMAL_INTERVALS
 #: ``--duration``'s help: none by default, which is 1 s unless duration is an axis.
 FRONT_DURATION_HELP = DURATION_HELP + " (default: 1 s; none when duration is an axis)"
 #: Refinement stops below this relative change (``app.planning.methods.CONVERGENCE_TOLERANCE``).

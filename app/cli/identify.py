@@ -14,11 +14,9 @@ def _base_sidecar(path: str | None) -> dict[str, Any]:
     """The given sidecar's YAML mapping (its motors, locks and roles are kept)."""
     if path is None:
         return {}
-    from app.planning.robots import read_sidecar
-    from app.planning.robots._sidecar import _load_yaml
+    from app.planning.robots import sidecar_yaml
 
-    read_sidecar(path)  # checked first
-    data = _load_yaml(Path(path)) or {}
+    data = sidecar_yaml(path)
     return {k: v for k, v in data.items() if k not in ("links", "friction")}
 
 

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
 from typing import Any
 
 from app.cli._common import (
     add_export_args,
+    add_options,
     add_robot_args,
     attach_motion,
     duration,
@@ -15,74 +17,23 @@ from app.cli._common import (
     load_robot,
     load_template,
     metrics_table,
+    options_from_args,
     progress_printer,
     task_from_args,
 )
 from app.jsonsafe import json_safe
-from app.names import METHODS, OBJECTIVES, PSO_DEFAULTS, STANDARD_METHODS
+from app.names import DEFAULT_OBJECTIVE, METHODS, OBJECTIVES, PSO_DEFAULTS, STANDARD_METHODS
+from app.planning.options import PlanOptions
 from app.planning.safety import safety_summary
 
-#: ``human_optimal``'s constraints (``app.planning.optimal.HUMAN_CONSTRAINTS``, without importing
-#: CasADi for ``--help``).
-HUMAN_CONSTRAINT_CHOICES = ("peak", "phases", "none")
-#: Default intervals of the optimal-control transcription (``app.planning.optimal``).
-DEFAULT_INTERVALS = 40
 
-
-def add_method_args(p: argparse.ArgumentParser, *, transcription: bool = True) -> None:
-    """--method, --human-constraint (shared with simulate) and, for ``plan``, the optimal-control
-    transcription's --allow-reversal and --intervals."""
-    p.add_argument(
-        "--method",
-        default=",".join(STANDARD_METHODS),
-        help="comma-separated methods to plan (the quintic always runs: it is every saving's "
-        "reference)",
-    )
-    p.add_argument(
-        "--human-constraint",
-        choices=HUMAN_CONSTRAINT_CHOICES,
-        default="peak",
-        help="human_optimal's constraint: the elbow fastest at the template's angle (peak), the "
-        "A/B/C phase shares within the template's spread (phases), or none",
-    )
-    if not transcription:
-        return
-    p.add_argument(
-        "--allow-reversal",
-        action="store_true",
-        help="let the optimal-control methods move joints against their stroke (default: no "
-        "joint reverses)",
-    )
-    p.add_argument(
-        "--intervals",
-        type=int,
-        default=DEFAULT_INTERVALS,
-        help="constant-jerk intervals of the optimal-control transcription",
-    )
-    p.add_argument(
-        "--converge",
-        action="store_true",
-        help="refine every optimal-control result on meshes of 2N, 4N, ... intervals until its "
-        "objective changes by less than 0.1 %% (the evidence in solver.convergence); off by "
-        "default: it makes a plan about 3-6x slower (docs/planning.md)",
-    )
-
-
-def add_pso_args(p: argparse.ArgumentParser) -> None:
-    """--objective, --peak-angle-deg, --template, --seed, --particles, --iterations."""
-    p.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
-    p.add_argument(
-        "--peak-angle-deg",
-        type=float,
-        default=None,
-        help="elbow velocity-peak angle [deg] (default: the template's)",
-    )
+def add_plan_options(
+    p: argparse.ArgumentParser, cls: type = PlanOptions, *, exclude: Sequence[str] = ()
+) -> None:
+    """The options of ``cls`` (``PlanOptions`` for ``plan``; ``SimulationOptions`` for
+    ``simulate``), each built from its field, and --template (a file, read here)."""
+    add_options(p, cls, exclude=exclude)
     p.add_argument("--template", default=None, help="HumanTemplate JSON from `bioplan analyze`")
-    p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
-    p.add_argument("--particles", type=int, default=PSO_DEFAULTS.particles, help="PSO swarm size")
-    p.add_argument(
-        "--iterations", type=int, default=PSO_DEFAULTS.iterations, help="PSO iterations (at most)"
-    )
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
@@ -92,19 +43,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
     robot = load_robot(args)
     result = plan(
         robot,
+        options_from_args(PlanOptions, args),
         task=task_from_args(args, robot),
-        duration=args.duration,
-        objective=args.objective,
         template=load_template(args.template),
-        seed=args.seed,
-        particles=args.particles,
-        iterations=args.iterations,
-        peak_angle_deg=args.peak_angle_deg,
-        methods=args.method.split(","),
-        human_constraint=args.human_constraint,
-        no_reversal=not args.allow_reversal,
-        n_intervals=args.intervals,
-        converge=args.converge,
         progress=progress_printer(not args.json),
     )
     payload = json_safe(result.to_dict())
@@ -258,8 +199,7 @@ def register(sub: Any) -> None:
     """Add ``plan`` and ``profiles`` to the ``bioplan`` subcommands."""
     p = sub.add_parser("plan", help="plan the task with every method and compare them")
     add_robot_args(p)
-    add_pso_args(p)
-    add_method_args(p)
+    add_plan_options(p)
     add_export_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
@@ -285,7 +225,7 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--objective",
-        default="abs_work",
+        default=DEFAULT_OBJECTIVE,
         help="the planning methods' objective, one of " + ", ".join(OBJECTIVES),
     )
     p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed (paper)")

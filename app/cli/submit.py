@@ -22,7 +22,7 @@ from typing import Any
 
 from app.cli._common import DURATION_HELP, EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, write_out
 from app.cli.front import FRONT_DURATION_HELP, add_front_args, check_front_args
-from app.names import OBJECTIVES, PSO_DEFAULTS, TERMINAL_JOB_STATES
+from app.names import DEFAULT_OBJECTIVE, OBJECTIVES, PSO_DEFAULTS, TERMINAL_JOB_STATES
 
 
 class ServiceError(Exception):
@@ -298,7 +298,9 @@ def register(sub: Any) -> None:
         q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
         q.add_argument("--duration", type=float, default=1.0, help=DURATION_HELP)
         q.add_argument("--payload", type=float, default=None, help="payload [kg]")
-        q.add_argument("--objective", default="abs_work", help="one of " + ", ".join(OBJECTIVES))
+        q.add_argument(
+            "--objective", default=DEFAULT_OBJECTIVE, help="one of " + ", ".join(OBJECTIVES)
+        )
         q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
         q.add_argument("--particles", type=int, default=PSO_DEFAULTS.particles, help="swarm size")
         q.add_argument(
@@ -317,7 +319,7 @@ def register(sub: Any) -> None:
     q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
     q.add_argument("--durations", default="0.5,0.75,1.0,1.5,2.0", help="comma-separated [s]")
     q.add_argument("--payloads", default="0,4,8,12,20", help="comma-separated [kg]")
-    q.add_argument("--objectives", default="abs_work", help="comma-separated metric names")
+    q.add_argument("--objectives", default=DEFAULT_OBJECTIVE, help="comma-separated metric names")
     q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
     q = kinds.add_parser("front", help="bioplan front, on the server (with its references)")
     q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")

@@ -13,7 +13,7 @@ import logging
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
-from typing import Any
+from typing import Any, TypedDict, Unpack
 
 import numpy as np
 from sqlalchemy import Select, delete, event, func, or_, select, update
@@ -26,6 +26,7 @@ from app.db.models import (
     RESULT_BLOB_KEY,
     RESULT_MODELS,
     TERMINAL_STATES,
+    Base,
     ChannelRecord,
     JobRecord,
     PoseExtraction,
@@ -135,11 +136,7 @@ def create_recording(
             stored.append(row)
             rec.files.append(row)
         session.add(rec)
-        try:
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
+        _commit(session)
     return rec
 
 
@@ -156,39 +153,72 @@ def _file_row(blobs: BlobStore, f: ParsedFile, channel_rows: list[ChannelRecord]
     )
 
 
-def _recording_filters(
-    stmt: AnySelect,
-    *,
-    subject: str | None,
-    task: str | None,
-    format: str | None,
-    q: str | None,
-    created_after: datetime | None,
-    created_before: datetime | None,
-) -> AnySelect:
-    if subject is not None:
-        stmt = stmt.where(RecordingSession.subject == subject)
-    if task is not None:
-        stmt = stmt.where(RecordingSession.task == task)
-    if format is not None:
-        stmt = stmt.where(RecordingSession.files.any(RecordingFile.format == format))
-    if q:
-        like = f"%{q}%"
-        stmt = stmt.where(
-            or_(
-                RecordingSession.subject.ilike(like),
-                RecordingSession.task.ilike(like),
-                RecordingSession.notes.ilike(like),
-                RecordingSession.label.ilike(like),
-                RecordingSession.condition.ilike(like),
-                RecordingSession.files.any(RecordingFile.original_name.ilike(like)),
+def _commit(session: Session) -> None:
+    """Commit, or roll back and re-raise: a failed commit leaves nothing half-written."""
+    try:
+        session.commit()
+    except BaseException:
+        session.rollback()
+        raise
+
+
+class RecordingFilters(TypedDict, total=False):
+    """The filters of a recordings listing, as keyword arguments (absent/``None``: not filtered
+    on; ``q``: text in names and notes; dates in UTC)."""
+
+    subject: str | None
+    task: str | None
+    format: str | None
+    q: str | None
+    created_after: datetime | None
+    created_before: datetime | None
+
+
+@dataclass(frozen=True)
+class _RecordingFilter:
+    """The filters of a recordings listing (``None``/empty: not filtered on)."""
+
+    subject: str | None = None
+    task: str | None = None
+    format: str | None = None
+    q: str | None = None
+    created_after: datetime | None = None
+    created_before: datetime | None = None
+
+    def apply(self, stmt: AnySelect) -> AnySelect:
+        """``stmt`` restricted to the sessions matching every filter."""
+        if self.subject is not None:
+            stmt = stmt.where(RecordingSession.subject == self.subject)
+        if self.task is not None:
+            stmt = stmt.where(RecordingSession.task == self.task)
+        if self.format is not None:
+            stmt = stmt.where(RecordingSession.files.any(RecordingFile.format == self.format))
+        if self.q:
+            like = f"%{self.q}%"
+            stmt = stmt.where(
+                or_(
+                    RecordingSession.subject.ilike(like),
+                    RecordingSession.task.ilike(like),
+                    RecordingSession.notes.ilike(like),
+                    RecordingSession.label.ilike(like),
+                    RecordingSession.condition.ilike(like),
+                    RecordingSession.files.any(RecordingFile.original_name.ilike(like)),
+                )
             )
-        )
-    if created_after is not None:
-        stmt = stmt.where(RecordingSession.created_at >= created_after)
-    if created_before is not None:
-        stmt = stmt.where(RecordingSession.created_at < created_before)
-    return stmt
+        if self.created_after is not None:
+            stmt = stmt.where(RecordingSession.created_at >= self.created_after)
+        if self.created_before is not None:
+            stmt = stmt.where(RecordingSession.created_at < self.created_before)
+        return stmt
+
+    def count(self, session: Session) -> int:
+        """How many sessions match."""
+        return int(session.scalar(self.apply(select(func.count(RecordingSession.id)))) or 0)
+
+    def page(self, stmt: AnySelect, limit: int, offset: int) -> AnySelect:
+        """``stmt`` restricted to the matching sessions, newest first, one page of them."""
+        newest_first = (RecordingSession.created_at.desc(), RecordingSession.id.desc())
+        return self.apply(stmt).order_by(*newest_first).limit(limit).offset(offset)
 
 
 def list_recordings(
@@ -196,35 +226,13 @@ def list_recordings(
     session: Session,
     limit: int = 50,
     offset: int = 0,
-    subject: str | None = None,
-    task: str | None = None,
-    format: str | None = None,
-    q: str | None = None,
-    created_after: datetime | None = None,
-    created_before: datetime | None = None,
+    **filters: Unpack[RecordingFilters],
 ) -> tuple[list[RecordingSession], int]:
     """A page of recording sessions, newest first, and the total matching the filters."""
-
-    def filtered(stmt: AnySelect) -> AnySelect:
-        return _recording_filters(
-            stmt,
-            subject=subject,
-            task=task,
-            format=format,
-            q=q,
-            created_after=created_after,
-            created_before=created_before,
-        )
-
-    total = session.scalar(filtered(select(func.count(RecordingSession.id))))
-    stmt = filtered(select(RecordingSession))
-    stmt = (
-        stmt.options(selectinload(RecordingSession.files))
-        .order_by(RecordingSession.created_at.desc(), RecordingSession.id.desc())
-        .limit(limit)
-        .offset(offset)
-    )
-    return list(session.scalars(stmt)), int(total or 0)
+    where = _RecordingFilter(**filters)
+    stmt = where.page(select(RecordingSession), limit, offset)
+    stmt = stmt.options(selectinload(RecordingSession.files))
+    return list(session.scalars(stmt)), where.count(session)
 
 
 def list_recording_summaries(
@@ -232,31 +240,15 @@ def list_recording_summaries(
     session: Session,
     limit: int = 50,
     offset: int = 0,
-    subject: str | None = None,
-    task: str | None = None,
-    format: str | None = None,
-    q: str | None = None,
-    created_after: datetime | None = None,
-    created_before: datetime | None = None,
+    **filters: Unpack[RecordingFilters],
 ) -> tuple[list[dict[str, Any]], int]:
     """Like :func:`list_recordings`, as plain dicts, reading only the listed columns.
 
     The list is the most frequent request; two narrow queries (sessions, then their files'
     names and formats) avoid loading JSON metadata and building ORM objects.
     """
-
-    def filtered(stmt: AnySelect) -> AnySelect:
-        return _recording_filters(
-            stmt,
-            subject=subject,
-            task=task,
-            format=format,
-            q=q,
-            created_after=created_after,
-            created_before=created_before,
-        )
-
-    total = session.scalar(filtered(select(func.count(RecordingSession.id))))
+    where = _RecordingFilter(**filters)
+    total = where.count(session)
     cols = (
         RecordingSession.id,
         RecordingSession.subject,
@@ -268,10 +260,7 @@ def list_recording_summaries(
         RecordingSession.created_at,
         RecordingSession.session_mode.label("session"),
     )
-    stmt = filtered(select(*cols)).order_by(
-        RecordingSession.created_at.desc(), RecordingSession.id.desc()
-    )
-    rows = session.execute(stmt.limit(limit).offset(offset)).all()
+    rows = session.execute(where.page(select(*cols), limit, offset)).all()
     out = {r.id: {**r._asdict(), "file_names": [], "formats": set()} for r in rows}
     if out:
         # The files the user uploaded; not the landmarks a pose job extracts from a video
@@ -290,7 +279,7 @@ def list_recording_summaries(
         item["formats"] = sorted(item["formats"])
         item["n_files"] = len(item["file_names"])
         items.append(item)
-    return items, int(total or 0)
+    return items, total
 
 
 def get_recording(*, session: Session, recording_id: int) -> RecordingSession | None:
@@ -362,7 +351,7 @@ def delete_recording(*, session: Session, blobs: BlobStore, recording_id: int) -
     return True
 
 
-def _delete_with_blobs(session: Session, blobs: BlobStore, row: Any, hashes: set[str]) -> None:
+def _delete_with_blobs(session: Session, blobs: BlobStore, row: Base, hashes: set[str]) -> None:
     """Delete ``row`` and the blobs among ``hashes`` no other row refers to, all or nothing
     (``blobs.lock`` held): the blobs are moved aside first, so a disk that refuses (read-only,
     failing) leaves both the row and its files as they were, and the error propagates."""
@@ -413,11 +402,7 @@ def update_recording(
             f.format = reparsed[f.id].format
             f.file_metadata = json_safe(reparsed[f.id].metadata)
             f.channels = rows[f.id]
-    try:
-        session.commit()
-    except BaseException:
-        session.rollback()
-        raise
+    _commit(session)
     return get_recording(session=session, recording_id=recording_id)
 
 
@@ -477,11 +462,7 @@ def store_pose_result(
         session.flush()
         row.result = json_safe({**result, "landmarks_file_id": new.id})
         _succeed(job)
-        try:
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
+        _commit(session)
         _drop_unreferenced(session, blobs, {c.sha256 for c in old})
         return new.id
 
@@ -552,15 +533,15 @@ def list_pose_extractions(
     recording_id: int | None = None,
 ) -> tuple[list[tuple[PoseExtraction, JobRecord]], int]:
     """A page of pose extractions with their jobs, newest first, and the total."""
-    stmt = select(PoseExtraction, JobRecord).join(JobRecord, JobRecord.id == PoseExtraction.id)
-    count = select(func.count(PoseExtraction.id)).join(JobRecord, JobRecord.id == PoseExtraction.id)
-    if state is not None:
-        stmt, count = stmt.where(JobRecord.state == state), count.where(JobRecord.state == state)
-    if recording_id is not None:
-        mine = PoseExtraction.recording_id == recording_id
-        stmt, count = stmt.where(mine), count.where(mine)
-    rows = session.execute(stmt.order_by(PoseExtraction.id.desc()).limit(limit).offset(offset))
-    return [(row, job) for row, job in rows.all()], int(session.scalar(count) or 0)
+    stmt, total = _job_page(
+        session,
+        select(PoseExtraction, JobRecord).join(JobRecord, JobRecord.id == PoseExtraction.id),
+        limit,
+        offset,
+        state=state,
+        recording_id=(PoseExtraction.recording_id, recording_id),
+    )
+    return [(row, job) for row, job in session.execute(stmt).all()], total
 
 
 # ------------------------------------------------------------------------------------- robots
@@ -601,11 +582,7 @@ def create_robot(
             created_at=utcnow(),
         )
         session.add(row)
-        try:
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
+        _commit(session)
     return row
 
 
@@ -659,11 +636,7 @@ def create_robot_log(
             created_at=utcnow(),
         )
         session.add(row)
-        try:
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
+        _commit(session)
     return row
 
 
@@ -751,14 +724,30 @@ def list_jobs(
     state: str | None = None,
 ) -> tuple[list[JobRecord], int]:
     """A page of jobs, newest first, and the total matching the filters."""
-    stmt = select(JobRecord)
-    count = select(func.count(JobRecord.id))
-    if kind is not None:
-        stmt, count = stmt.where(JobRecord.kind == kind), count.where(JobRecord.kind == kind)
+    stmt, total = _job_page(
+        session, select(JobRecord), limit, offset, state=state, kind=(JobRecord.kind, kind)
+    )
+    return list(session.scalars(stmt)), total
+
+
+def _job_page(
+    session: Session,
+    stmt: AnySelect,
+    limit: int,
+    offset: int,
+    *,
+    state: str | None,
+    **equal: tuple[Any, object | None],
+) -> tuple[AnySelect, int]:
+    """``stmt`` (which selects from ``JobRecord``) restricted to the job ``state`` and to every
+    ``column == value`` of ``equal`` whose value is not None, newest job first, one page of
+    it; and how many rows match in all."""
+    where = [column == value for column, value in equal.values() if value is not None]
     if state is not None:
-        stmt, count = stmt.where(JobRecord.state == state), count.where(JobRecord.state == state)
-    stmt = stmt.order_by(JobRecord.id.desc()).limit(limit).offset(offset)
-    return list(session.scalars(stmt)), int(session.scalar(count) or 0)
+        where.append(JobRecord.state == state)
+    stmt = stmt.where(*where)
+    total = session.scalar(stmt.with_only_columns(func.count(JobRecord.id)).order_by(None))
+    return stmt.order_by(JobRecord.id.desc()).limit(limit).offset(offset), int(total or 0)
 
 
 def update_job(
@@ -822,11 +811,7 @@ def store_result(
         sha = blobs.put(text)
         row.result = {RESULT_BLOB_KEY: sha, "bytes": len(text)}
         session.merge(ResultBlob(job_id=job_id, sha256=sha, size=len(text)))
-        try:
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
+        _commit(session)
     return True
 
 

@@ -30,8 +30,56 @@ from app.errors import BioPlanError
 
 LOCK_NAME = "bioplan.lock"
 
-_held: dict[Path, list[int]] = {}  # lock file -> [descriptor, holders in this process]
 _guard = threading.Lock()
+
+
+class _Shared:
+    """Claims shared within this process: the first :meth:`take` of a key makes the claim,
+    later ones count; the last :meth:`release` frees it."""
+
+    def __init__(self) -> None:
+        self._held: dict[str, tuple[Callable[[], None], int]] = {}  # key -> (free, holders)
+
+    def take(self, key: str, claim: Callable[[], Callable[[], None]]) -> None:
+        """Share the claim on ``key``, or make it with ``claim()`` (which returns its free)."""
+        with _guard:
+            entry = self._held.get(key)
+            self._held[key] = (entry[0], entry[1] + 1) if entry is not None else (claim(), 1)
+
+    def release(self, key: str) -> None:
+        with _guard:  # freed under the guard: a new claim of the key waits until it is
+            entry = self._held.pop(key, None)
+            if entry is None:
+                return
+            free, holders = entry
+            if holders > 1:
+                self._held[key] = (free, holders - 1)
+                return
+            # A failure only means the claim is gone already (the process or the database
+            # session ends it anyway).
+            with contextlib.suppress(Exception):
+                free()
+
+
+_dirs = _Shared()  # lock file path -> its descriptor's close
+_databases = _Shared()  # database key -> its claim's release
+
+
+def _exclusive(fd: int, holder_line: str, *, max_bytes: int = 512) -> str | None:
+    """Take an exclusive ``flock`` on ``fd`` and write ``holder_line`` into its file; when
+    another process holds it, close ``fd`` and return what that holder wrote ('' if
+    nothing)."""
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = ""
+        with contextlib.suppress(OSError):
+            holder = os.pread(fd, max_bytes, 0).decode(errors="replace").strip()
+        os.close(fd)
+        return holder
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{holder_line}\n".encode(), 0)
+    return None
 
 
 class DataDirError(BioPlanError):
@@ -58,14 +106,7 @@ class DataDirLock:
     path: Path
 
     def release(self) -> None:
-        with _guard:
-            entry = _held.get(self.path)
-            if entry is None:
-                return
-            entry[1] -= 1
-            if entry[1] == 0:
-                del _held[self.path]
-                os.close(entry[0])  # closing the descriptor drops the flock
+        _dirs.release(str(self.path))  # closing the descriptor drops the flock
 
 
 def lock_data_dir(data_dir: Path) -> DataDirLock:
@@ -84,43 +125,29 @@ def lock_data_dir(data_dir: Path) -> DataDirLock:
     except OSError as exc:
         raise _unusable(data_dir, exc) from None
     path = (data_dir / LOCK_NAME).resolve()
-    with _guard:
-        entry = _held.get(path)
-        if entry is not None:
-            entry[1] += 1
-            return DataDirLock(path)
+
+    def claim() -> Callable[[], None]:
         try:
             fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
         except OSError as exc:
             raise _unusable(data_dir, exc) from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = _read_pid(fd)
-            os.close(fd)
-            who = f"process {holder}" if holder else "another process"
+        holder = _exclusive(fd, str(os.getpid()), max_bytes=32)
+        if holder is not None:
+            who = f"process {holder}" if holder.isdigit() else "another process"
             raise DataDirBusyError(
                 f"the data directory {data_dir} is in use by {who} (another bioplan serve?): "
                 "stop it, or choose another folder with --data-dir or BIOPLAN_DATA_DIR"
-            ) from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-        _held[path] = [fd, 1]
-        return DataDirLock(path)
+            )
+        return lambda: os.close(fd)
 
-
-def _read_pid(fd: int) -> int | None:
-    with contextlib.suppress(OSError, ValueError):
-        return int(os.pread(fd, 32, 0).decode().strip())
-    return None
+    _dirs.take(str(path), claim)
+    return DataDirLock(path)
 
 
 # ------------------------------------------------------------------------------ database claim
 
 #: The PostgreSQL advisory lock key of "the server of this database" (``b"bioplan"``).
 PG_LOCK_KEY = 0x62696F706C616E
-
-_db_held: dict[str, list[object]] = {}  # database key -> [release callable, holders]
 
 
 class DatabaseBusyError(DataDirError):
@@ -135,17 +162,7 @@ class DatabaseLock:
     key: str
 
     def release(self) -> None:
-        with _guard:
-            entry = _db_held.get(self.key)
-            if entry is None:
-                return
-            entry[1] = int(entry[1]) - 1  # type: ignore[call-overload]
-            if entry[1] == 0:
-                del _db_held[self.key]
-                free = entry[0]
-                assert callable(free)
-                with contextlib.suppress(Exception):
-                    free()
+        _databases.release(self.key)
 
 
 def _holder_line(data_dir: Path | None) -> str:
@@ -180,17 +197,11 @@ def lock_database(url: str, *, data_dir: Path | None = None) -> DatabaseLock:
         key = parsed.render_as_string(hide_password=True)
     else:
         return DatabaseLock("")
-    with _guard:
-        entry = _db_held.get(key)
-        if entry is not None:
-            entry[1] = int(entry[1]) + 1  # type: ignore[call-overload]
-            return DatabaseLock(key)
-        if backend == "sqlite":
-            free = _claim_sqlite(Path(database).resolve(), data_dir)
-        else:
-            free = _claim_postgres(url, key, data_dir)
-        _db_held[key] = [free, 1]
-        return DatabaseLock(key)
+    if backend == "sqlite":
+        _databases.take(key, lambda: _claim_sqlite(Path(database).resolve(), data_dir))
+    else:
+        _databases.take(key, lambda: _claim_postgres(url, key, data_dir))
+    return DatabaseLock(key)
 
 
 def _claim_sqlite(database: Path, data_dir: Path | None) -> Callable[[], None]:
@@ -200,25 +211,14 @@ def _claim_sqlite(database: Path, data_dir: Path | None) -> Callable[[], None]:
         fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
     except OSError:  # a folder we cannot write: the database cannot be written either
         return lambda: None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        holder = ""
-        with contextlib.suppress(OSError):
-            holder = os.pread(fd, 512, 0).decode(errors="replace").strip()
-        os.close(fd)
-        who = holder or "another process"
+    holder = _exclusive(fd, _holder_line(data_dir))
+    if holder is not None:
         raise DatabaseBusyError(
-            f"the database {database} is in use by another server ({who}): one server per "
-            "database; stop it, or give this one its own database (BIOPLAN_DATABASE_URL)"
-        ) from None
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"{_holder_line(data_dir)}\n".encode(), 0)
-
-    def free() -> None:
-        os.close(fd)
-
-    return free
+            f"the database {database} is in use by another server "
+            f"({holder or 'another process'}): one server per database; stop it, or give "
+            "this one its own database (BIOPLAN_DATABASE_URL)"
+        )
+    return lambda: os.close(fd)
 
 
 def _claim_postgres(url: str, shown: str, data_dir: Path | None) -> Callable[[], None]:

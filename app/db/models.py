@@ -29,8 +29,9 @@ from sqlalchemy import (
     TypeDecorator,
 )
 from sqlalchemy.engine import Dialect
-from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+from sqlalchemy.orm import DeclarativeBase, Mapped, declared_attr, mapped_column, relationship
 
+from app import kinds as _kinds
 from app import names as _names
 
 # Named constraints so migrations (and SQLite batch mode) can refer to them.
@@ -45,9 +46,8 @@ NAMING_CONVENTION = {
 #: Job states and the ones a job never leaves (one home: ``app.names``).
 JOB_STATES = _names.JOB_STATES
 TERMINAL_STATES = _names.TERMINAL_JOB_STATES
-JOB_KINDS = (
-    "analysis", "pose", "plan", "simulation", "sweep", "profiles", "cohort", "identify", "front"
-)  # fmt: skip
+#: The job kinds (one home: ``app.kinds``); each has a result table in :data:`RESULT_MODELS`.
+JOB_KINDS = _kinds.KIND_NAMES
 #: What an uploaded file is to its session: a recording (read and analysed; also the landmarks
 #: extracted from a video), a sidecar of another file (BIDS ``_channels.tsv``/``_emg.json`` of an
 #: EDF: used when that file is read, never read on its own), or a video (turned into pose).
@@ -267,23 +267,28 @@ class JobRecord(Base):
 
 
 class _ResultMixin:
-    """Result row of a job: same id as the job, JSON result in the CLI's shape."""
+    """Result row of a job: same id as the job (deleted with it), JSON result in the CLI's
+    shape."""
 
+    id: Mapped[int] = mapped_column(
+        ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True, sort_order=-1
+    )
     result: Mapped[dict[str, Any] | None] = mapped_column(JSON)
+
+    @declared_attr
+    def job(cls) -> Mapped[JobRecord]:
+        return relationship()
 
 
 class Analysis(_ResultMixin, Base):
     __tablename__ = "analyses"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     recording_id: Mapped[int | None] = mapped_column(
         ForeignKey("recording_sessions.id", ondelete="SET NULL"), index=True
     )
     template: Mapped[dict[str, Any] | None] = mapped_column(JSON)
     #: The plot overlays (``app.analysis.AnalysisOverlays.to_arrays``) as ``.npz`` bytes.
     arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
-
-    job: Mapped[JobRecord] = relationship()
 
 
 class PoseExtraction(_ResultMixin, Base):
@@ -292,7 +297,6 @@ class PoseExtraction(_ResultMixin, Base):
 
     __tablename__ = "pose_extractions"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     recording_id: Mapped[int | None] = mapped_column(
         ForeignKey("recording_sessions.id", ondelete="SET NULL"), index=True
     )
@@ -300,36 +304,25 @@ class PoseExtraction(_ResultMixin, Base):
         ForeignKey("recording_files.id", ondelete="SET NULL"), index=True
     )
 
-    job: Mapped[JobRecord] = relationship()
-
 
 class Plan(_ResultMixin, Base):
     __tablename__ = "plans"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     robot: Mapped[str] = mapped_column(String(100), index=True)
     arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
-
-    job: Mapped[JobRecord] = relationship()
 
 
 class Simulation(_ResultMixin, Base):
     __tablename__ = "simulations"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     robot: Mapped[str] = mapped_column(String(100), index=True)
     arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
-
-    job: Mapped[JobRecord] = relationship()
 
 
 class Sweep(_ResultMixin, Base):
     __tablename__ = "sweeps"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     robot: Mapped[str] = mapped_column(String(100), index=True)
-
-    job: Mapped[JobRecord] = relationship()
 
 
 class Profiles(_ResultMixin, Base):
@@ -337,10 +330,7 @@ class Profiles(_ResultMixin, Base):
 
     __tablename__ = "profiles"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     robot: Mapped[str] = mapped_column(String(100), index=True)
-
-    job: Mapped[JobRecord] = relationship()
 
 
 class Cohort(_ResultMixin, Base):
@@ -349,10 +339,6 @@ class Cohort(_ResultMixin, Base):
 
     __tablename__ = "cohorts"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
-
-    job: Mapped[JobRecord] = relationship()
-
 
 class IdentificationRecord(_ResultMixin, Base):
     """Inertias and friction identified from robot logs (``bioplan identify``); on success the
@@ -360,12 +346,9 @@ class IdentificationRecord(_ResultMixin, Base):
 
     __tablename__ = "identifications"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     robot: Mapped[str] = mapped_column(String(100), index=True)
     #: the name the identified robot is stored under.
     version: Mapped[str] = mapped_column(String(100))
-
-    job: Mapped[JobRecord] = relationship()
 
 
 class FrontRecord(_ResultMixin, Base):
@@ -375,11 +358,8 @@ class FrontRecord(_ResultMixin, Base):
 
     __tablename__ = "fronts"
 
-    id: Mapped[int] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
     robot: Mapped[str] = mapped_column(String(100), index=True)
     arrays: Mapped[bytes | None] = mapped_column(LargeBinary, deferred=True)
-
-    job: Mapped[JobRecord] = relationship()
 
 
 class ResultBlob(Base):
@@ -398,18 +378,20 @@ class ResultBlob(Base):
 RESULT_BLOB_KEY = "$result_blob"
 
 
-RESULT_MODELS: dict[
-    str,
-    type[Analysis]
-    | type[PoseExtraction]
-    | type[Plan]
-    | type[Simulation]
-    | type[Sweep]
-    | type[Profiles]
-    | type[Cohort]
-    | type[IdentificationRecord]
-    | type[FrontRecord],
-] = {
+#: A result table: one per job kind, whose primary key is the job's id.
+ResultModel = (
+    Analysis
+    | PoseExtraction
+    | Plan
+    | Simulation
+    | Sweep
+    | Profiles
+    | Cohort
+    | IdentificationRecord
+    | FrontRecord
+)
+#: The storage part of the job-kind registry (``app.kinds``): kind -> its result table.
+RESULT_MODELS: dict[str, type[ResultModel]] = {
     "analysis": Analysis,
     "pose": PoseExtraction,
     "plan": Plan,

@@ -12,11 +12,11 @@ Both report to an ``EventSink`` callable in the API process: ``started``, ``prog
 exactly one of ``succeeded`` (with the plain-data result), ``failed`` (with a one-line error) or
 ``cancelled``. Workers never touch the database.
 
-Job logs (local runner): a job process records the ``bioplan`` loggers' records at INFO and
-above (``app.logs.LogTail``: its last 500 lines, at most 64 kB) and sends the new lines with
-each progress report and before its outcome; the final event carries the log (``log``), so a
-cancelled or stopped job keeps what it had said by its last progress report. The Dask runner
-sends no log (``log`` None).
+Job logs (both runners): a job records the ``bioplan`` loggers' records at INFO and above
+(``app.logs.LogTail``: its last 500 lines, at most 64 kB; on Dask the records of the task's
+thread only, as tasks share a worker process) and sends the new lines with each progress report
+and with its outcome; the final event carries the log (``log``), so a cancelled or stopped job
+keeps what it had said by its last progress report.
 
 Cancellation semantics:
 - queued job: removed from the queue at once (both runners).
@@ -52,7 +52,10 @@ from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
+from types import ModuleType
+from typing import Any, Literal, Protocol, Required, TypedDict
 
 from app.errors import BioPlanError
 from app.jobs._lifeline import die_with_parent, reap_group_on_exit
@@ -62,7 +65,30 @@ from app.progress import Progress, ProgressFn
 logger = logging.getLogger(__name__)
 
 EventType = Literal["started", "progress", "succeeded", "failed", "cancelled"]
-Target = Callable[[str, dict[str, Any], ProgressFn], dict[str, Any]]
+
+
+class ProgressDetail(TypedDict):
+    """A ``progress`` event's structured detail: the fields of ``app.progress.Progress``."""
+
+    stage: str
+    done: int
+    of: int
+    fraction: float
+    best: float | None
+    message: str
+
+
+class _TaskMessage(TypedDict, total=False):
+    """What a Dask task publishes on its job's topic: ``started``, or ``progress`` with
+    ``Progress.to_dict()`` and the log lines since the last message."""
+
+    job: Required[int]
+    type: Required[Literal["started", "progress"]]
+    detail: dict[str, object]
+    log: list[str]
+
+
+Target = Callable[[str, dict[str, object], ProgressFn], dict[str, object]]
 
 
 class JobCancelled(Exception):
@@ -85,17 +111,17 @@ class JobEvent:
         detail: the structured progress, ``Progress.to_dict()`` (``progress`` events).
         result: the job function's return value (``succeeded``).
         error: one-line error message (``failed``).
-        log: the job's log lines (``app.logs.LogTail.lines``) on its final event; None when
-            the runner keeps no log.
+        log: the job's log lines (``app.logs.LogTail.lines``) on its final event; None on
+            the other events (and from a runner that keeps no log).
     """
 
     job_id: int
     type: EventType
     progress: float | None = None
     message: str = ""
-    result: dict[str, Any] | None = None
+    result: dict[str, object] | None = None
     error: str | None = None
-    detail: dict[str, Any] | None = None
+    detail: ProgressDetail | None = None
     log: list[str] | None = None
 
 
@@ -112,7 +138,7 @@ def describe_error(exc: BaseException | None) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
-def _progress_event(job_id: int, detail: dict[str, Any]) -> JobEvent:
+def _progress_event(job_id: int, detail: dict[str, object]) -> JobEvent:
     """A ``progress`` event from a job's ``Progress.to_dict()``."""
     update = Progress.from_dict(detail)
     return JobEvent(
@@ -120,7 +146,14 @@ def _progress_event(job_id: int, detail: dict[str, Any]) -> JobEvent:
         "progress",
         progress=update.fraction,
         message=update.message,
-        detail=update.to_dict(),
+        detail=ProgressDetail(
+            stage=update.stage,
+            done=update.done,
+            of=update.of,
+            fraction=update.fraction,
+            best=update.best,
+            message=update.message,
+        ),
     )
 
 
@@ -140,7 +173,7 @@ class JobRunner(ABC):
         """Start reporting events to ``sink`` (called once, before ``submit``)."""
 
     @abstractmethod
-    def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
+    def submit(self, job_id: int, kind: str, payload: dict[str, object]) -> None:
         """Queue a job; returns at once."""
 
     @abstractmethod
@@ -152,7 +185,7 @@ class JobRunner(ABC):
         """Stop every job and release resources; no events are reported afterwards."""
 
     @abstractmethod
-    def info(self) -> dict[str, Any]:
+    def info(self) -> dict[str, object]:
         """``executor``, ``workers``, ``running``, ``queued`` for the health endpoint."""
 
 
@@ -203,8 +236,8 @@ def _child_main(
     target: Target,
     job_id: int,
     kind: str,
-    payload: dict[str, Any],
-    conn: Any,
+    payload: dict[str, object],
+    conn: Connection,
     server_pid: int,
     memory_mb: float | None = None,
 ) -> None:
@@ -308,9 +341,9 @@ def ensure_forkserver() -> None:
 @dataclass
 class _Running:
     job_id: int
-    process: Any
-    conn: Any
-    result: dict[str, Any] | None = None
+    process: BaseProcess
+    conn: Connection
+    result: dict[str, object] | None = None
     error: str | None = None
     has_outcome: bool = False
     cancel_requested: bool = False
@@ -324,7 +357,7 @@ class _Running:
 class _Pending:
     job_id: int
     kind: str
-    payload: dict[str, Any] = field(repr=False)
+    payload: dict[str, object] = field(repr=False)
 
 
 class LocalRunner(JobRunner):
@@ -380,7 +413,7 @@ class LocalRunner(JobRunner):
         self._thread = threading.Thread(target=self._monitor, name="bioplan-jobs", daemon=True)
         self._thread.start()
 
-    def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
+    def submit(self, job_id: int, kind: str, payload: dict[str, object]) -> None:
         if kind == "sweep" and payload.get("workers") is None:
             # A sweep fans its cells out over as many processes as the runner runs jobs.
             payload = {**payload, "workers": self.max_workers}
@@ -421,7 +454,7 @@ class LocalRunner(JobRunner):
             run.conn.close()
         self._sink = None
 
-    def info(self) -> dict[str, Any]:
+    def info(self) -> dict[str, object]:
         with self._lock:
             return {
                 "executor": self.executor,
@@ -605,27 +638,69 @@ class LocalRunner(JobRunner):
 # ------------------------------------------------------------------------------------- dask
 
 
-def _distributed() -> Any:
-    """The ``distributed`` module, imported on first use (untyped, hence ``Any``)."""
-    import importlib
+class _TaskOutcome(TypedDict):
+    """What a Dask task returns: the job function's output and the job's log lines."""
 
-    return importlib.import_module("distributed")
+    output: dict[str, object]
+    log: list[str]
+
+
+class _Future(Protocol):
+    """The part of a ``distributed.Future`` the runner uses."""
+
+    @property
+    def key(self) -> object: ...
+
+    @property
+    def status(self) -> str: ...
+
+    def result(self) -> _TaskOutcome: ...
+
+    def exception(self) -> BaseException | None: ...
+
+    def cancel(self) -> object: ...
+
+
+def _distributed() -> ModuleType:
+    """The ``distributed`` module, imported on first use (an optional dependency)."""
+    import distributed
+
+    return distributed
+
+
+class _ThisThread(logging.Filter):
+    """Keeps the records of the thread that made it: a Dask worker runs several tasks in
+    threads of one process, and each job's log must hold its own records only."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.thread = threading.get_ident()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.thread == self.thread
 
 
 def _dask_entry(
     target: Target,
     job_id: int,
     kind: str,
-    payload: dict[str, Any],
+    payload: dict[str, object],
     topic: str,
     cancel_name: str,
-) -> dict[str, Any]:
-    """Body of a Dask task: report through worker events, stop when the cancel event is set."""
+) -> _TaskOutcome:
+    """Body of a Dask task: report through worker events, stop when the cancel event is set.
+
+    The job's log (``app.logs.LogTail``, this thread's records) travels as the local runner's
+    does: new lines with each progress event, the rest with the outcome (``{"output", "log"}``
+    returned, or :class:`JobFailed` ``(error, lines)``).
+    """
     distributed = _distributed()
     worker = distributed.get_worker()
     worker.log_event(topic, {"job": job_id, "type": "started"})
     cancel = distributed.Event(cancel_name)
     last = [0.0]
+    tail = LogTail()
+    tail.addFilter(_ThisThread())
 
     def progress(update: Progress) -> None:
         now = time.monotonic()
@@ -634,23 +709,30 @@ def _dask_entry(
         last[0] = now
         if cancel.is_set():
             raise JobCancelled(f"job {job_id} cancelled")
-        worker.log_event(topic, {"job": job_id, "type": "progress", "detail": update.to_dict()})
+        detail = update.to_dict()
+        worker.log_event(topic, {"job": job_id, "type": "progress", "detail": detail,
+                                 "log": tail.take()})  # fmt: skip
 
     try:
-        return target(kind, payload, progress)
+        with capture(tail):
+            output = target(kind, payload, progress)
+        return {"output": output, "log": tail.take()}
     except JobCancelled:
         raise
     except BaseException as exc:
         # Exceptions of the science packages may not unpickle on the client; send a string.
-        raise JobFailed(describe_error(exc)) from None
+        error = describe_error(exc)
+        lines = [*tail.take(), f"{time.strftime('%H:%M:%S')} ERROR bioplan: job failed: {error}"]
+        raise JobFailed(error, lines) from None
 
 
 @dataclass
 class _DaskJob:
     job_id: int
-    future: Any
+    future: _Future
     cancel_name: str
     cancel_requested: bool = False
+    log: LogTail = field(default_factory=LogTail)
 
 
 class DaskRunner(JobRunner):
@@ -668,7 +750,7 @@ class DaskRunner(JobRunner):
         self.executor = f"dask://{address.split('://', 1)[-1]}"
         self._target = target or _default_target()
         self._timeout = timeout
-        self._client: Any = None
+        self._client: Any = None  # a distributed.Client once started (its stubs are partial)
         self._sink: EventSink | None = None
         self._jobs: dict[int, _DaskJob] = {}
         self._lock = threading.Lock()
@@ -682,7 +764,7 @@ class DaskRunner(JobRunner):
         )
         self._client.subscribe_topic(self._topic, self._on_event)
 
-    def submit(self, job_id: int, kind: str, payload: dict[str, Any]) -> None:
+    def submit(self, job_id: int, kind: str, payload: dict[str, object]) -> None:
         key = f"bioplan-job-{job_id}-{uuid.uuid4().hex[:8]}"
         if kind == "sweep":
             # Child tasks: the sweep job submits one task per cell to this cluster (Dask worker
@@ -734,7 +816,7 @@ class DaskRunner(JobRunner):
         _distributed().Event(job.cancel_name, client=self._client).set()
         job.future.cancel()
 
-    def info(self) -> dict[str, Any]:
+    def info(self) -> dict[str, object]:
         workers = None
         try:
             workers = len(self._client.scheduler_info(n_workers=-1)["workers"])
@@ -755,19 +837,20 @@ class DaskRunner(JobRunner):
         if sink is not None and not self._closing:
             sink(event)
 
-    def _on_event(self, event: tuple[float, dict[str, Any]]) -> None:
+    def _on_event(self, event: tuple[float, _TaskMessage]) -> None:
         _, msg = event
         job_id = int(msg["job"])
         with self._lock:
             job = self._jobs.get(job_id)
         if job is None or job.cancel_requested:
             return
+        job.log.extend(list(msg.get("log") or ()))
         if msg["type"] == "started":
             self._emit(JobEvent(job_id, "started", progress=0.0, message="running"))
         elif msg["type"] == "progress":
             self._emit(_progress_event(job_id, msg["detail"]))
 
-    def _on_done(self, future: Any) -> None:
+    def _on_done(self, future: _Future) -> None:
         with self._lock:
             match = [j for j in self._jobs.values() if j.future.key == future.key]
             if not match:
@@ -775,16 +858,27 @@ class DaskRunner(JobRunner):
             job = match[0]
             del self._jobs[job.job_id]
         if future.status == "finished":
-            self._emit(JobEvent(job.job_id, "succeeded", progress=1.0, result=future.result()))
+            done = future.result()
+            job.log.extend(list(done.get("log") or ()))
+            self._end(job, JobEvent(job.job_id, "succeeded", progress=1.0, result=done["output"]))
             return
         if job.cancel_requested or future.status == "cancelled":
-            self._emit(JobEvent(job.job_id, "cancelled", message="cancelled"))
+            self._end(job, JobEvent(job.job_id, "cancelled", message="cancelled"))
             return
         exc = future.exception()
         if isinstance(exc, JobCancelled):
-            self._emit(JobEvent(job.job_id, "cancelled", message="cancelled"))
-        else:
-            self._emit(JobEvent(job.job_id, "failed", error=describe_error(exc)))
+            self._end(job, JobEvent(job.job_id, "cancelled", message="cancelled"))
+            return
+        if isinstance(exc, JobFailed) and len(exc.args) == 2:
+            job.log.extend([str(line) for line in exc.args[1]])
+            error = str(exc.args[0])
+        else:  # the worker died, or the task could not run at all
+            error = describe_error(exc)
+        self._end(job, JobEvent(job.job_id, "failed", error=error))
+
+    def _end(self, job: _DaskJob, event: JobEvent) -> None:
+        """Report a job's final event with its log (as the local runner does)."""
+        self._emit(dataclasses.replace(event, log=job.log.lines()))
 
 
 def make_runner(

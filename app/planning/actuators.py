@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from app.errors import BioPlanError
+from app.planning.robots import ACTUATOR_FIELDS, read_sidecar
 
 if TYPE_CHECKING:
     from app.planning.evaluation import EvaluatedTrajectory
@@ -54,16 +55,6 @@ __all__ = [
     "plan_actuators",
 ]
 
-#: Sidecar fields of one joint's actuator: name -> (unit, required).
-ACTUATOR_FIELDS: dict[str, tuple[str, bool]] = {
-    "peak_torque": ("Nm", True),
-    "rated_speed": ("rad/s", True),
-    "max_speed": ("rad/s", False),
-    "corner_speed": ("rad/s", False),
-    "bus_voltage": ("V", False),
-    "rms_torque": ("Nm", True),
-    "duty_cycle": ("s", True),
-}
 #: The constraints hold with this margin at the evaluation points, so that they hold between
 #: them too: a fraction of the peak torque below the envelope (measured: a 2-DOF elbow at
 #: 11.7 rad/s, where the envelope falls 6.7 Nm per rad/s, rose 0.5 Nm = 0.6 % of its peak above
@@ -287,8 +278,6 @@ def _actuator_limits(robot: Robot) -> ActuatorLimits | None:
     names = tuple(robot.joint_names)
     sidecar = (robot.spec or {}).get("sidecar")
     if sidecar:
-        from app.planning.robots._sidecar import read_sidecar
-
         car = read_sidecar(Path(str(sidecar)))
         blocks = getattr(car, "actuators", {}) or {}
         if blocks:

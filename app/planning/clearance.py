@@ -53,8 +53,7 @@ from numpy.typing import NDArray
 from app.planning.symbolic import symbolic_chain
 
 if TYPE_CHECKING:
-    from app.planning.robots import Robot
-    from app.planning.robots._obstacles import Obstacle
+    from app.planning.robots import Obstacle, Robot
     from app.planning.safety import SafetyScene
 
 __all__ = ["CLEARANCE_MARGIN", "ClearanceConstraint", "ObstacleRows", "clearance_constraint"]

@@ -24,12 +24,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from app.errors import BioPlanError
-from app.planning.robots._types import Payload, RobotError
+from app.planning.payload import Payload, RobotError
 
 if TYPE_CHECKING:
-    from app.planning.robots._types import Robot
+    from app.planning.robots import Robot
 
-__all__ = ["STANDARD_GRAVITY", "Dynamics", "PinocchioDynamics", "PlanarArm2DOF"]
+__all__ = ["STANDARD_GRAVITY", "Dynamics", "PinocchioDynamics", "PlanarArm2DOF", "robot_dynamics"]
 
 STANDARD_GRAVITY = 9.81  # [m/s^2], the default of both Pinocchio and MuJoCo
 
@@ -643,3 +643,29 @@ class PinocchioDynamics:
         rot, pos = self._forward(qf)
         point: FloatArray = pos[self._ee_joint] + rot[self._ee_joint] @ self._ee_point
         return point.reshape((*shape[:-1], 3))
+
+
+def robot_dynamics(robot: Robot, *, armature: bool = True, threads: int = 1) -> Dynamics:
+    """A robot's rigid-body dynamics with its payload (and its motors' armature), cached on the
+    robot (``Robot.dynamics()`` calls this).
+
+    Args:
+        robot: the robot (its URDF, payload, payload body, motors and locks).
+        armature: add each motor's reflected rotor inertia N^2 J_m to the joint's diagonal.
+        threads: threads for batched inverse dynamics (1 = one core).
+
+    Returns:
+        A ``PinocchioDynamics`` built from ``robot.urdf_path``.
+    """
+    key = ("dynamics", bool(armature), int(threads))
+    if key not in robot._cache:
+        robot._cache[key] = PinocchioDynamics(
+            robot.urdf_path,
+            payload=robot.payload,
+            payload_body=robot.payload_body,
+            armature=robot.armature if armature else None,
+            num_threads=threads,
+            locks=robot.locks,
+        )
+    result: Dynamics = robot._cache[key]
+    return result

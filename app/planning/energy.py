@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -81,9 +81,10 @@ class MotorModel:
         return self.gear_ratio**2 * self.rotor_inertia
 
 
-#: The motor of a joint whose drive is unknown: no armature, no friction, and electrical
-#: quantities reported as not modelled (NaN in arrays and metrics, ``None`` in JSON).
-NOT_MODELLED = MotorModel(
+#: A lossless direct drive: the joint torque is produced without copper loss, friction,
+#: reflected inertia or recovery. Used for the human arm (muscles are not motors) and the
+#: two-link reference arm.
+IDEAL_ACTUATOR = MotorModel(
     gear_ratio=1.0,
     torque_constant=1.0,
     winding_resistance=0.0,
@@ -91,8 +92,12 @@ NOT_MODELLED = MotorModel(
     viscous_friction=0.0,
     coulomb_friction=0.0,
     regen_efficiency=0.0,
-    modelled=False,
 )
+
+#: The motor of a joint whose drive is unknown: dynamically the same as
+#: :data:`IDEAL_ACTUATOR` (no armature, no friction), but its electrical quantities are
+#: reported as not modelled (NaN in arrays and metrics, ``None`` in JSON).
+NOT_MODELLED = replace(IDEAL_ACTUATOR, modelled=False)
 
 
 def motors_modelled(motors: Sequence[MotorModel] | None) -> bool:

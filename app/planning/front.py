@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -53,6 +53,7 @@ from app.planning.methods import (
     CONVERGENCE_TOLERANCE,
     MAX_CONVERGENCE_INTERVALS,
     human_spec,
+    mesh_error_estimate,
     objective_value,
 )
 from app.planning.optimal import (
@@ -270,7 +271,8 @@ def _converged(
     n_start: int | None = None,
 ) -> _Solved:
     """Solve on N intervals (``n_start``, default the setup's), then 2N, 4N, ... (each from the
-    last) until the objective on the report grid changes by less than the setup's tolerance.
+    last) until the objective on the report grid changes by less than the setup's tolerance,
+    or the Richardson estimate of the error left is (:func:`methods.mesh_error_estimate`).
 
     A point warm-started from a converged neighbour starts at half the neighbour's final mesh:
     the coarse meshes would only re-find what the neighbour already resolved."""
@@ -279,7 +281,8 @@ def _converged(
     ev = evaluate_trajectory(setup.robot, result.trajectory, setup.task)
     value = _metric(setup.robot, ev, objective)
     sequence: list[dict[str, Any]] = [{"n_intervals": n, "objective": value}]
-    change, converged = math.nan, False
+    values = [value]
+    change, converged, estimate, extrapolated = math.nan, False, math.nan, False
     while 2 * n <= MAX_CONVERGENCE_INTERVALS:
         n *= 2
         try:
@@ -292,14 +295,18 @@ def _converged(
         ev_f = evaluate_trajectory(setup.robot, finer.trajectory, setup.task)
         new = _metric(setup.robot, ev_f, objective)
         sequence.append({"n_intervals": n, "objective": new})
+        values.append(new)
         change = abs(new - value) / max(abs(value), abs(new), 1e-12)
+        estimate, extrapolated = mesh_error_estimate(values)
         result, ev, value = finer, ev_f, new
-        if change < setup.tolerance:
+        if change < setup.tolerance or estimate < setup.tolerance:
             converged = True
             break
     convergence = {
         "sequence": sequence,
         "relative_change": change,
+        "error_estimate": estimate,
+        "extrapolated": extrapolated,
         "converged": converged,
         "final_intervals": result.solver.n_intervals,
         "tolerance": setup.tolerance,
@@ -932,6 +939,96 @@ def _per_cycle(robot: Robot, task: PlanTask, objective: str, motion: float, hold
     return max(motion, hold) if objective == "peak_torque" else motion + hold
 
 
+def _check_throughput(objective: str, cycle_rate: float, dwell: float, points: int) -> None:
+    """Refuse a bad :func:`throughput` option, named as the CLI's flag.
+
+    Raises:
+        PlanningError: an unknown objective, a rate [lifts/h] not > 0, a dwell [s] not >= 0 or
+            fewer than 2 points.
+    """
+    if objective not in FRONT_METRICS:
+        raise PlanningError(
+            f"--objective {objective!r}: expected one of {', '.join(FRONT_METRICS)}"
+        )
+    if not (math.isfinite(cycle_rate) and cycle_rate > 0):
+        raise PlanningError(f"--cycle-rate {cycle_rate}: expected lifts per hour > 0")
+    if not (math.isfinite(dwell) and dwell >= 0):
+        raise PlanningError(f"--dwell {dwell}: expected a hold time >= 0 s")
+    if points < 2:
+        raise PlanningError(f"--points {points}: expected at least 2 durations to scan")
+
+
+def _motion_window(
+    robot: Robot, setup: _Setup, cycle_rate: float, dwell: float, longest: float
+) -> ShortestDuration:
+    """The shortest feasible duration of the motion, checked against the ``longest`` [s] the
+    cycle (``cycle_rate`` [lifts/h] less ``dwell`` [s]) leaves for it.
+
+    Raises:
+        PlanningError: the cycle leaves less than the stroke at the speed limits needs (refused
+            without a solve), or less than the shortest feasible duration.
+    """
+    stroke = np.abs(setup.task.goal - setup.task.start)
+    at_least = float(np.max(stroke / np.asarray(robot.qd_max)))
+    if longest <= at_least:  # below the speed limits' bound: no solve needed to refuse it
+        raise PlanningError(
+            f"--cycle-rate {cycle_rate:g}/h with --dwell {dwell:g} s leaves {longest:.3g} s for "
+            f"the motion: expected more than {at_least:.3f} s, the stroke at the speed limits "
+            "(fewer lifts per hour or a shorter dwell)"
+        )
+    # The scan's lower end needs no finer bracket than its own spacing.
+    shortest, _ = _shortest(setup, THROUGHPUT_DURATION_REL_TOL)
+    if longest < shortest.duration:
+        raise PlanningError(
+            f"--cycle-rate {cycle_rate:g}/h with --dwell {dwell:g} s leaves {longest:.3g} s for "
+            f"the motion: expected at least the shortest feasible duration "
+            f"{shortest.duration:.3f} s (fewer lifts per hour or a shorter dwell)"
+        )
+    return shortest
+
+
+def _scan_durations(
+    at: Callable[[float, Trajectory | None, int], float],
+    scanned: dict[float, tuple[float, float, _Solved]],
+    shortest: float,
+    longest: float,
+    points: int,
+) -> None:
+    """Solve at ``points`` durations from ``shortest`` to ``longest`` [s] (geometric), each
+    warm-started from the previous one stretched, then once at the vertex of the parabola in
+    log T through the best three when it falls between them.
+
+    ``at(duration, warm, n_warm)`` solves one duration and records it in ``scanned``
+    (duration [s] -> per-cycle value, motion value, solution).
+    """
+    durations = (
+        np.geomspace(shortest, longest, points) if longest > shortest else np.array([longest])
+    )
+    warm: Trajectory | None = None
+    n_warm = 0
+    for t in durations:
+        at(float(t), None if warm is None else _stretched(warm, float(t)), n_warm)
+        last = scanned[float(t)][2]
+        warm, n_warm = last.evaluated.trajectory, last.result.solver.n_intervals
+    ts = sorted(scanned)
+    k = min(range(len(ts)), key=lambda i: scanned[ts[i]][0])
+    if 0 < k < len(ts) - 1:
+        # One step of successive parabolic interpolation in log T through the best three.
+        x = np.log([ts[k - 1], ts[k], ts[k + 1]])
+        y = np.array([scanned[ts[i]][0] for i in (k - 1, k, k + 1)])
+        denom = (x[1] - x[0]) * (y[1] - y[2]) - (x[1] - x[2]) * (y[1] - y[0])
+        if denom != 0:
+            num = (x[1] - x[0]) ** 2 * (y[1] - y[2]) - (x[1] - x[2]) ** 2 * (y[1] - y[0])
+            vertex = float(np.exp(x[1] - 0.5 * num / denom))
+            if ts[k - 1] < vertex < ts[k + 1] and abs(vertex / ts[k] - 1) > 1e-3:
+                near = scanned[ts[k]][2]
+                at(
+                    vertex,
+                    _stretched(near.evaluated.trajectory, vertex),
+                    near.result.solver.n_intervals,
+                )
+
+
 def throughput(
     robot: Robot,
     task: PlanTask | None = None,
@@ -960,38 +1057,14 @@ def throughput(
     Raises:
         PlanningError: a bad rate or dwell (named), or a cycle too short for the motion.
     """
-    if objective not in FRONT_METRICS:
-        raise PlanningError(
-            f"--objective {objective!r}: expected one of {', '.join(FRONT_METRICS)}"
-        )
-    if not (math.isfinite(cycle_rate) and cycle_rate > 0):
-        raise PlanningError(f"--cycle-rate {cycle_rate}: expected lifts per hour > 0")
-    if not (math.isfinite(dwell) and dwell >= 0):
-        raise PlanningError(f"--dwell {dwell}: expected a hold time >= 0 s")
-    if points < 2:
-        raise PlanningError(f"--points {points}: expected at least 2 durations to scan")
+    _check_throughput(objective, cycle_rate, dwell, points)
     setup = _setup(
         robot, task, method, template, n_intervals, no_reversal, report_samples, False, actuators,
         tolerance,
     )  # fmt: skip
     cycle = 3600.0 / cycle_rate
     longest = cycle - dwell
-    stroke = np.abs(setup.task.goal - setup.task.start)
-    at_least = float(np.max(stroke / np.asarray(robot.qd_max)))
-    if longest <= at_least:  # below the speed limits' bound: no solve needed to refuse it
-        raise PlanningError(
-            f"--cycle-rate {cycle_rate:g}/h with --dwell {dwell:g} s leaves {longest:.3g} s for "
-            f"the motion: expected more than {at_least:.3f} s, the stroke at the speed limits "
-            "(fewer lifts per hour or a shorter dwell)"
-        )
-    # The scan's lower end needs no finer bracket than its own spacing.
-    shortest, _ = _shortest(setup, THROUGHPUT_DURATION_REL_TOL)
-    if longest < shortest.duration:
-        raise PlanningError(
-            f"--cycle-rate {cycle_rate:g}/h with --dwell {dwell:g} s leaves {longest:.3g} s for "
-            f"the motion: expected at least the shortest feasible duration "
-            f"{shortest.duration:.3f} s (fewer lifts per hour or a shorter dwell)"
-        )
+    shortest = _motion_window(robot, setup, cycle_rate, dwell, longest)
     task_ = setup.task
     scanned: dict[float, tuple[float, float, _Solved]] = {}
 
@@ -1004,34 +1077,7 @@ def throughput(
         scanned[duration] = (value, motion, solved)
         return value
 
-    durations = (
-        np.geomspace(shortest.duration, longest, points)
-        if longest > shortest.duration
-        else np.array([longest])
-    )
-    warm: Trajectory | None = None
-    n_warm = 0
-    for t in durations:
-        at(float(t), None if warm is None else _stretched(warm, float(t)), n_warm)
-        last = scanned[float(t)][2]
-        warm, n_warm = last.evaluated.trajectory, last.result.solver.n_intervals
-    ts = sorted(scanned)
-    k = min(range(len(ts)), key=lambda i: scanned[ts[i]][0])
-    if 0 < k < len(ts) - 1:
-        # One step of successive parabolic interpolation in log T through the best three.
-        x = np.log([ts[k - 1], ts[k], ts[k + 1]])
-        y = np.array([scanned[ts[i]][0] for i in (k - 1, k, k + 1)])
-        denom = (x[1] - x[0]) * (y[1] - y[2]) - (x[1] - x[2]) * (y[1] - y[0])
-        if denom != 0:
-            num = (x[1] - x[0]) ** 2 * (y[1] - y[2]) - (x[1] - x[2]) ** 2 * (y[1] - y[0])
-            vertex = float(np.exp(x[1] - 0.5 * num / denom))
-            if ts[k - 1] < vertex < ts[k + 1] and abs(vertex / ts[k] - 1) > 1e-3:
-                near = scanned[ts[k]][2]
-                at(
-                    vertex,
-                    _stretched(near.evaluated.trajectory, vertex),
-                    near.result.solver.n_intervals,
-                )
+    _scan_durations(at, scanned, shortest.duration, longest, points)
     best_t = min(scanned, key=lambda t: scanned[t][0])
     value, motion, solved = scanned[best_t]
     q = quintic(task_.start, task_.goal, longest, n_samples=report_samples)

@@ -14,6 +14,10 @@
   3. otherwise (the paper's defaults, which hold no lift): the shares of a triangular velocity
      profile peaking at the template's angle (constant acceleration up to the peak, constant
      deceleration after it), ± :data:`DEFAULT_SHARE_SPREAD` (an assumption, said in the result).
+
+* ``shape``: the person's own elbow-speed shape: the elbow speed divided by its peak stays inside
+  the band of the recorded lifts, mean ± SD, over normalised time (:func:`speed_band`); only for
+  a template built from lifts with kinematics.
 """
 
 from __future__ import annotations
@@ -31,10 +35,13 @@ from app.planning.human_template import HumanTemplate, joint_on_stroke
 __all__ = [
     "DEFAULT_SHARE_SPREAD",
     "MIN_SHARE_SPREAD",
+    "SHAPE_TOP_DROP",
     "PhaseShares",
+    "SpeedBand",
     "elbow_speed_on_stroke",
     "human_likeness_distance",
     "phase_shares",
+    "speed_band",
     "template_speed_on_stroke",
 ]
 
@@ -44,6 +51,9 @@ FloatArray = NDArray[np.float64]
 DEFAULT_SHARE_SPREAD = 0.05
 #: Smallest spread allowed around a recorded share [-].
 MIN_SHARE_SPREAD = 0.02
+#: ``shape``: the elbow speed comes within this fraction of its peak only where the recorded
+#: mean profile does (the issue's 1 % criterion of a clear peak) [-].
+SHAPE_TOP_DROP = 0.01
 
 
 @dataclass(frozen=True)
@@ -161,6 +171,114 @@ def phase_bound_angles(template: HumanTemplate, q0: float, q1: float) -> tuple[f
                 "pass every phase bound for --human-constraint phases"
             )
     return angles
+
+
+# ----------------------------------------------------------------------------------------------
+# The recorded shape
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SpeedBand:
+    """The band of the recorded lifts' elbow speed, for ``--human-constraint shape``.
+
+    Attributes:
+        time: (K,) normalised time of the lift, 0 at its start, 1 at its top [-].
+        lower, upper: (K,) edges of the band: elbow speed divided by the peak of the mean
+            profile [-] (mean - SD and mean + SD, the lower edge lowered as said in
+            :func:`speed_band`).
+        peak_time: normalised time at which the mean profile peaks [-].
+        source: where the band comes from (one line).
+    """
+
+    time: tuple[float, ...]
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    peak_time: float
+    source: str
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "time": list(self.time),
+            "lower": list(self.lower),
+            "upper": list(self.upper),
+            "peak_time": self.peak_time,
+            "source": self.source,
+        }
+
+
+def speed_band(template: HumanTemplate) -> SpeedBand:
+    """The elbow-speed band of the lifts behind ``template`` (``shape``'s constraint).
+
+    The band lies on **normalised time**, not on normalised flexion: the template's profiles
+    are recorded that way (each lift's start -> top scaled to [0, 1], each lift's speed
+    divided by its own peak), so mean ± SD at a given time is a statistic over the lifts that
+    the recordings measure directly; re-expressed on flexion, the SD would mix the lifts'
+    different progress at one instant. And the robot's motion has a fixed duration, so its
+    normalised time is known before the solve: the band's edges are numbers at every solver
+    node, and the constraint is linear (speed >= edge x peak speed), where on flexion each
+    edge would depend on the unknown elbow angle.
+
+    The profile is divided by the mean's peak, so the band holds 1 where the mean peaks. The
+    top is the person's too: outside the times where the mean profile is within
+    :data:`SHAPE_TOP_DROP` of its peak, the upper edge is at most ``1 - SHAPE_TOP_DROP``: mean
+    plus SD exceeds 1 there (every lift is divided by its own peak) and let the human arm's
+    peak-power optimum hold its top speed from 34 % to 55 % of the duration.
+
+    The recorded lifts begin and end at a small speed (the segmentation's start rule, a few %
+    of the peak), which a robot moving from rest to rest cannot match: the lower edge is
+    lowered by the straight line through its two end values (so it is 0 at both ends) and
+    clipped at 0.
+
+    Raises:
+        BioPlanError: the template holds no recorded profile (the paper's default), rests on
+            fewer than 2 lifts (no spread), or its profile fields are inconsistent.
+    """
+    if template.is_paper_default or not template.velocity_mean:
+        raise BioPlanError(
+            "the human constraint shape needs the elbow-speed profile (mean ± SD) of recorded "
+            f"lifts, and this template has none ({template.source}): expected a template "
+            "built by `bioplan analyze` from recordings with elbow kinematics, or the "
+            "constraint peak"
+        )
+    if template.n_lifts < 2:
+        raise BioPlanError(
+            f"the human constraint shape needs the spread of at least 2 lifts, and the "
+            f"template rests on {template.n_lifts} ({template.source}): expected more recorded "
+            "lifts, or the constraint peak"
+        )
+    t = np.asarray(template.normalized_time, dtype=np.float64)
+    mean = np.asarray(template.velocity_mean, dtype=np.float64)
+    sd = np.asarray(template.velocity_sd, dtype=np.float64)
+    if not (t.size == mean.size == sd.size >= 3) or np.any(np.diff(t) <= 0) or np.any(sd < 0):
+        raise BioPlanError(
+            "HumanTemplate fields 'normalized_time', 'velocity_mean', 'velocity_sd': expected "
+            "three arrays of one length (>= 3), the time increasing and the SD >= 0, got "
+            f"lengths {t.size}, {mean.size}, {sd.size}"
+        )
+    top = float(mean.max())
+    if top <= 0:
+        raise BioPlanError("HumanTemplate field 'velocity_mean': expected a positive peak")
+    tau = (t - t[0]) / (t[-1] - t[0])
+    raw = (mean - sd) / top
+    line = raw[0] + (raw[-1] - raw[0]) * tau
+    lower = np.maximum(raw - line, 0.0)
+    lower[[0, -1]] = 0.0  # exactly, not to rounding
+    upper = (mean + sd) / top
+    upper = np.where(
+        mean / top < 1.0 - SHAPE_TOP_DROP, np.minimum(upper, 1.0 - SHAPE_TOP_DROP), upper
+    )
+    upper = np.maximum(upper, lower)
+    return SpeedBand(
+        time=tuple(float(v) for v in tau),
+        lower=tuple(float(v) for v in lower),
+        upper=tuple(float(v) for v in upper),
+        peak_time=float(tau[int(np.argmax(mean))]),
+        source=(
+            f"elbow speed / peak within mean ± SD of {template.n_lifts} recorded lifts on "
+            f"normalised time ({template.source})"
+        ),
+    )
 
 
 # ----------------------------------------------------------------------------------------------

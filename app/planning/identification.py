@@ -276,8 +276,7 @@ class _Model:
         import pinocchio as pin
 
         from app.planning.dynamics import _build_model, _reduce
-        from app.planning.robots._identified import link_inertials
-        from app.planning.robots._urdf import parse_urdf
+        from app.planning.robots import link_inertials, parse_urdf
 
         self.pin = pin
         model = _build_model(robot.urdf_path)
@@ -353,7 +352,9 @@ def _random_regressor(model: _Model, samples: int = 100, seed: int = 0) -> Float
     return model.regressor(q, qd, qdd)
 
 
-def _base_columns(y: FloatArray, tol: float = 1e-8) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _base_columns(
+    y: FloatArray, tol: float = 1e-8
+) -> tuple[NDArray[np.intp], NDArray[np.intp], FloatArray]:
     """(independent columns, dependent columns, K) of QR with pivoting: Y θ = Y_1 (θ_1 + K θ_2)."""
     from scipy.linalg import qr, solve_triangular
 
@@ -517,34 +518,10 @@ def _scales(theta: FloatArray, n: int) -> FloatArray:
     return out
 
 
-def identify(
-    robot: Robot, logs: Sequence[RobotLog], options: IdentifyOptions | None = None
-) -> Identification:
-    """Identify link inertias, friction and offsets (and optionally a payload) from logs.
-
-    Args:
-        robot: the robot (URDF values are the prior; its payload and armature are known).
-        logs: robot logs with joint torques, matched to the robot's joints by name.
-        options: see :class:`IdentifyOptions`.
-
-    Returns:
-        The identified, physically consistent parameters and the fit on held-back data.
-
-    Raises:
-        IdentificationError: a log without torques, logs too short for the parameters, a bad
-            option; RecordingError: a log whose joints do not match the robot's.
-    """
-    import time
-
-    from scipy.optimize import least_squares
-
-    start = time.perf_counter()
-    options = options or IdentifyOptions()
-    if not logs:
-        raise IdentificationError("no log given: expected at least one robot log")
-    model = _Model(robot)
-    n = model.n
-    fits, held, notes = _prepared(robot, logs, options)
+def _check_duration(
+    logs: Sequence[RobotLog], fits: Sequence[FilteredMotion], options: IdentifyOptions
+) -> None:
+    """Raise when the fit parts of the logs hold less than :data:`MIN_DURATION` of motion."""
     duration = sum(float(m.t[-1] - m.t[0]) for m in fits)
     if duration < MIN_DURATION:
         raise IdentificationError(
@@ -552,10 +529,45 @@ def identify(
             f"expected at least {MIN_DURATION:g} s (after holding back "
             f"{100 * options.validate_fraction:g} %)"
         )
-    stack = _stack(model, fits)
-    payload_joint_cols = np.arange(10 * model.payload_joint, 10 * model.payload_joint + 10)
-    # With a payload to identify, the links keep their (URDF or identified) values.
-    free_links = [] if options.identify_payload else list(range(n))
+
+
+@dataclass(frozen=True)
+class _Projected:
+    """The linear problem reduced to the base parameters and compressed by QR.
+
+    Attributes:
+        columns: (10 f,) the link-parameter columns identified (10 per free link, f links).
+        independent: (n_base,) indices into ``columns`` of the base parameters' θ_1.
+        dependent: (10 f - n_base,) indices into ``columns`` of θ_2.
+        k: (n_base, 10 f - n_base) β = θ_1 + K θ_2.
+        selection: (n_base, 10 f) β = selection @ θ.
+        r_mat: (p, p) R of the design's QR, p = n_base + 3 n (+ 10 with a payload).
+        rhs: (p,) Qᵀ times the measured torque less the known part [N m].
+        ols: (p,) unconstrained least squares: base parameters, friction, payload.
+        rows: regression rows (samples times joints).
+    """
+
+    columns: NDArray[np.intp]
+    independent: NDArray[np.intp]
+    dependent: NDArray[np.intp]
+    k: FloatArray
+    selection: FloatArray
+    r_mat: FloatArray
+    rhs: FloatArray
+    ols: FloatArray
+    rows: int
+
+    @property
+    def n_base(self) -> int:
+        return int(self.independent.size)
+
+
+def _project(
+    model: _Model, stack: _Stack, free_links: Sequence[int], options: IdentifyOptions
+) -> _Projected:
+    """Reduce the stacked regression to the base parameters (step 2) and solve it by ordinary
+    least squares (first half of step 3); raise when there are too few rows for them."""
+    n = model.n
     target = stack.target.copy()
     if not options.identify_payload:
         target -= stack.y @ model.theta_payload
@@ -576,19 +588,41 @@ def identify(
         )
     design = np.hstack([stack.y[:, columns[independent]], stack.f])
     if options.identify_payload:
-        design = np.hstack([design, stack.y[:, payload_joint_cols]])
+        payload_cols = np.arange(10 * model.payload_joint, 10 * model.payload_joint + 10)
+        design = np.hstack([design, stack.y[:, payload_cols]])
     q_mat, r_mat = np.linalg.qr(design)
     rhs = q_mat.T @ target
-    ols = np.linalg.lstsq(r_mat, rhs, rcond=None)[0]
-    base_ols = ols[:n_base]
     selection = np.zeros((n_base, columns.size))
     selection[np.arange(n_base), independent] = 1.0
     selection[:, dependent] = k
-    phi0, _, unpack = _parameterisation(model, free_links, ols, n, n_base, options, selection)
-    prior = model.theta_links[columns]
-    scales = _scales(model.theta_links, n)[columns]
+    return _Projected(
+        columns=columns,
+        independent=independent,
+        dependent=dependent,
+        k=k,
+        selection=selection,
+        r_mat=r_mat,
+        rhs=rhs,
+        ols=np.linalg.lstsq(r_mat, rhs, rcond=None)[0],
+        rows=stack.rows,
+    )
+
+
+def _consistent_fit(
+    model: _Model, problem: _Projected, phi0: FloatArray, unpack: Any, options: IdentifyOptions
+) -> Any:
+    """The physically consistent fit (second half of step 3): Levenberg-Marquardt from
+    ``phi0`` on the QR-compressed residual plus the weak pull towards the URDF's values.
+    Returns scipy's ``OptimizeResult``."""
+    from scipy.optimize import least_squares
+
+    n, n_base, count = model.n, problem.n_base, problem.columns.size
+    independent, dependent, k = problem.independent, problem.dependent, problem.k
+    r_mat, rhs, selection = problem.r_mat, problem.rhs, problem.selection
+    prior = model.theta_links[problem.columns]
+    scales = _scales(model.theta_links, n)[problem.columns]
     weight = math.sqrt(options.regularisation)
-    norm = 1.0 / math.sqrt(stack.rows)
+    norm = 1.0 / math.sqrt(problem.rows)
 
     def linear(x: FloatArray) -> FloatArray:
         theta, friction, payload = unpack(x)
@@ -601,8 +635,6 @@ def identify(
     def residual(x: FloatArray) -> FloatArray:
         theta, _, _ = unpack(x)
         return np.concatenate([norm * (r_mat @ linear(x) - rhs), weight * (theta - prior) / scales])
-
-    count = columns.size
 
     def jacobian(x: FloatArray) -> FloatArray:
         d_theta = np.zeros((count, count))
@@ -623,15 +655,51 @@ def identify(
         d_reg[:, :count] = weight * d_theta / scales[:, None]
         return np.vstack([norm * (r_mat @ d_linear), d_reg])
 
-    solution = least_squares(
+    return least_squares(
         residual, phi0, jac=jacobian, method="lm", x_scale="jac", max_nfev=MAX_ITERATIONS
     )
+
+
+def identify(
+    robot: Robot, logs: Sequence[RobotLog], options: IdentifyOptions | None = None
+) -> Identification:
+    """Identify link inertias, friction and offsets (and optionally a payload) from logs.
+
+    Args:
+        robot: the robot (URDF values are the prior; its payload and armature are known).
+        logs: robot logs with joint torques, matched to the robot's joints by name.
+        options: see :class:`IdentifyOptions`.
+
+    Returns:
+        The identified, physically consistent parameters and the fit on held-back data.
+
+    Raises:
+        IdentificationError: a log without torques, logs too short for the parameters, a bad
+            option; RecordingError: a log whose joints do not match the robot's.
+    """
+    import time
+
+    start = time.perf_counter()
+    options = options or IdentifyOptions()
+    if not logs:
+        raise IdentificationError("no log given: expected at least one robot log")
+    model = _Model(robot)
+    fits, held, notes = _prepared(robot, logs, options)
+    _check_duration(logs, fits, options)
+    stack = _stack(model, fits)
+    # With a payload to identify, the links keep their (URDF or identified) values.
+    free_links = [] if options.identify_payload else list(range(model.n))
+    problem = _project(model, stack, free_links, options)
+    phi0, _, unpack = _parameterisation(
+        model, free_links, problem.ols, model.n, problem.n_base, options, problem.selection
+    )
+    solution = _consistent_fit(model, problem, phi0, unpack, options)
     notes.append(f"consistent fit: {solution.nfev} evaluations, {solution.message.rstrip('.')}")
     theta, friction, payload_theta = unpack(solution.x)
     result = _result(robot, model, free_links, theta, friction, payload_theta, options, notes)
-    result.n_base = n_base
-    result.base_parameters = base_ols
-    result.samples = stack.rows // n
+    result.n_base = problem.n_base
+    result.base_parameters = problem.ols[: problem.n_base]
+    result.samples = stack.rows // model.n
     result.fit = _evaluate(robot, model, result, fits)
     result.held_back = _evaluate(robot, model, result, held) if held else {}
     result.seconds = time.perf_counter() - start
@@ -777,7 +845,7 @@ def predicted_torque(model: _Model, result: Identification, motion: FilteredMoti
         if body is None:
             theta[10 * j : 10 * j + 10] += model.theta_links[10 * j : 10 * j + 10]
             continue
-        from app.planning.robots._identified import LinkInertial
+        from app.planning.robots import LinkInertial
 
         inertial = LinkInertial(body["mass"], tuple(body["com"]), tuple(body["inertia"]))
         theta[10 * j : 10 * j + 10] += pin.Inertia(

@@ -29,7 +29,12 @@ from app.planning.evaluation import (
     PlanTask,
     evaluate_trajectory,
 )
-from app.planning.human_constraints import PhaseShares, phase_bound_angles, phase_shares
+from app.planning.human_constraints import (
+    PhaseShares,
+    phase_bound_angles,
+    phase_shares,
+    speed_band,
+)
 from app.planning.human_template import HumanTemplate, flexion_on_stroke, joint_on_stroke
 from app.planning.jerk_limited import JerkLimitedError, jerk_limited
 from app.planning.optimal import (
@@ -38,9 +43,11 @@ from app.planning.optimal import (
     PEAK_CONCAVE_DEG,
     ExtraConstraints,
     HumanSpec,
+    OptimalResult,
     SolverError,
     human_spec_peak,
     human_spec_phases,
+    human_spec_shape,
     solve_optimal,
 )
 from app.planning.paper import PlanProblem
@@ -66,6 +73,7 @@ __all__ = [
     "check_methods",
     "failure_of",
     "human_spec",
+    "mesh_error_estimate",
     "objective_value",
     "refine_to_convergence",
     "rule_breach",
@@ -332,6 +340,15 @@ def run_paper(
             f"best breaks {found.breach}): {found.describe()}",
             shortest_duration=found.duration,
         )
+    method, via_time = _paper_method(robot, task, problem, result, report_samples)
+    return method, result, via_time
+
+
+def _paper_method(
+    robot: Robot, task: PlanTask, problem: PlanProblem, result: PSOResult, report_samples: int
+) -> tuple[MethodResult, float]:
+    """The paper's trajectory (``report_samples`` samples) from the PSO's best particle,
+    evaluated, with the solver's summary; and its via time [s]."""
     tk, qk, qdk, qddk = problem.design.knots(result.best_position[None, :])
     traj = piecewise_quintic(
         tk[0], qk[0], qdk[0], qddk[0], n_samples=report_samples, name="bio_optimized"
@@ -347,7 +364,7 @@ def run_paper(
         "via_time": float(tk[0, 1]),
     }
     evaluated = evaluate_trajectory(robot, traj, task)
-    return MethodResult("paper", evaluated, solver), result, float(tk[0, 1])
+    return MethodResult("paper", evaluated, solver), float(tk[0, 1])
 
 
 def _peak_spec(elbow: int, task: PlanTask, q_via: float) -> HumanSpec:
@@ -384,6 +401,9 @@ def human_spec(
         return _peak_spec(elbow, task, q_via), None
     if kind == "none":
         return HumanSpec("none", elbow), None
+    if kind == "shape":
+        band = speed_band(template)
+        return human_spec_shape(elbow, band.time, band.lower, band.upper, band.peak_time), None
     q0, q1 = float(task.start[elbow]), float(task.goal[elbow])
     shares = phase_shares(template)
     angles = phase_bound_angles(template, q0, q1)
@@ -402,21 +422,22 @@ def run_optimal(
     n_intervals: int,
     no_reversal: bool,
     report_samples: int,
+    near_optimum: bool = False,
 ) -> MethodResult:
-    """``human_optimal`` or ``bound``: optimal control, warm-started from the paper's plan."""
-    solution = solve_optimal(
-        robot,
-        task.start,
-        task.goal,
-        duration,
-        objective=objective,
-        human=spec,
-        warm_start=None if warm is None else warm.trajectory,
-        warm_start_name="quintic" if warm is None else warm.name,
-        n_intervals=n_intervals,
-        no_reversal=no_reversal,
-        report_samples=report_samples,
-        name=name,
+    """``human_optimal`` or ``bound``: optimal control, warm-started from the paper's plan.
+
+    ``near_optimum``: ``warm`` is already an optimum of this problem on a coarser mesh (mesh
+    refinement): IPOPT starts from it with a small barrier parameter
+    (``ExtraConstraints.warm``), and again with its default options should that fail.
+    """
+    solve: dict[str, Any] = {
+        "objective": objective, "human": spec, "n_intervals": n_intervals,
+        "warm_start": None if warm is None else warm.trajectory,
+        "warm_start_name": "quintic" if warm is None else warm.name,
+        "no_reversal": no_reversal, "report_samples": report_samples, "name": name,
+    }  # fmt: skip
+    solution = _first_solve(
+        robot, task, duration, solve, warm_refine=near_optimum and warm is not None
     )
     evaluated = evaluate_trajectory(robot, solution.trajectory, task)
     # Actuators that can say no (issue 26): a solution outside the actuators' torque-speed
@@ -467,6 +488,29 @@ def run_optimal(
     if clearance is not None:
         solver["clearance"] = clearance
     return MethodResult(name, evaluated, solver)
+
+
+def _first_solve(
+    robot: Robot, task: PlanTask, duration: float, solve: dict[str, Any], *, warm_refine: bool
+) -> OptimalResult:
+    """:func:`solve_optimal` with the keyword arguments ``solve``, over ``duration`` [s].
+
+    ``warm_refine``: the warm start is an optimum on a coarser mesh; IPOPT first starts from it
+    with a small barrier parameter, then with its default options should that fail (not when
+    the problem is infeasible).
+    """
+    if warm_refine:
+        try:
+            return solve_optimal(
+                robot, task.start, task.goal, duration, explain=False,
+                extra=ExtraConstraints(warm=True), **solve,
+            )  # fmt: skip
+        except SolverError as exc:
+            if exc.infeasible:
+                raise
+            logger.info("%s: the warm refinement on %d intervals failed (%s): default options",
+                        solve["name"], solve["n_intervals"], exc)  # fmt: skip
+    return solve_optimal(robot, task.start, task.goal, duration, **solve)
 
 
 def world_finding(robot: Robot, name: str, trajectory: Trajectory) -> Finding | None:
@@ -556,6 +600,32 @@ def _keep_clearance(
 CONVERGENCE_TOLERANCE = 1e-3
 #: ... or at this many intervals.
 MAX_CONVERGENCE_INTERVALS = 320
+#: The largest ratio of successive changes trusted by :func:`mesh_error_estimate` (second
+#: order: halving the intervals divides the error by 4) [-].
+_MAX_OBSERVED_RATIO = 4.0
+
+
+def mesh_error_estimate(values: Sequence[float]) -> tuple[float, bool]:
+    """The error estimate of the last of the objectives on meshes N, 2N, 4N, ... and whether
+    it is an extrapolation (Richardson's, from the observed order).
+
+    With three or more values whose last two changes d1 = J(N/2) − J(N) and d2 = J(N) − J(2N)
+    shrink with the same sign (ratio r = d1 / d2 >= 2: at least first order), the error left in
+    the last value is the geometric tail d2 / (r − 1) (r capped at 4, second order). Otherwise
+    the last change itself |d2| (the error of a first-order sequence, an upper estimate of a
+    faster one). Relative to the last value [-]; NaN with fewer than two values.
+    """
+    if len(values) < 2:
+        return math.nan, False
+    last = values[-1]
+    size = max(abs(values[-2]), abs(last), 1e-12)
+    d2 = values[-2] - last
+    change = abs(d2) / size
+    if len(values) >= 3 and d2 != 0.0:
+        ratio = (values[-3] - values[-2]) / d2
+        if ratio >= 2.0:
+            return change / (min(ratio, _MAX_OBSERVED_RATIO) - 1.0), True
+    return change, False
 
 
 def refine_to_convergence(
@@ -574,9 +644,15 @@ def refine_to_convergence(
     from the last, until its objective (on the report grid) changes by less than
     :data:`CONVERGENCE_TOLERANCE` (or :data:`MAX_CONVERGENCE_INTERVALS`, or a failed solve).
 
+    From the third mesh on, it also stops when the Richardson estimate of the error left
+    (:func:`mesh_error_estimate`: the changes shrink at least as fast as first order) is below
+    the tolerance: a second-order sequence stops one mesh earlier. Each finer mesh is solved
+    from the coarser optimum with IPOPT's small initial barrier parameter (``near_optimum``).
+
     The result's ``solver`` gains ``convergence``: ``sequence`` (every mesh's intervals and
-    objective), ``relative_change`` (the last step's, the error estimate of the coarser
-    mesh), ``converged``, ``final_intervals`` and ``tolerance``. ``keep_lowest`` (bounds):
+    objective), ``relative_change`` (the last step's), ``error_estimate`` (of the final value,
+    :func:`mesh_error_estimate`) and ``extrapolated`` (whether that estimate is Richardson's),
+    ``converged``, ``final_intervals`` and ``tolerance``. ``keep_lowest`` (bounds):
     the meshes are nested (a cubic on an interval is cubic on its halves), so a finer optimum is
     never above a coarser one; should IPOPT return one that is, the lower is kept.
     """
@@ -584,7 +660,9 @@ def refine_to_convergence(
     n = int(solver.get("n_intervals", 0))
     value = objective_value(robot, result.evaluated, objective)
     sequence: list[dict[str, Any]] = [{"n_intervals": n, "objective": value}]
+    values = [value]
     best, best_value, change, converged = result, value, math.nan, False
+    estimate, extrapolated = math.nan, False
     current = result
     while n > 0 and 2 * n <= MAX_CONVERGENCE_INTERVALS:
         n *= 2
@@ -592,7 +670,7 @@ def refine_to_convergence(
             finer = run_optimal(
                 robot, task, name=result.name, duration=duration, objective=objective,
                 spec=spec, warm=current, n_intervals=n, no_reversal=no_reversal,
-                report_samples=report_samples,
+                report_samples=report_samples, near_optimum=True,
             )  # fmt: skip
         except SolverError as exc:
             sequence.append({"n_intervals": n, "error": str(exc)})
@@ -600,13 +678,15 @@ def refine_to_convergence(
             break
         new = objective_value(robot, finer.evaluated, objective)
         sequence.append({"n_intervals": n, "objective": new})
+        values.append(new)
         change = abs(new - value) / max(abs(value), abs(new), 1e-12)
-        logger.debug("%s: %d intervals, %s = %.6g (change %.2g)", result.name, n, objective,
-                     new, change)  # fmt: skip
+        estimate, extrapolated = mesh_error_estimate(values)
+        logger.debug("%s: %d intervals, %s = %.6g (change %.2g, error estimate %.2g)",
+                     result.name, n, objective, new, change, estimate)  # fmt: skip
         current, value = finer, new
         if not keep_lowest or new <= best_value:
             best, best_value = finer, new
-        if change < CONVERGENCE_TOLERANCE:
+        if change < CONVERGENCE_TOLERANCE or estimate < CONVERGENCE_TOLERANCE:
             converged = True
             break
     out = dict(best.solver or {})
@@ -621,6 +701,8 @@ def refine_to_convergence(
     out["convergence"] = {
         "sequence": sequence,
         "relative_change": change,
+        "error_estimate": estimate,
+        "extrapolated": extrapolated,
         "converged": converged,
         "final_intervals": int((best.solver or {}).get("n_intervals", n)),
         "tolerance": CONVERGENCE_TOLERANCE,
@@ -696,6 +778,143 @@ def rule_breach(
     return None
 
 
+def _outside_rules(
+    robot: Robot, task: PlanTask, candidates: Mapping[str, MethodResult], rules: BoundRules
+) -> dict[str, str]:
+    """The candidates outside the bound's ``rules``, each with why (:func:`rule_breach`)."""
+    return {
+        n: why
+        for n, m in candidates.items()
+        if (why := rule_breach(robot, task, m.evaluated, rules))
+    }
+
+
+@dataclasses.dataclass
+class _BoundSearch:
+    """The bound's solves (optimal control under the bound's rules, no human constraint) from
+    the candidates' trajectories as warm starts: every attempt in ``solves``, the best
+    solution so far in ``best`` (its objective value and result) and IPOPT's failures in
+    ``errors``."""
+
+    robot: Robot
+    task: PlanTask
+    name: str
+    duration: float  # [s]
+    objective: str
+    candidates: Mapping[str, MethodResult]
+    no_reversal: bool
+    report_samples: int
+    solves: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    best: list[tuple[float, MethodResult]] = dataclasses.field(default_factory=list)
+    errors: list[SolverError] = dataclasses.field(default_factory=list)
+
+    def attempt(self, warm: str | None, n: int) -> bool:
+        """Solve from the candidate ``warm`` (None: the quintic) on ``n`` intervals, keeping
+        the solution when it is the best so far; False when IPOPT failed.
+
+        Raises:
+            SolverError: the problem is infeasible.
+        """
+        name = self.name
+        try:
+            res = run_optimal(
+                self.robot, self.task, name=name, duration=self.duration,
+                objective=self.objective, spec=HumanSpec("none", self.robot.elbow_joint),
+                warm=None if warm is None else self.candidates[warm], n_intervals=n,
+                no_reversal=self.no_reversal, report_samples=self.report_samples,
+            )  # fmt: skip
+        except SolverError as exc:
+            if exc.infeasible:
+                raise
+            logger.info("%s: the start from %s on %d intervals failed: %s", name,
+                        warm or "quintic", n, exc)  # fmt: skip
+            self.errors.append(exc)
+            self.solves.append(
+                {"warm_start": warm or "quintic", "n_intervals": n, "error": str(exc)}
+            )
+            return False
+        value = objective_value(self.robot, res.evaluated, self.objective)
+        self.solves.append(
+            {
+                "warm_start": warm or "quintic",
+                "n_intervals": n,
+                "objective": value,
+                "iterations": (res.solver or {}).get("iterations"),
+            }
+        )
+        if not self.best or value < self.best[0][0]:
+            self.best[:] = [(value, res)]
+        return True
+
+    def refine(
+        self, other: str, value: float, n_intervals: int, size: float, *, first: bool
+    ) -> None:
+        """While the candidate ``other`` (objective ``value``) still beats the best solution,
+        solve again from it on N (``first``: it was no start yet), 2N, ... up to
+        :data:`BOUND_MAX_REFINEMENT` N intervals; ``size`` is the task's scale of the objective
+        (:func:`beats_bound`)."""
+        n = n_intervals if first else 2 * n_intervals
+        while (
+            self.best
+            and beats_bound(value, self.best[0][0], scale=size)
+            and n <= (BOUND_MAX_REFINEMENT * n_intervals)
+        ):
+            if not self.attempt(other, n):
+                break  # a finer mesh will not converge from there either
+            n *= 2
+
+    def outcome(
+        self,
+        stricter: str | None,
+        eligible: Sequence[str],
+        values: Mapping[str, float],
+        size: float,
+    ) -> tuple[float, MethodResult, str | None]:
+        """The bound's value, its result and its incumbent: the ``stricter`` candidate when no
+        solve improves on it (its trajectory, renamed), else None.
+
+        Raises:
+            SolverError: every start failed (the last failure).
+        """
+        best = self.best
+        incumbent = None
+        if (
+            stricter is not None
+            and stricter in eligible
+            and (not best or beats_bound(values[stricter], best[0][0], scale=size))
+        ):
+            incumbent = stricter
+            best[:] = [(values[stricter], self.candidates[stricter])]
+        if not best:
+            raise self.errors[-1]
+        value, result = best[0]
+        if incumbent is not None:
+            traj = dataclasses.replace(result.evaluated.trajectory, name=self.name)
+            result = MethodResult(
+                self.name,
+                dataclasses.replace(result.evaluated, trajectory=traj),
+                {**(result.solver or {}), "warm_start": incumbent},
+            )
+        return value, result, incumbent
+
+
+def _drop_world_contacts(
+    robot: Robot,
+    candidates: Mapping[str, MethodResult],
+    eligible: list[str],
+    outside: dict[str, str],
+) -> None:
+    """Move the candidates that go below the mounting plane or into an obstacle from
+    ``eligible`` to ``outside`` (with why): a bound that keeps them clear does not apply to
+    them (they may well be cheaper)."""
+    for other in list(eligible):
+        below = world_finding(robot, other, candidates[other].trajectory)
+        if below is not None:
+            into = "below the mount plane" if below.kind == "plane" else "into an obstacle"
+            outside[other] = f"goes {into}: " + below.describe()
+            eligible.remove(other)
+
+
 def run_bound(
     robot: Robot,
     task: PlanTask,
@@ -731,105 +950,39 @@ def run_bound(
     """
     rules = bound_rules(robot.joint_names, task, no_reversal)
     values = {n: objective_value(robot, m.evaluated, objective) for n, m in candidates.items()}
-    outside = {
-        n: why
-        for n, m in candidates.items()
-        if (why := rule_breach(robot, task, m.evaluated, rules))
-    }
+    outside = _outside_rules(robot, task, candidates, rules)
     eligible = sorted((n for n in candidates if n not in outside), key=values.__getitem__)
     size = max((abs(v) for v in values.values()), default=0.0)
     if stricter is not None and stricter in eligible:
         starts: list[str | None] = [stricter]
     else:
         starts = list(eligible[:BOUND_STARTS]) or [None]
-    solves: list[dict[str, Any]] = []
-    best: list[tuple[float, MethodResult]] = []
-    errors: list[SolverError] = []
     logger.info(
         "%s: warm starts %s; outside its rules: %s", name,
         ", ".join(w or "quintic" for w in starts), ", ".join(outside) or "none",
     )  # fmt: skip
-
-    def attempt(warm: str | None, n: int) -> bool:
-        try:
-            res = run_optimal(
-                robot, task, name=name, duration=duration, objective=objective,
-                spec=HumanSpec("none", robot.elbow_joint),
-                warm=None if warm is None else candidates[warm], n_intervals=n,
-                no_reversal=no_reversal, report_samples=report_samples,
-            )  # fmt: skip
-        except SolverError as exc:
-            if exc.infeasible:
-                raise
-            logger.info("%s: the start from %s on %d intervals failed: %s", name,
-                        warm or "quintic", n, exc)  # fmt: skip
-            errors.append(exc)
-            solves.append({"warm_start": warm or "quintic", "n_intervals": n, "error": str(exc)})
-            return False
-        value = objective_value(robot, res.evaluated, objective)
-        solves.append(
-            {
-                "warm_start": warm or "quintic",
-                "n_intervals": n,
-                "objective": value,
-                "iterations": (res.solver or {}).get("iterations"),
-            }
-        )
-        if not best or value < best[0][0]:
-            best[:] = [(value, res)]
-        return True
-
+    search = _BoundSearch(
+        robot, task, name, duration, objective, candidates, no_reversal, report_samples
+    )
     for warm in starts:
-        attempt(warm, n_intervals)
+        search.attempt(warm, n_intervals)
     # With a stricter optimum among the candidates, every other candidate is above it (its own
     # certificate), and it is this bound's incumbent below: nothing to refine.
     refine = [] if stricter is not None and starts == [stricter] else eligible
     for other in refine:
-        n = n_intervals if other not in starts else 2 * n_intervals
-        while (
-            best
-            and beats_bound(values[other], best[0][0], scale=size)
-            and n <= (BOUND_MAX_REFINEMENT * n_intervals)
-        ):
-            if not attempt(other, n):
-                break  # a finer mesh will not converge from there either
-            n *= 2
-    incumbent = None
-    if (
-        stricter is not None
-        and stricter in eligible
-        and (not best or beats_bound(values[stricter], best[0][0], scale=size))
-    ):
-        incumbent = stricter
-        best[:] = [(values[stricter], candidates[stricter])]
-    if not best:
-        raise errors[-1]
-    value, result = best[0]
-    if incumbent is not None:
-        traj = dataclasses.replace(result.evaluated.trajectory, name=name)
-        result = MethodResult(
-            name,
-            dataclasses.replace(result.evaluated, trajectory=traj),
-            {**(result.solver or {}), "warm_start": incumbent},
-        )
+        search.refine(other, values[other], n_intervals, size, first=other not in starts)
+    value, result, incumbent = search.outcome(stricter, eligible, values, size)
     if ((result.solver or {}).get("clearance") or {}).get("resolved"):
-        # The bound keeps the mounting plane and the obstacles clear: a method that goes
-        # below or into them is outside its rules (it may well be cheaper).
-        for other in list(eligible):
-            below = world_finding(robot, other, candidates[other].trajectory)
-            if below is not None:
-                into = "below the mount plane" if below.kind == "plane" else "into an obstacle"
-                outside[other] = f"goes {into}: " + below.describe()
-                eligible.remove(other)
+        _drop_world_contacts(robot, candidates, eligible, outside)
     beaten = [o for o in eligible if beats_bound(values[o], value, scale=size)]
     if beaten:
         logger.warning("%s: still beaten by %s: not a bound", name, ", ".join(beaten))
-    logger.info("%s: %s = %.6g after %d solve(s)%s", name, objective, value, len(solves),
+    logger.info("%s: %s = %.6g after %d solve(s)%s", name, objective, value, len(search.solves),
                 f", incumbent {incumbent}" if incumbent else "")  # fmt: skip
     solver = dict(result.solver or {})
     solver.update(
         multistart=len(starts),
-        starts=solves,
+        starts=search.solves,
         rules=rules.to_dict(),
         certificate={
             "checked": eligible,

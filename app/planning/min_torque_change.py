@@ -74,6 +74,34 @@ def _basis(s: FloatArray, n_basis: int) -> tuple[FloatArray, FloatArray, FloatAr
 _QUINTIC_SHAPE = Polynomial([0.0, 0.0, 0.0, 10.0, -15.0, 6.0])
 
 
+@dataclass(frozen=True)
+class _Family:
+    """The trajectories searched: the quintic from ``start`` by ``delta`` (n,) [rad] in
+    ``duration`` [s], plus ``n_basis`` correction terms per joint in ``moving`` (indices)."""
+
+    start: FloatArray
+    delta: FloatArray
+    moving: NDArray[np.intp]
+    duration: float
+    n_basis: int
+
+    def motion(self, coeffs: FloatArray, t: FloatArray) -> tuple[FloatArray, ...]:
+        """Coefficient sets (B, dim) at times t (T,) -> q, qd, qdd, jerk each (B, T, n)."""
+        start, delta, moving, duration = self.start, self.delta, self.moving, self.duration
+        s = t / duration
+        b0, b1, b2, b3 = _basis(s, self.n_basis)
+        c = coeffs.reshape(coeffs.shape[0], moving.size, self.n_basis)
+        shape = _QUINTIC_SHAPE
+        out = []
+        for order, bm in enumerate((b0, b1, b2, b3)):
+            base = shape.deriv(order)(s) if order else shape(s)
+            arr = np.empty((coeffs.shape[0], t.size, start.size))
+            arr[:] = (start if order == 0 else 0.0) + np.outer(base, delta) / duration**order
+            arr[:, :, moving] += np.einsum("tk,bjk->btj", bm, c) / duration**order
+            out.append(arr)
+        return tuple(out)
+
+
 def minimum_torque_change(
     dynamics: Dynamics,
     start: FloatArray,
@@ -108,20 +136,7 @@ def minimum_torque_change(
     moving = np.flatnonzero(np.abs(delta) > 0)
     dim = n_basis * moving.size
 
-    def build(coeffs: FloatArray, t: FloatArray) -> tuple[FloatArray, ...]:
-        """Coefficient sets (B, dim) at times t (T,) -> q, qd, qdd, jerk each (B, T, n)."""
-        s = t / duration
-        b0, b1, b2, b3 = _basis(s, n_basis)
-        c = coeffs.reshape(coeffs.shape[0], moving.size, n_basis)
-        shape = _QUINTIC_SHAPE
-        out = []
-        for order, bm in enumerate((b0, b1, b2, b3)):
-            base = shape.deriv(order)(s) if order else shape(s)
-            arr = np.empty((coeffs.shape[0], t.size, start.size))
-            arr[:] = (start if order == 0 else 0.0) + np.outer(base, delta) / duration**order
-            arr[:, :, moving] += np.einsum("tk,bjk->btj", bm, c) / duration**order
-            out.append(arr)
-        return tuple(out)
+    build = _Family(start, delta, moving, duration, n_basis).motion
 
     # Gauss-Legendre nodes and weights on [0, T]; dτ/dt by central differences in time.
     x, w = npleg.leggauss(quadrature_nodes)

@@ -31,7 +31,9 @@ Direct transcription solved by IPOPT (CasADi, exact Hessians on SX graphs):
   over at most 8 deg of flexion), and its jerk is <= 0 between the :data:`PEAK_CONCAVE_DEG`
   angles (a concave top, not a spike on a plateau); ``"phases"`` splits it where the elbow
   passes the A/B and B/C bounds and keeps each phase's share of the duration inside the
-  template's spread; ``"none"`` is the physical bound under the same limits.
+  template's spread; ``"shape"`` keeps the elbow speed, divided by its peak, inside the recorded
+  lifts' band (mean ± SD over normalised time, :func:`human_spec_shape`) with one peak where the
+  mean peaks; ``"none"`` is the physical bound under the same limits.
 
 A solve whose IPOPT status is not ``Solve_Succeeded`` raises :class:`SolverError`; it is never
 returned as a result.
@@ -40,7 +42,11 @@ returned as a result.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
+import os
+import stat
+import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -49,6 +55,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from app import names as _names
 from app.errors import BioPlanError
 from app.planning.energy import FRICTION_VELOCITY_SCALE
 from app.planning.profiles import Trajectory, quintic, time_grid
@@ -69,9 +76,10 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+logger = logging.getLogger("bioplan.planning")
 
-#: Human-likeness options of the optimal-control problem.
-HUMAN_CONSTRAINTS: tuple[str, ...] = ("peak", "phases", "none")
+#: Human-likeness options of the optimal-control problem (one home: ``app.names``).
+HUMAN_CONSTRAINTS: tuple[str, ...] = _names.HUMAN_CONSTRAINTS
 #: Objectives the transcription minimises: every metric, and the torque change.
 OPTIMAL_OBJECTIVES: tuple[str, ...] = (
     "tau_sq",
@@ -141,7 +149,7 @@ class SolverInfo:
         objective: the solver's objective in the metric's unit (Simpson on the nodes).
         warm_start: what the initial guess came from.
         n_intervals: constant-jerk intervals.
-        human_constraint: ``peak``, ``phases`` or ``none``.
+        human_constraint: ``peak``, ``phases``, ``shape`` or ``none``.
         segment_durations: (S,) durations of the split motion's segments [s].
     """
 
@@ -217,11 +225,14 @@ class HumanSpec:
     """The human-likeness constraint in robot joint terms.
 
     Attributes:
-        kind: ``peak``, ``phases`` or ``none``.
+        kind: ``peak``, ``phases``, ``shape`` or ``none``.
         elbow: index of the elbow joint.
         angles: (S-1,) elbow angles [rad] where the segments meet (the peak angle, or the A/B
             and B/C phase bounds on the stroke).
         share_bounds: (S, 2) lower and upper share of the duration per segment (phases only).
+        band: (time, lower, upper), each (K,): the ``shape`` band of the elbow speed divided by
+            its peak [-] on normalised time [-] (shape only).
+        peak_time: normalised time of the ``shape`` band's peak [-].
     """
 
     kind: str
@@ -232,11 +243,20 @@ class HumanSpec:
     peak_drop: float = 0.0
     drop_at: tuple[int, ...] = ()
     concave: tuple[int, int] = (0, 0)
+    band: tuple[tuple[float, ...], ...] = ()
+    peak_time: float = 0.0
 
     def rules(self) -> str:
         """The human-likeness rule in one line (for results)."""
         if self.kind == "none":
             return "none"
+        if self.kind == "shape":
+            return (
+                "elbow speed / its peak inside the recorded lifts' band (mean ± SD) at every "
+                f"instant, one peak at {100 * self.peak_time:.0f} % of the duration (elbow "
+                "acceleration >= 0 before it, <= 0 after it); the lower edge is not applied in "
+                "the first and last intervals, where the elbow leaves and reaches rest"
+            )
         if self.kind == "phases":
             return "each A/B/C phase's share of the duration within the template's spread"
         text = (
@@ -589,6 +609,9 @@ def _human_constraints(problem: _Problem, grid: _Grid, cons: _Constraints, dvar:
     human = problem.human
     if human.kind == "none":
         return
+    if human.kind == "shape":
+        _shape_constraints(problem, grid, cons)
+        return
     e, T = human.elbow, grid.T
     scale = float(_scales(problem)[e])
     direction = 1.0 if problem.goal[e] >= problem.start[e] else -1.0
@@ -614,6 +637,94 @@ def _human_constraints(problem: _Problem, grid: _Grid, cons: _Constraints, dvar:
     else:
         for s, (lo, hi) in enumerate(human.share_bounds):
             cons.add(dvar[s], lo, hi)
+
+
+@dataclass(frozen=True)
+class _ShapePieces:
+    """The ``shape`` band cut at the solver's nodes and the band's own points: P pieces.
+
+    Attributes:
+        interval: (P,) the solver interval of each piece.
+        start, end: (P,) where the piece starts and ends within its interval [-] (normalised
+            time from the interval's start).
+        lower, upper: (P, 2) the band's edges at the piece's start and end [-].
+    """
+
+    interval: NDArray[np.int64]
+    start: FloatArray
+    end: FloatArray
+    lower: FloatArray
+    upper: FloatArray
+
+
+def _shape_pieces(human: HumanSpec, n_intervals: int) -> _ShapePieces:
+    """Cut the band (piecewise linear between its points) at the N equal intervals' nodes, so
+    that on every piece the edges are straight and the speed is one quadratic.
+
+    The first and last intervals get no lower edge: the elbow leaves and reaches rest there
+    with zero acceleration, its speed growing as t², below any edge rising from 0.
+    """
+    time, lower, upper = (np.asarray(b, dtype=np.float64) for b in human.band)
+    edges = np.linspace(0.0, 1.0, n_intervals + 1)
+    inner = time[(time > 0.0) & (time < 1.0)]
+    # Band points on a node (to rounding) would leave pieces of zero length.
+    inner = inner[np.abs(inner * n_intervals - np.round(inner * n_intervals)) > 1e-9]
+    cuts = np.unique(np.concatenate([edges, inner]))
+    a, b = cuts[:-1], cuts[1:]
+    interval = np.clip(np.searchsorted(edges, 0.5 * (a + b)) - 1, 0, n_intervals - 1)
+    lo = np.stack([np.interp(a, time, lower), np.interp(b, time, lower)], axis=1)
+    hi = np.stack([np.interp(a, time, upper), np.interp(b, time, upper)], axis=1)
+    lo[(interval == 0) | (interval == n_intervals - 1)] = 0.0
+    return _ShapePieces(interval, a - edges[interval], b - edges[interval], lo, hi)
+
+
+def shape_peak_node(human: HumanSpec, n_intervals: int) -> int:
+    """The node (of N equal intervals) where the ``shape`` constraint puts the elbow's peak."""
+    return int(np.clip(round(human.peak_time * n_intervals), 1, n_intervals - 1))
+
+
+def _shape_constraints(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
+    """``shape``: one speed peak at the band's peak node, the speed / peak inside the band.
+
+    The motion is one segment of equal intervals, so node k lies at normalised time k / N and
+    the band's edges are numbers there. In scaled units (v = q̇ T / stroke, a = dv/dτ, τ the
+    normalised time) the speed on a piece [α, β] of an interval is a quadratic with Bernstein
+    coefficients v(α), v(α) + a(α)(β − α)/2, v(β), and an edge is a straight line with
+    coefficients e(α), (e(α) + e(β))/2, e(β): the speed lies within edge x peak speed on the
+    whole piece when each coefficient does (linear in the unknowns: the edges multiply the
+    peak node's speed). The acceleration's signs make that node the maximum.
+    """
+    import casadi as ca
+
+    human, n = problem.human, problem.n_intervals
+    e, T = human.elbow, grid.T
+    scale = float(_scales(problem)[e])
+    direction = 1.0 if problem.goal[e] >= problem.start[e] else -1.0
+    v = direction * grid.qd[e, :] * T / scale
+    a = direction * grid.qdd[e, :] * T**2 / scale
+    peak = shape_peak_node(human, n)
+    cons.add(a[: peak + 1], 0.0, np.inf)
+    cons.add(a[peak:], -np.inf, 0.0)
+    pieces = _shape_pieces(human, n)
+    count = pieces.interval.size
+
+    def pick(row: Any, offset: int) -> Any:
+        # A sparse selection, so each piece's rows depend on its own interval's nodes only.
+        rows = [int(k) + offset for k in pieces.interval]
+        select = ca.Sparsity.triplet(n + 1, count, rows, list(range(count)))
+        return ca.mtimes(row, ca.DM(select, 1.0))
+
+    vk, ak, ak1 = pick(v, 0), pick(a, 0), pick(a, 1)
+    jerk = (ak1 - ak) * n  # da/dτ on the interval (τ-length 1/N)
+    alpha, beta = ca.DM(pieces.start).T, ca.DM(pieces.end).T
+    v_a = vk + ak * alpha + jerk * alpha**2 / 2
+    v_b = vk + ak * beta + jerk * beta**2 / 2
+    v_mid = v_a + (ak + jerk * alpha) * (beta - alpha) / 2
+    top = v[peak]
+    for edge, lo, hi in ((pieces.lower, 0.0, np.inf), (pieces.upper, -np.inf, 0.0)):
+        ea, eb = ca.DM(edge[:, 0]).T, ca.DM(edge[:, 1]).T
+        for coef, value in ((v_a, ea), (v_mid, (ea + eb) / 2), (v_b, eb)):
+            cons.add(coef - value * top, lo, hi)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -644,9 +755,92 @@ def _reduced_dynamics(problem: _Problem) -> Any:
     return ca.Function("reduced_dynamics", syms, [tau])
 
 
+#: Evaluation points from which the per-point dynamics is compiled to C (:func:`_compiled`):
+#: below, compiling it (0.3 s, its derivatives 1-4 s more, once per process) costs more than
+#: it saves (benchmarks/RESULTS.md, "Converged results: where the time goes"). The peak
+#: objectives' 160 intervals are 1440 points (eighths), the others' 320 are 1600 (quarters).
+COMPILE_FROM_POINTS = 1400
+#: Compiled per-point dynamics by chain structure (free joints, the fixed joints' angles).
+_COMPILED: dict[tuple[Any, ...], Any] = {}
+
+
+def _jit_folder() -> str:
+    """Where compiled functions' C sources and libraries go: this user's own
+    ``<tmp>/bioplan-jit-<uid>`` (mode 0700; a fresh private folder if that path is not this
+    user's plain folder). CasADi writes them to the working directory unless told otherwise,
+    and removes them itself when the function is freed, so the folder stays empty between runs.
+    """
+    folder = os.path.join(tempfile.gettempdir(), f"bioplan-jit-{os.getuid()}")
+    try:
+        os.makedirs(folder, mode=0o700, exist_ok=True)
+        info = os.lstat(folder)
+        if stat.S_ISDIR(info.st_mode) and info.st_uid == os.getuid():
+            return folder
+    except OSError:
+        pass
+    return tempfile.mkdtemp(prefix="bioplan-jit-")
+
+
+def _jit_options() -> dict[str, Any]:
+    """CasADi options of a function compiled by the system C compiler (its derivatives alike),
+    every file it writes in :func:`_jit_folder`."""
+    return {
+        "jit": True,
+        "compiler": "shell",
+        "jit_name": "bioplan_dynamics",
+        "jit_options": {
+            "flags": ["-O1"], "verbose": False, "directory": os.path.join(_jit_folder(), ""),
+        },
+    }  # fmt: skip
+
+
+def _chain_key(problem: _Problem) -> tuple[Any, ...]:
+    """What the reduced dynamics depends on: the chain's numbers, the free joints and the
+    angles of the fixed ones."""
+    chain = symbolic_chain(problem.robot)
+    bodies = tuple(
+        (b.parent, b.rotation.tobytes(), b.translation.tobytes(), b.axis.tobytes(), b.mass,
+         b.com.tobytes(), b.inertia.tobytes(), b.armature)
+        for b in chain.bodies
+    )  # fmt: skip
+    fixed = tuple(
+        float(problem.start[j]) for j in range(problem.start.size) if j not in problem.free
+    )
+    return bodies, chain.gravity.tobytes(), problem.free, fixed
+
+
+def _compiled(problem: _Problem, fn: Any) -> Any:
+    """``fn`` with itself and its derivatives (the Jacobians and the Hessian IPOPT asks for)
+    compiled to C by the system compiler, built once per chain structure in this process and
+    reused by every mesh and task of that structure; ``fn`` itself if no compiler works.
+
+    Why: on the refined meshes IPOPT's function evaluations (mostly the Hessian of the mapped
+    dynamics) take half of each iteration in CasADi's virtual machine; compiled, a quarter of that.
+    Only this small function is compiled (about 200 instructions for the 6-DOF arm, 0.2 s),
+    never the whole NLP (36-70 MB of C that did not compile in 11 minutes).
+    """
+    import casadi as ca
+
+    key = _chain_key(problem)
+    if key not in _COMPILED:
+        try:
+            args = fn.sx_in()
+            jit = _jit_options()
+            _COMPILED[key] = ca.Function(
+                "reduced_dynamics_c", args, fn.call(args), {**jit, "der_options": dict(jit)}
+            )
+        except RuntimeError as exc:  # no working C compiler: the interpreted function
+            logger.info("per-point dynamics not compiled (%s): interpreted", exc)
+            _COMPILED[key] = fn
+    return _COMPILED[key]
+
+
 def _torques(problem: _Problem, grid: _Grid) -> Any:
-    """(n, P) joint torques at every evaluation point: one mapped call of the SX dynamics."""
+    """(n, P) joint torques at every evaluation point: one mapped call of the SX dynamics
+    (compiled to C from :data:`COMPILE_FROM_POINTS` points)."""
     fn = _reduced_dynamics(problem)
+    if grid.point_q.shape[1] >= COMPILE_FROM_POINTS:
+        fn = _compiled(problem, fn)
     free = list(problem.free)
     points = grid.point_q.shape[1]
     return fn.map(points)(grid.point_q[free, :], grid.point_qd[free, :], grid.point_qdd[free, :])
@@ -959,20 +1153,20 @@ _SOLVER_CACHE_SIZE = 16
 
 
 def _structure_key(problem: _Problem) -> tuple[Any, ...]:
-    chain = symbolic_chain(problem.robot)
-    bodies = tuple(
-        (b.parent, b.rotation.tobytes(), b.translation.tobytes(), b.axis.tobytes(), b.mass,
-         b.com.tobytes(), b.inertia.tobytes(), b.armature)
-        for b in chain.bodies
-    )  # fmt: skip
+    bodies, gravity, _, _ = _chain_key(problem)
     robot = problem.robot
     return (
         bodies,
-        chain.gravity.tobytes(),
+        gravity,
         np.asarray(robot.tau_max).tobytes(),
         tuple(robot.motors),
         problem.objective,
         problem.human.kind,
+        problem.human.band,  # the shape band's edges are coefficients of the constraints
+        problem.human.peak_time,
+        # The human rules multiply the elbow's speed and acceleration by the stroke's direction
+        # inside the graph: a lowering must not reuse a lifting's solver.
+        tuple(np.sign(problem.goal - problem.start)),
         problem.counts,
         problem.free,
         tuple(float(problem.start[j]) for j in range(problem.start.size) if j not in problem.free),
@@ -1059,12 +1253,7 @@ def solve_optimal(
     sol = solver(**args)
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
-    if status != "Solve_Succeeded":
-        infeasible = _infeasible(status, problem)
-        hint = _feasible_hint(problem) if infeasible and explain else None
-        raise SolverError(
-            _failure_message(status, problem, infeasible, hint), infeasible=infeasible
-        )
+    _raise_unless_solved(status, problem, explain)
     xs = np.asarray(sol["x"], dtype=np.float64).ravel()
     knots, seg_durations = _knots(problem, xs)
     info = SolverInfo(
@@ -1096,6 +1285,17 @@ _IPOPT_OPTIONS: dict[str, Any] = {
     # Hessians are exact either way.
     "expand": False,
 }
+
+
+def _raise_unless_solved(status: str, problem: _Problem, explain: bool) -> None:
+    """Raise the :class:`SolverError` of IPOPT's ``status`` unless it is ``Solve_Succeeded``
+    (``explain``: an infeasible problem's error names the shortest feasible duration)."""
+    if status != "Solve_Succeeded":
+        infeasible = _infeasible(status, problem)
+        hint = _feasible_hint(problem) if infeasible and explain else None
+        raise SolverError(
+            _failure_message(status, problem, infeasible, hint), infeasible=infeasible
+        )
 
 
 def _knots(problem: _Problem, xs: FloatArray) -> tuple[PiecewiseCubic, FloatArray]:
@@ -1199,6 +1399,28 @@ def human_spec_peak(
         peak_drop=float(drop) if drop_at else 0.0,
         drop_at=drop_at,
         concave=(index.get(0, index[2]), index.get(4, index[2])),
+    )
+
+
+def human_spec_shape(
+    elbow: int,
+    time: Sequence[float],
+    lower: Sequence[float],
+    upper: Sequence[float],
+    peak_time: float,
+) -> HumanSpec:
+    """The ``shape`` constraint: the elbow speed / its peak inside ``lower``..``upper`` [-] at the
+    normalised times ``time`` [-] (each (K,), piecewise linear between them), one peak at
+    ``peak_time`` [-] (app.planning.human_constraints.speed_band gives all four)."""
+    return HumanSpec(
+        kind="shape",
+        elbow=elbow,
+        band=(
+            tuple(float(v) for v in time),
+            tuple(float(v) for v in lower),
+            tuple(float(v) for v in upper),
+        ),
+        peak_time=float(peak_time),
     )
 
 

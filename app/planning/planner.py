@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -28,10 +27,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.jsonsafe import json_safe
+from app.options import OptionsError
 from app.planning.actuators import plan_actuators
 from app.planning.energy import (
     FLOOR_NOTES,
-    OBJECTIVES,
     Floors,
     cumulative_energy,
     improvement_pct,
@@ -74,7 +73,8 @@ from app.planning.methods import (
     run_paper,
     share_of_achievable_pct,
 )
-from app.planning.optimal import DEFAULT_INTERVALS, HumanSpec
+from app.planning.optimal import HumanSpec
+from app.planning.options import PlanOptions
 from app.planning.paper import PlanProblem
 from app.planning.profiles import quintic
 from app.planning.pso import PSOResult
@@ -409,17 +409,14 @@ def _peak_target(
     return q_via, target_deg
 
 
-def _check_options(
-    objective: str, particles: int, iterations: int, samples: int, report_samples: int
-) -> None:
-    if objective not in OBJECTIVES:
-        raise PlanningError(
-            f"unknown objective {objective!r} (expected one of: {', '.join(OBJECTIVES)})"
-        )
-    if particles < 2 or iterations < 1 or samples < 10 or report_samples < 10:
-        raise PlanningError(
-            "particles must be >= 2, iterations >= 1, n_samples and report_samples >= 10"
-        )
+def _options_of(options: PlanOptions | None, overrides: dict[str, Any]) -> PlanOptions:
+    """``options`` (default: ``PlanOptions()``) with ``overrides`` by name, as a PlanningError
+    naming the option when one is unknown or out of range."""
+    try:
+        base = PlanOptions() if options is None else options
+        return base.replace(**overrides) if overrides else base
+    except OptionsError as exc:
+        raise PlanningError(str(exc)) from None
 
 
 def _plan_warnings(
@@ -603,110 +600,62 @@ def _check_feasible_at_all(
             raise PlanningError(why)
 
 
-def plan(
+@dataclass(frozen=True)
+class _Prepared:
+    """What :func:`plan` derives from the checked task before planning: the template used, the
+    elbow's peak-velocity angle on the stroke ``q_via`` [rad] and as human flexion
+    ``target_deg`` [deg], and the human constraint with its phase shares."""
+
+    template: HumanTemplate
+    q_via: float
+    target_deg: float
+    spec: HumanSpec
+    shares: PhaseShares | None
+
+
+def _prepare(
     robot: Robot,
-    *,
-    task: PlanTask | None = None,
-    duration: float = 1.0,
-    objective: str = "abs_work",
-    template: HumanTemplate | None = None,
-    seed: int = 0,
-    particles: int = 40,
-    iterations: int = 100,
-    n_samples: int = 100,
-    report_samples: int = 1000,
-    peak_angle_deg: float | None = None,
-    methods: Sequence[str] = DEFAULT_METHODS,
-    human_constraint: str = "peak",
-    no_reversal: bool = True,
-    n_intervals: int = DEFAULT_INTERVALS,
-    converge: bool = False,
-    safety: bool = True,
-    progress: ProgressFn | None = None,
-) -> PlanResult:
-    """Plan a task with the chosen methods and compare them.
-
-    Args:
-        robot: the robot, with its payload (``load_robot(name, payload=kg)``).
-        task: start and goal configurations; defaults to the robot's curl task.
-        duration: motion time [s], the same for every method.
-        objective: the metric the paper's PSO and the optimal control minimise
-            (``energy.OBJECTIVES``).
-        template: the human template; defaults to the paper's (velocity peak at 62 deg).
-        seed: PSO seed; the same inputs and seed give the same result bit for bit.
-        particles: PSO swarm size.
-        iterations: PSO iterations (at most; it stops early on stagnation).
-        n_samples: time samples per trajectory inside the PSO.
-        report_samples: time samples of the reported trajectories and metrics.
-        peak_angle_deg: overrides the template's elbow peak-velocity angle [deg].
-        methods: which of ``quintic, paper, human_optimal, bound, jerk_limited`` to plan (the
-            quintic always: it is every saving's reference). Default: quintic and paper.
-        human_constraint: ``human_optimal``'s constraint: ``peak``, ``phases`` or ``none``.
-        no_reversal: the optimal-control methods never move a joint against its stroke.
-        n_intervals: constant-jerk intervals of the optimal-control transcription.
-        converge: refine every optimal-control result on meshes of 2N, 4N, ... intervals until
-            its objective changes by less than 0.1 % (``solver.convergence`` holds the
-            evidence). Off by default: it multiplies their cost (docs/planning.md).
-        safety: check every method's trajectory for collisions with the robot itself, the
-            mounting plane and the sidecar's obstacles (``result.safety``); False skips it
-            (the report then says "not checked", never "ok").
-        progress: called with a ``Progress`` (stages ``pso``, ``optimal_control``, ``done``).
-
-    Returns:
-        The comparison; ``to_dict()`` gives the CLI's JSON.
-
-    Raises:
-        PlanningError: bad task or options, or no trajectory satisfies the limits.
-        SolverError: IPOPT did not solve an optimal-control problem.
-        JerkLimitedError: the jerk-limited move needs more time than ``duration``.
-    """
-    _check_options(objective, particles, iterations, n_samples, report_samples)
-    chosen = check_methods(methods)
-    logging.getLogger("bioplan.planning").info(
-        "plan of %s: %s over %g s, %s", robot.name, ", ".join(chosen), duration, objective
-    )
-    given_template = template
-    template = template or HumanTemplate()
-    task = task or PlanTask.default(robot)
+    task: PlanTask,
+    template: HumanTemplate,
+    opts: PlanOptions,
+    chosen: tuple[str, ...],
+) -> _Prepared:
+    """Check the task (reachable at all in ``opts.duration`` by the ``chosen`` methods, then
+    within the limits), place the template's peak and build the human constraint."""
+    duration, human_constraint = opts.duration, opts.human_constraint
     if np.shape(task.start) == np.shape(task.goal) == (robot.n_joints,) and duration > 0:
         _check_feasible_at_all(robot, task, duration, chosen)
     validate_task(robot, task, duration)
-    q_via, target_deg = _peak_target(robot, task, template, peak_angle_deg)
+    q_via, target_deg = _peak_target(robot, task, template, opts.peak_angle_deg)
     if "human_optimal" in chosen:
         spec, shares = human_spec(human_constraint, robot, task, template, q_via)
     else:  # still refuse an unknown constraint name
         human_spec(
-            human_constraint if human_constraint != "phases" else "none",
+            human_constraint if human_constraint not in ("phases", "shape") else "none",
             robot,
             task,
             template,
             q_via,
         )
         spec, shares = HumanSpec("none", robot.elbow_joint), None
-    outcome = _run_methods(
-        robot,
-        task,
-        chosen,
-        duration=duration,
-        objective=objective,
-        paper_args={
-            "q_via": q_via,
-            "target_deg": target_deg,
-            "seed": seed,
-            "particles": particles,
-            "iterations": iterations,
-            "n_samples": n_samples,
-        },
-        optimal=_Optimal(spec, shares, n_intervals, no_reversal, converge),
-        report_samples=report_samples,
-        progress=progress,
-    )
-    _require_enough(outcome, chosen)
-    results, pso, via_time = outcome.results, outcome.pso, outcome.via_time
-    fl = task_floors_of(robot, task, duration)
-    for name, m in results.items():
-        check_floors(m.evaluated, fl, name)
-    report(progress, "done", 1, 1, message="planned")
+    return _Prepared(template, q_via, target_deg, spec, shares)
+
+
+def _plan_result(
+    robot: Robot,
+    opts: PlanOptions,
+    task: PlanTask,
+    given_template: HumanTemplate | None,
+    prepared: _Prepared,
+    outcome: _Outcome,
+    fl: Floors,
+    chosen: tuple[str, ...],
+) -> PlanResult:
+    """The comparison of the planned methods: objective values, warnings (template, bounds,
+    failed methods, actuators), actuator and safety checks, with the options they came from
+    (``given_template`` is the caller's, None for the paper's; ``chosen`` the methods asked
+    for; ``fl`` the task's physical floors)."""
+    results, objective, template = outcome.results, opts.objective, prepared.template
     paper = results.get("paper")
     values = {n: objective_value(robot, m.evaluated, objective) for n, m in results.items()}
     warnings = [
@@ -719,31 +668,96 @@ def plan(
     return PlanResult(
         robot=robot.name,
         objective=objective,
-        duration=duration,
+        duration=opts.duration,
         payload_mass=float(robot.payload.mass),
         task=task,
         template=template,
-        target_peak_angle_deg=float(target_deg),
+        target_peak_angle_deg=float(prepared.target_deg),
         standard=results["quintic"].evaluated,
         optimized=None if paper is None else paper.evaluated,
         floors=fl,
-        optimizer=pso,
-        via_time=via_time,
+        optimizer=outcome.pso,
+        via_time=outcome.via_time,
         elbow_joint=robot.elbow_joint,
         phase_bounds_deg=(float(template.phase_bounds_deg[0]), float(template.phase_bounds_deg[1])),
         warnings=tuple(warnings),
         methods=results,
         objective_values=values,
-        human_constraint=human_constraint,
-        no_reversal=no_reversal,
-        phase_shares=shares,
+        human_constraint=opts.human_constraint,
+        no_reversal=opts.no_reversal,
+        phase_shares=prepared.shares,
         joint_names=tuple(robot.joint_names),
-        human_rule=spec.rules() if "human_optimal" in chosen else "",
+        human_rule=prepared.spec.rules() if "human_optimal" in chosen else "",
         method_errors=dict(outcome.failures),
         actuators=actuators,
         safety=(
             check_safety(robot, {n: m.trajectory for n, m in results.items()})
-            if safety
+            if opts.safety
             else not_checked(SKIPPED)
         ),
     )
+
+
+def plan(
+    robot: Robot,
+    options: PlanOptions | None = None,
+    *,
+    task: PlanTask | None = None,
+    template: HumanTemplate | None = None,
+    progress: ProgressFn | None = None,
+    **overrides: Any,
+) -> PlanResult:
+    """Plan a task with the chosen methods and compare them.
+
+    Args:
+        robot: the robot, with its payload (``load_robot(name, payload=kg)``).
+        options: every option (``PlanOptions``: duration [s], objective, PSO seed and budget,
+            methods, human constraint, transcription...); its fields hold the defaults,
+            ranges and units. None: the defaults.
+        task: start and goal configurations; defaults to the robot's curl task.
+        template: the human template; defaults to the paper's (velocity peak at 62 deg).
+        progress: called with a ``Progress`` (stages ``pso``, ``optimal_control``, ``done``).
+        **overrides: options by name over ``options`` (``plan(robot, duration=2.0,
+            methods=ALL_METHODS)``); an unknown name is a PlanningError naming it.
+
+    Returns:
+        The comparison; ``to_dict()`` gives the CLI's JSON.
+
+    Raises:
+        PlanningError: bad task or options, or no trajectory satisfies the limits.
+        SolverError: IPOPT did not solve an optimal-control problem.
+        JerkLimitedError: the jerk-limited move needs more time than ``duration``.
+    """
+    opts = _options_of(options, overrides)
+    chosen = check_methods(opts.methods)
+    logging.getLogger("bioplan.planning").info(
+        "plan of %s: %s over %g s, %s", robot.name, ", ".join(chosen), opts.duration, opts.objective
+    )
+    task = task or PlanTask.default(robot)
+    prepared = _prepare(robot, task, template or HumanTemplate(), opts, chosen)
+    outcome = _run_methods(
+        robot,
+        task,
+        chosen,
+        duration=opts.duration,
+        objective=opts.objective,
+        paper_args={
+            "q_via": prepared.q_via,
+            "target_deg": prepared.target_deg,
+            "seed": opts.seed,
+            "particles": opts.particles,
+            "iterations": opts.iterations,
+            "n_samples": opts.n_samples,
+        },
+        optimal=_Optimal(
+            prepared.spec, prepared.shares, opts.n_intervals, opts.no_reversal, opts.converge
+        ),
+        report_samples=opts.report_samples,
+        progress=progress,
+    )
+    _require_enough(outcome, chosen)
+    fl = task_floors_of(robot, task, opts.duration)
+    for name, m in outcome.results.items():
+        check_floors(m.evaluated, fl, name)
+    report(progress, "done", 1, 1, message="planned")
+    return _plan_result(robot, opts, task, template, prepared, outcome, fl, chosen)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -22,6 +23,8 @@ from numpy.typing import ArrayLike, NDArray
 from app.errors import BioPlanError
 
 FloatArray = NDArray[np.float64]
+#: A normalised profile s(tau) and its first three tau-derivatives, each (T,).
+_Shape = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 
 #: Default tolerance of :func:`is_monotonic` [rad].
 MONOTONIC_TOL = 1e-9
@@ -122,19 +125,35 @@ def time_grid(duration: float, n_samples: int) -> FloatArray:
 # ----------------------------------------------------------------------------------------------
 
 
-def _scale(
-    q0: FloatArray,
-    q1: FloatArray,
+def _rest_to_rest(
+    q0: ArrayLike,
+    q1: ArrayLike,
     duration: float,
-    t: FloatArray,
-    shape: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+    n_samples: int,
+    shape_of: Callable[[FloatArray], _Shape],
     name: str,
 ) -> Trajectory:
-    """Turn a normalised shape s(tau) and its tau-derivatives (each (T,)) into a Trajectory."""
-    s, ds, dds, ddds = (x[:, None] for x in shape)
-    delta = (q1 - q0)[None, :]
+    """Check the inputs, sample tau = t / duration and scale a normalised shape per joint.
+
+    Args:
+        q0: (n,) start [rad].
+        q1: (n,) goal [rad].
+        duration: motion time [s].
+        n_samples: samples T on the time grid.
+        shape_of: maps (T,) tau in [0, 1] to s(tau) and its first three tau-derivatives, each
+            (T,), with s(0) = 0 and s(1) = 1.
+        name: the trajectory's name.
+
+    Returns:
+        The trajectory (T samples, n joints).
+    """
+    a0, a1 = _check_endpoints(q0, q1)
+    duration = _check_duration(duration)
+    t = time_grid(duration, n_samples)
+    s, ds, dds, ddds = (x[:, None] for x in shape_of(t / duration))
+    delta = (a1 - a0)[None, :]
     # q0 (1 - s) + q1 s hits both end points exactly when s is exactly 0 and 1 there.
-    q = q0[None, :] * (1.0 - s) + q1[None, :] * s
+    q = a0[None, :] * (1.0 - s) + a1[None, :] * s
     return Trajectory(
         t=t,
         q=q,
@@ -147,7 +166,7 @@ def _scale(
 
 def _piecewise_constant_jerk(
     tau: FloatArray, edges: Sequence[float], acc0: Sequence[float], jerk: Sequence[float]
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+) -> _Shape:
     """Evaluate a normalised profile made of phases with constant jerk.
 
     Args:
@@ -205,14 +224,13 @@ def trapezoidal(
     Returns:
         The trajectory (T samples, n joints), name ``"trapezoidal"``.
     """
-    a0, a1 = _check_endpoints(q0, q1)
-    duration = _check_duration(duration)
     f = _check_fraction("accel_fraction", accel_fraction, 0.5)
-    t = time_grid(duration, n_samples)
     v = 1.0 / (1.0 - f)
     a = v / f
-    shape = _piecewise_constant_jerk(t / duration, (0.0, f, 1.0 - f, 1.0), (a, 0.0, -a), (0, 0, 0))
-    return _scale(a0, a1, duration, t, shape, "trapezoidal")
+    shape = partial(
+        _piecewise_constant_jerk, edges=(0.0, f, 1.0 - f, 1.0), acc0=(a, 0.0, -a), jerk=(0, 0, 0)
+    )
+    return _rest_to_rest(q0, q1, duration, n_samples, shape, "trapezoidal")
 
 
 def triangular(
@@ -265,11 +283,8 @@ def s_curve(
     Returns:
         The trajectory (T samples, n joints), name ``"s_curve"``.
     """
-    a0, a1 = _check_endpoints(q0, q1)
-    duration = _check_duration(duration)
     fa = _check_fraction("accel_fraction", accel_fraction, 0.5)
     fj = _check_fraction("jerk_fraction", jerk_fraction, 0.5)
-    t = time_grid(duration, n_samples)
     ta = fa
     tj = fj * fa
     v = 1.0 / (1.0 - fa)
@@ -278,8 +293,23 @@ def s_curve(
     edges = (0.0, tj, ta - tj, ta, 1.0 - ta, 1.0 - ta + tj, 1.0 - tj, 1.0)
     acc0 = (0.0, a, a, 0.0, 0.0, -a, -a)
     jerk = (j, 0.0, -j, 0.0, -j, 0.0, j)
-    shape = _piecewise_constant_jerk(t / duration, edges, acc0, jerk)
-    return _scale(a0, a1, duration, t, shape, "s_curve")
+    shape = partial(_piecewise_constant_jerk, edges=edges, acc0=acc0, jerk=jerk)
+    return _rest_to_rest(q0, q1, duration, n_samples, shape, "s_curve")
+
+
+def _cubic_shape(u: FloatArray) -> _Shape:
+    """s = 3 u^2 - 2 u^3 and its first three u-derivatives, each (T,)."""
+    return (u**2 * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u), 6.0 - 12.0 * u, np.full_like(u, -12.0))
+
+
+def _minimum_jerk_shape(u: FloatArray) -> _Shape:
+    """s = 10 u^3 - 15 u^4 + 6 u^5 and its first three u-derivatives, each (T,)."""
+    return (
+        u**3 * (10.0 - 15.0 * u + 6.0 * u**2),
+        30.0 * u**2 * (1.0 - u) ** 2,
+        60.0 * u * (1.0 - u) * (1.0 - 2.0 * u),
+        60.0 * (1.0 - 6.0 * u + 6.0 * u**2),
+    )
 
 
 def cubic(q0: ArrayLike, q1: ArrayLike, duration: float, *, n_samples: int = 100) -> Trajectory:
@@ -297,12 +327,7 @@ def cubic(q0: ArrayLike, q1: ArrayLike, duration: float, *, n_samples: int = 100
     Returns:
         The trajectory (T samples, n joints), name ``"cubic"``.
     """
-    a0, a1 = _check_endpoints(q0, q1)
-    duration = _check_duration(duration)
-    t = time_grid(duration, n_samples)
-    u = t / duration
-    shape = (u**2 * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u), 6.0 - 12.0 * u, np.full_like(u, -12.0))
-    return _scale(a0, a1, duration, t, shape, "cubic")
+    return _rest_to_rest(q0, q1, duration, n_samples, _cubic_shape, "cubic")
 
 
 def quintic(q0: ArrayLike, q1: ArrayLike, duration: float, *, n_samples: int = 100) -> Trajectory:
@@ -352,17 +377,7 @@ def minimum_jerk(
     Returns:
         The trajectory (T samples, n joints), name ``"minimum_jerk"``.
     """
-    a0, a1 = _check_endpoints(q0, q1)
-    duration = _check_duration(duration)
-    t = time_grid(duration, n_samples)
-    u = t / duration
-    shape = (
-        u**3 * (10.0 - 15.0 * u + 6.0 * u**2),
-        30.0 * u**2 * (1.0 - u) ** 2,
-        60.0 * u * (1.0 - u) * (1.0 - 2.0 * u),
-        60.0 * (1.0 - 6.0 * u + 6.0 * u**2),
-    )
-    return _scale(a0, a1, duration, t, shape, "minimum_jerk")
+    return _rest_to_rest(q0, q1, duration, n_samples, _minimum_jerk_shape, "minimum_jerk")
 
 
 CLASSICAL_PROFILES: dict[str, Callable[..., Trajectory]] = {

@@ -3,6 +3,16 @@
 A global-best PSO (Kennedy & Eberhart 1995) with a linearly decreasing inertia weight
 (Shi & Eberhart 1998). The whole swarm is evaluated in one call per iteration, so the cost
 function can vectorise over particles (the planner evaluates 40 trajectories' dynamics at once).
+
+Constraints are handled by Deb's feasibility rules, no penalty weights: a feasible point beats
+an infeasible one, two feasible points compare by cost, two infeasible ones by violation (then
+by cost). Non-finite costs (and NaN violations) count as infeasible with infinite violation.
+
+Motion: v <- w v + c1 r1 (p_best - x) + c2 r2 (g_best - x) with r1, r2 ~ U(0, 1) per
+component; w falls linearly from ``inertia[0]`` at the first move to ``inertia[1]`` at the last;
+each velocity component is clamped to ±velocity_clamp (upper - lower). Positions are clipped to
+the box and the velocity components that hit a wall are set to zero (absorbing walls), so
+particles never leave the box.
 """
 
 from __future__ import annotations
@@ -186,6 +196,93 @@ def _significant(
     )
 
 
+@dataclass(eq=False)
+class _Swarm:
+    """The mutable swarm: positions ``x`` and velocities ``v`` (P, D), each particle's best
+    position ``p_x`` (P, D) with its cost and violation ``p_cost``, ``p_viol`` (P,), and the
+    incumbent (the best of the personal bests) ``g_x`` (D,), ``g_cost``, ``g_viol``."""
+
+    x: FloatArray
+    v: FloatArray
+    p_x: FloatArray
+    p_cost: FloatArray
+    p_viol: FloatArray
+    g_x: FloatArray
+    g_cost: float
+    g_viol: float
+
+    @classmethod
+    def start(cls, x: FloatArray, v: FloatArray, cost: FloatArray, viol: FloatArray) -> _Swarm:
+        """The swarm after its first evaluation: every particle is its own best."""
+        g = int(np.lexsort((cost, viol))[0])
+        return cls(x, v, x.copy(), cost, viol, x[g].copy(), float(cost[g]), float(viol[g]))
+
+    def record(self, cost: FloatArray, viol: FloatArray, tol: float) -> bool:
+        """Take the costs (P,) and violations (P,) of the current positions into the personal
+        bests and the incumbent; True when the incumbent improved significantly (relative
+        ``tol``, see :func:`_significant`)."""
+        improved = _better(cost, viol, self.p_cost, self.p_viol)
+        self.p_x[improved] = self.x[improved]
+        self.p_cost = np.where(improved, cost, self.p_cost)
+        self.p_viol = np.where(improved, viol, self.p_viol)
+        g = int(np.lexsort((self.p_cost, self.p_viol))[0])
+        new_cost, new_viol = float(self.p_cost[g]), float(self.p_viol[g])
+        significant = _significant(self.g_cost, self.g_viol, new_cost, new_viol, tol)
+        if new_viol < self.g_viol or (new_viol == self.g_viol and new_cost < self.g_cost):
+            self.g_x, self.g_cost, self.g_viol = self.p_x[g].copy(), new_cost, new_viol
+        return significant
+
+
+@dataclass(frozen=True)
+class _Motion:
+    """The motion coefficients: inertia (start, end) and the weights c1, c2."""
+
+    inertia: tuple[float, float]
+    cognitive: float
+    social: float
+
+    def weights(self, move: int, n_moves: int) -> tuple[float, float, float]:
+        """(w, c1, c2) for move ``move`` (1-based) of ``n_moves``: w falls linearly."""
+        w_start, w_end = self.inertia
+        w = w_start if n_moves <= 1 else w_start + (w_end - w_start) * (move - 1) / (n_moves - 1)
+        return w, self.cognitive, self.social
+
+
+def _iterate(
+    fn: CostFunction,
+    swarm: _Swarm,
+    rng: np.random.Generator,
+    iterations: int,
+    box: tuple[FloatArray, FloatArray],
+    v_max: FloatArray,
+    motion: _Motion,
+    stagnation_iterations: int | None,
+    stagnation_tol: float,
+    callback: Callable[[int, float], None] | None,
+) -> tuple[FloatArray, bool]:
+    """The iterations of :func:`pso_minimize` after the swarm's first evaluation: move,
+    evaluate, record, until ``iterations`` or stagnation. Returns the incumbent's cost after each
+    iteration done (done,) and whether stagnation stopped the run before its last iteration."""
+    history = np.empty(iterations)
+    history[0] = swarm.g_cost
+    if callback is not None:
+        callback(1, swarm.g_cost)
+    stall = 0
+    for it in range(1, iterations):
+        swarm.x, swarm.v = _move(
+            rng, swarm.x, swarm.v, swarm.p_x, swarm.g_x,
+            motion.weights(it, iterations - 1), v_max, box,
+        )  # fmt: skip
+        significant = swarm.record(*_evaluate(fn, swarm.x), stagnation_tol)
+        history[it] = swarm.g_cost
+        if callback is not None:
+            callback(it + 1, swarm.g_cost)
+        stall = 0 if significant else stall + 1
+        if stagnation_iterations is not None and stall >= stagnation_iterations:
+            return history[: it + 1].copy(), it + 1 < iterations
+    return history, False
+
+
 def pso_minimize(
     fn: CostFunction,
     lower: ArrayLike,
@@ -211,23 +308,9 @@ def pso_minimize(
     given); each later iteration first moves the swarm, then evaluates it, so exactly
     ``particles * iterations`` evaluations are made (as pyswarms counts them).
 
-    Constraints are handled by Deb's feasibility rules, no penalty weights: a feasible point
-    beats an infeasible one, two feasible points compare by cost, two infeasible ones by
-    violation (then by cost). Non-finite costs (and NaN violations) count as infeasible with
-    infinite violation. ``history`` records the incumbent's cost, which never increases once a
+    Constraints follow Deb's feasibility rules and the motion has absorbing walls (see the
+    module docstring). ``history`` records the incumbent's cost, which never increases once a
     feasible point exists (before that it follows the least-violating point).
-
-    Motion: v <- w v + c1 r1 (p_best - x) + c2 r2 (g_best - x) with r1, r2 ~ U(0, 1) per
-    component; w falls linearly from ``inertia[0]`` at the first move to ``inertia[1]`` at the
-    last; each velocity component is clamped to ±velocity_clamp (upper - lower). Positions are
-    clipped to the box and the velocity components that hit a wall are set to zero
-    (absorbing walls), so particles never leave the box.
-
-    Stops early when, for ``stagnation_iterations`` consecutive iterations, the incumbent
-    neither lowers its violation nor improves its cost by more than
-    ``stagnation_tol * |cost|`` (relative). Random numbers come from
-    ``np.random.default_rng(seed)`` only: the same inputs and seed give the same result bit for
-    bit (except ``seconds``).
 
     Args:
         fn: the batched cost, (P, D) -> (P,) or ((P,), (P,)); it receives a copy of the swarm.
@@ -235,81 +318,47 @@ def pso_minimize(
         upper: (D,) upper bounds, > lower.
         particles: swarm size P >= 1.
         iterations: maximum number of iterations (swarm evaluations) >= 1.
-        seed: random seed.
+        seed: random seed, the only source of randomness (``np.random.default_rng(seed)``): the
+            same inputs and seed give the same result bit for bit (except ``seconds``).
         inertia: (start, end) inertia weights.
         cognitive: c1, attraction to the particle's own best, >= 0.
         social: c2, attraction to the swarm's best, >= 0.
-        velocity_clamp: maximum speed per component per iteration as a fraction of the box
-            width, > 0.
-        stagnation_iterations: iterations without significant improvement before stopping;
-            None disables early stopping.
+        velocity_clamp: maximum speed per component per iteration, fraction of box width, > 0.
+        stagnation_iterations: stop early after this many consecutive iterations in which the
+            incumbent neither lowers its violation nor improves its cost by more than
+            ``stagnation_tol * |cost|``; None disables early stopping.
         stagnation_tol: relative improvement regarded as significant, >= 0.
-        callback: called after every iteration with (iterations done so far, incumbent cost),
-            e.g. for a progress bar.
-        initial: (D,) a known solution (e.g. the standard trajectory's parameters) placed as
-            particle 0; clipped to the box.
+        callback: called after every iteration with (iterations done, incumbent cost).
+        initial: (D,) a known solution placed as particle 0 (clipped to the box).
 
     Returns:
         The best point found with its cost, violation and the convergence history.
 
     Raises:
-        ValueError: bad bounds or options, or a cost function that returns the wrong shapes or
-            negative violations.
+        BioPlanError: bad bounds or options, or a cost function that returns the wrong shapes
+            or negative violations.
     """
     lo, hi = _check_options(
         lower, upper, particles, iterations, cognitive, social, velocity_clamp,
         stagnation_iterations, stagnation_tol,
     )  # fmt: skip
-    w_start, w_end = (float(w) for w in inertia)
-
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
     v_max = velocity_clamp * (hi - lo)
     x, v = _initial_swarm(rng, (lo, hi), particles, v_max, initial)
-
-    cost, viol = _evaluate(fn, x)
-    p_x, p_cost, p_viol = x.copy(), cost, viol
-    g = int(np.lexsort((p_cost, p_viol))[0])
-    g_x, g_cost, g_viol = p_x[g].copy(), float(p_cost[g]), float(p_viol[g])
-    history = np.empty(iterations)
-    history[0] = g_cost
-    if callback is not None:
-        callback(1, g_cost)
-
-    stall = 0
-    stopped_early = False
-    done = 1
-    n_moves = iterations - 1
-    for it in range(1, iterations):
-        w = w_start if n_moves <= 1 else w_start + (w_end - w_start) * (it - 1) / (n_moves - 1)
-        x, v = _move(rng, x, v, p_x, g_x, (w, cognitive, social), v_max, (lo, hi))
-
-        cost, viol = _evaluate(fn, x)
-        improved = _better(cost, viol, p_cost, p_viol)
-        p_x[improved] = x[improved]
-        p_cost = np.where(improved, cost, p_cost)
-        p_viol = np.where(improved, viol, p_viol)
-        g = int(np.lexsort((p_cost, p_viol))[0])
-        new_cost, new_viol = float(p_cost[g]), float(p_viol[g])
-        significant = _significant(g_cost, g_viol, new_cost, new_viol, stagnation_tol)
-        if new_viol < g_viol or (new_viol == g_viol and new_cost < g_cost):
-            g_x, g_cost, g_viol = p_x[g].copy(), new_cost, new_viol
-        done = it + 1
-        history[it] = g_cost
-        if callback is not None:
-            callback(done, g_cost)
-        stall = 0 if significant else stall + 1
-        if stagnation_iterations is not None and stall >= stagnation_iterations:
-            stopped_early = done < iterations
-            break
-
+    swarm = _Swarm.start(x, v, *_evaluate(fn, x))
+    motion = _Motion((float(inertia[0]), float(inertia[1])), cognitive, social)
+    history, stopped_early = _iterate(
+        fn, swarm, rng, iterations, (lo, hi), v_max, motion,
+        stagnation_iterations, stagnation_tol, callback,
+    )  # fmt: skip
     return PSOResult(
-        best_position=g_x,
-        best_cost=g_cost,
-        best_violation=g_viol,
-        history=history[:done].copy(),
-        iterations=done,
-        evaluations=done * particles,
+        best_position=swarm.g_x,
+        best_cost=swarm.g_cost,
+        best_violation=swarm.g_viol,
+        history=history,
+        iterations=history.size,
+        evaluations=history.size * particles,
         seconds=time.perf_counter() - started,
         seed=seed,
         stopped_early=stopped_early,

@@ -43,8 +43,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from app.planning.robots import Robot, RobotError
-from app.planning.robots._obstacles import Obstacle
+from app.planning.robots import Obstacle, Robot, RobotError
 
 __all__ = [
     "DEFAULT_MARGIN",
@@ -264,7 +263,7 @@ def default_scene(robot: Robot) -> SafetyScene:
     sidecar = robot.spec.get("sidecar")
     if not sidecar:
         return SafetyScene(mount_plane_height=height)
-    from app.planning.robots._sidecar import read_sidecar
+    from app.planning.robots import read_sidecar
 
     car = read_sidecar(Path(sidecar))
     plane = car.mount_plane
@@ -352,8 +351,7 @@ def _mesh_search(robot: Robot) -> list[str]:
     Raises:
         _NotCheckable: a mesh is missing, outside those folders, not a file or too large.
     """
-    from app.planning.robots._package import resolve_mesh
-    from app.planning.robots._urdf import read_xml
+    from app.planning.robots import read_xml, resolve_mesh
 
     urdf = Path(robot.urdf_path).resolve()
     roots = [*robot.package_dirs, urdf.parent] if robot.package_dirs else None

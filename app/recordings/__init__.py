@@ -14,7 +14,8 @@ from app.recordings._bids import (
     read_bids,
 )
 from app.recordings._mediapipe import LANDMARK_NAMES
-from app.recordings._read import read_bytes, read_recording
+from app.recordings._pose_quality import FrameQuality, arm_quality, image_landmarks
+from app.recordings._read import ReadKeywords, read_bytes, read_recording
 from app.recordings._sniff import FORMATS, sniff_format
 from app.recordings._video_probe import VideoProbe, looks_like_video, probe_video
 from app.recordings.muscles import map_muscle
@@ -57,21 +58,25 @@ __all__ = [
     "Channel",
     "ChannelKind",
     "DatalogSensor",
+    "FrameQuality",
     "PoseCancelled",
     "PoseExtraction",
     "RateCheck",
+    "ReadKeywords",
     "Recording",
     "RecordingError",
     "RobotLog",
     "Site",
     "SkeletonFrame",
     "VideoProbe",
+    "arm_quality",
     "bids_entities",
     "condition_from_files",
     "create_pose_env",
     "default_pose_env",
     "extract_pose",
     "find_pose_python",
+    "image_landmarks",
     "is_video",
     "looks_like_video",
     "map_muscle",

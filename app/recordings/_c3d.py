@@ -41,28 +41,32 @@ class _Params:
             return float(v.ravel()[0])
         return default
 
-    def strings(self, group: str, name: str) -> list[str]:
-        """``GROUP:NAME`` followed by ``NAME2``, ``NAME3``... (C3D splits long lists)."""
-        out: list[str] = []
-        for key in [f"{group}:{name}"] + [f"{group}:{name}{i}" for i in range(2, 100)]:
-            v = self.values.get(key)
+    def _continued(self, group: str, name: str) -> list[object]:
+        """The values of ``GROUP:NAME`` followed by ``NAME2``, ``NAME3``... (C3D splits long
+        lists), up to the first missing continuation."""
+        first = self.values.get(f"{group}:{name}")
+        found: list[object] = [] if first is None else [first]
+        for i in range(2, 100):
+            v = self.values.get(f"{group}:{name}{i}")
             if v is None:
-                if key != f"{group}:{name}":
-                    break
-                continue
+                break
+            found.append(v)
+        return found
+
+    def strings(self, group: str, name: str) -> list[str]:
+        """``GROUP:NAME`` and its continuations as one list of strings."""
+        out: list[str] = []
+        for v in self._continued(group, name):
             out.extend(v if isinstance(v, list) else [str(v)])
         return out
 
     def numbers(self, group: str, name: str) -> F64:
-        parts: list[F64] = []
-        for key in [f"{group}:{name}"] + [f"{group}:{name}{i}" for i in range(2, 100)]:
-            v = self.values.get(key)
-            if v is None:
-                if key != f"{group}:{name}":
-                    break
-                continue
-            if isinstance(v, np.ndarray):
-                parts.append(v.ravel().astype(np.float64))
+        """``GROUP:NAME`` and its continuations as one flat float array."""
+        parts = [
+            v.ravel().astype(np.float64)
+            for v in self._continued(group, name)
+            if isinstance(v, np.ndarray)
+        ]
         return np.concatenate(parts) if parts else np.zeros(0)
 
 

@@ -6,6 +6,7 @@ import logging
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Literal, TypedDict, Unpack
 
 import numpy as np
 
@@ -59,19 +60,22 @@ READERS: dict[str, Reader] = {
 _LONGEST_PLAUSIBLE_S = 24 * 3600.0
 
 
-def read_recording(
-    path: str | Path,
-    *,
-    format: str | None = None,
-    rate: float | None = None,
-    emg_rate: float | None = None,
-    muscle_map: Mapping[str, str] | None = None,
-    image_size: tuple[int, int] | None = None,
-    frame_rate: float | None = None,
-    datalog_sensors: Sequence[DatalogSensor] | None = None,
-    name: str | None = None,
-    sidecars: Mapping[str, bytes] | None = None,
-) -> Recording:
+class ReadKeywords(TypedDict, total=False):
+    """The keyword arguments of :func:`read_recording` and :func:`read_bytes` (all default to
+    ``None``; described at :func:`read_recording`)."""
+
+    format: str | None
+    rate: float | None
+    emg_rate: float | None
+    muscle_map: Mapping[str, str] | None
+    image_size: tuple[int, int] | None
+    frame_rate: float | None
+    datalog_sensors: Sequence[DatalogSensor] | None
+    name: str | None
+    sidecars: Mapping[str, bytes] | None
+
+
+def read_recording(path: str | Path, **options: Unpack[ReadKeywords]) -> Recording:
     """Read any supported recording file into a :class:`Recording` with SI units.
 
     The format is sniffed from the content unless ``format`` is given. After reading, every
@@ -112,30 +116,15 @@ def read_recording(
             the line or channel, and what was expected.
     """
     p = Path(path)
-    src = Source(name=name or p.name, path=p, sidecars=dict(sidecars or {}))
+    src = Source(
+        name=options.get("name") or p.name, path=p, sidecars=dict(options.get("sidecars") or {})
+    )
     if not p.is_file():
         raise src.error("file not found", expected="an existing file")
-    return _read(
-        src,
-        format,
-        _options(src, rate, emg_rate, muscle_map, image_size, frame_rate, datalog_sensors),
-    )
+    return _read(src, options.get("format"), _options(src, options))
 
 
-def read_bytes(
-    data: bytes,
-    filename: str,
-    *,
-    format: str | None = None,
-    rate: float | None = None,
-    emg_rate: float | None = None,
-    muscle_map: Mapping[str, str] | None = None,
-    image_size: tuple[int, int] | None = None,
-    frame_rate: float | None = None,
-    datalog_sensors: Sequence[DatalogSensor] | None = None,
-    name: str | None = None,
-    sidecars: Mapping[str, bytes] | None = None,
-) -> Recording:
+def read_bytes(data: bytes, filename: str, **options: Unpack[ReadKeywords]) -> Recording:
     """:func:`read_recording` for bytes already in memory (uploads).
 
     ``filename`` is the user's file name (used in messages and as an extension hint). Only
@@ -143,33 +132,32 @@ def read_bytes(
     Sidecar files (BIDS ``_channels.tsv``/``_emg.json``, DataLOG JSON) uploaded with the file
     come in ``sidecars`` (file name -> bytes).
     """
-    src = Source(name=name or filename, content=bytes(data), sidecars=dict(sidecars or {}))
-    return _read(
-        src,
-        format,
-        _options(src, rate, emg_rate, muscle_map, image_size, frame_rate, datalog_sensors),
+    src = Source(
+        name=options.get("name") or filename,
+        content=bytes(data),
+        sidecars=dict(options.get("sidecars") or {}),
     )
+    return _read(src, options.get("format"), _options(src, options))
 
 
-def _options(
-    src: Source,
-    rate: float | None,
-    emg_rate: float | None,
-    muscle_map: Mapping[str, str] | None,
-    image_size: tuple[int, int] | None,
-    frame_rate: float | None,
-    datalog_sensors: Sequence[DatalogSensor] | None,
-) -> Options:
+def _options(src: Source, options: ReadKeywords) -> Options:
+    """The reader options, each checked (rates > 0, image size in pixels, known sites)."""
+    unknown = sorted(set(options) - set(ReadKeywords.__annotations__))
+    if unknown:
+        # A **options signature would otherwise ignore a misspelt keyword silently.
+        raise TypeError(f"unexpected keyword argument(s) {unknown}")
+
+    def checked_rate(key: Literal["rate", "emg_rate", "frame_rate"]) -> float | None:
+        value = options.get(key)
+        return None if value is None else check_rate(value, src=src, what=f"{key} option")
+
+    image_size, muscle_map = options.get("image_size"), options.get("muscle_map")
     opts = Options(
-        rate=None if rate is None else check_rate(rate, src=src, what="rate option"),
-        emg_rate=None
-        if emg_rate is None
-        else check_rate(emg_rate, src=src, what="emg_rate option"),
-        frame_rate=None
-        if frame_rate is None
-        else check_rate(frame_rate, src=src, what="frame_rate option"),
+        rate=checked_rate("rate"),
+        emg_rate=checked_rate("emg_rate"),
+        frame_rate=checked_rate("frame_rate"),
         muscle_map=muscle_map,
-        datalog_sensors=datalog_sensors,
+        datalog_sensors=options.get("datalog_sensors"),
     )
     if image_size is not None:
         try:

@@ -27,6 +27,7 @@ from app.services.errors import (
     UnknownRobotError,
 )
 from app.services.jobs import KIND_PATHS, JobService, job_summary, job_to_dict
+from app.services.kinds import KINDS, JobKind
 from app.services.overlays import RecordingOverlays
 from app.services.recordings import parse_upload, store_recording
 from app.services.robots import RobotCatalog, check_data_quota
@@ -35,11 +36,13 @@ __all__ = [
     "ALL_JOBS",
     "DEMO_MUSCLES",
     "DEMO_NAME",
+    "KINDS",
     "KIND_PATHS",
     "AnalysisPending",
     "ComparisonLoader",
     "ConflictError",
     "JobBroker",
+    "JobKind",
     "JobService",
     "NotFoundError",
     "RecordingOverlays",

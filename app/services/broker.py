@@ -20,12 +20,11 @@ import threading
 import time
 from collections import defaultdict
 from dataclasses import dataclass, field
-from typing import Any
 
 logger = logging.getLogger(__name__)
 
 #: What a subscription's queue receives when the server stops: the stream ends.
-_CLOSED: dict[str, Any] = {"__closed__": True}
+_CLOSED: dict[str, object] = {"__closed__": True}
 
 #: The subscription key of a subscriber to every job's updates (job ids start at 1).
 ALL_JOBS = 0
@@ -38,11 +37,11 @@ class Subscription:
         self.broker = broker
         self.job_id = job_id
         self.loop = asyncio.get_running_loop()
-        self.queue: asyncio.Queue[dict[str, Any]] = asyncio.Queue(maxsize=1000)
+        self.queue: asyncio.Queue[dict[str, object]] = asyncio.Queue(maxsize=1000)
         #: True once the server stops: the stream ends at once.
         self.closed = False
 
-    def put(self, update: dict[str, Any]) -> None:
+    def put(self, update: dict[str, object]) -> None:
         """Called on the loop's thread; drops the oldest update when a slow client lags."""
         if update is _CLOSED:
             self.closed = True
@@ -50,7 +49,7 @@ class Subscription:
             self.queue.get_nowait()
         self.queue.put_nowait(update)
 
-    async def get(self, timeout: float) -> dict[str, Any] | None:
+    async def get(self, timeout: float) -> dict[str, object] | None:
         """The next update, or None after ``timeout`` seconds or once :attr:`closed`."""
         if self.closed:
             return None
@@ -101,7 +100,7 @@ class JobBroker:
                 if not subs:
                     del self._subs[sub.job_id]
 
-    def publish(self, job_id: int, update: dict[str, Any]) -> None:
+    def publish(self, job_id: int, update: dict[str, object]) -> None:
         with self._lock:
             subs = list(self._subs.get(job_id, ())) + list(self._subs.get(ALL_JOBS, ()))
         for sub in subs:

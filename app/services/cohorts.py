@@ -15,7 +15,6 @@ from __future__ import annotations
 import csv
 import io
 from collections.abc import Sequence
-from dataclasses import MISSING, fields
 from typing import Any
 
 from sqlalchemy import select
@@ -23,20 +22,20 @@ from sqlalchemy.orm import Session
 
 from app.db import crud
 from app.db.blobs import BlobStore
-from app.db.models import RecordingSession
+from app.db.models import RecordingFile, RecordingSession
 from app.services.errors import ConflictError, NotFoundError, ServiceError
 from app.services.recordings import file_read_options, sidecars_of
 
 __all__ = ["cohort_csv", "cohort_params", "cohort_payload"]
 
 
-def _recording_files(rec: RecordingSession) -> list[Any]:
+def _recording_files(rec: RecordingSession) -> list[RecordingFile]:
     return [f for f in rec.files if f.role == "recording"]
 
 
 def _check_usable(session: Session, rec: RecordingSession, field: str) -> None:
     """Refuse (409) a recording a cohort cannot measure, naming the request's field."""
-    from app.services.jobs import job_to_dict
+    from app.services.job_views import job_to_dict
 
     pending = next(
         (
@@ -183,7 +182,7 @@ def cohort_payload(session: Session, blobs: BlobStore, params: dict[str, Any]) -
     Raises:
         NotFoundError: a recording was deleted while the job waited.
     """
-    out: dict[str, list[dict[str, Any]]] = {}
+    out: dict[str, list[dict[str, object]]] = {}
     for name, ids in params["groups"].items():
         items = []
         for rid in ids:
@@ -214,7 +213,7 @@ def cohort_payload(session: Session, blobs: BlobStore, params: dict[str, Any]) -
     return {"groups": out, "options": dict(params.get("options") or {})}
 
 
-def _cell(v: Any) -> str:
+def _cell(v: object) -> str:
     if v is None:
         return ""
     if isinstance(v, bool) or not isinstance(v, int | float):
@@ -246,26 +245,27 @@ def cohort_csv(result: dict[str, Any]) -> str:
     return buf.getvalue()
 
 
-def cohort_option_info() -> list[dict[str, Any]]:
+def cohort_option_info() -> list[dict[str, object]]:
     """Every option of a comparison (``CohortOptions``) with its default, help, unit, choices,
     range and JSON type, as ``GET /api/cohorts/options`` lists them."""
     from app.analysis.cohort import CohortOptions
+    from app.options import option_specs
 
-    kinds = {"float | None": "number", "float": "number", "int": "integer", "str": "string"}
+    kinds = {float: "number", int: "integer"}
     out = []
-    for f in fields(CohortOptions):
-        meta = f.metadata
+    for spec in option_specs(CohortOptions):
+        # The page's names for the bounds: low/high exclusive, minimum inclusive.
         out.append(
             {
-                "name": f.name,
-                "default": None if f.default is MISSING else f.default,
-                "help": meta["help"],
-                "unit": meta.get("unit"),
-                "choices": list(meta["choices"]) if "choices" in meta else None,
-                "low": meta.get("low"),
-                "high": meta.get("high"),
-                "minimum": meta.get("minimum"),
-                "type": kinds.get(str(f.type), "string"),
+                "name": spec.name,
+                "default": spec.default,
+                "help": spec.help,
+                "unit": spec.unit,
+                "choices": list(spec.choices) if spec.choices is not None else None,
+                "low": spec.meta.get("gt"),
+                "high": spec.meta.get("lt"),
+                "minimum": spec.meta.get("ge"),
+                "type": kinds.get(spec.kind, "string"),
             }
         )
     return out

@@ -4,20 +4,30 @@ exports."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+from numpy.typing import NDArray
 from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker, undefer
 
 from app.db.arrays import decode_arrays
-from app.db.models import RESULT_MODELS, JobRecord
+from app.db.models import RESULT_MODELS
 from app.errors import BioPlanError, without_paths
-from app.jobs.tasks import robot_from_spec
+from app.jobs.tasks import RobotSpec, robot_from_spec
 from app.planning.export import public_result
 from app.services.errors import ConflictError, NotFoundError, ServiceError
+from app.services.job_views import not_finished
 from app.services.robots import RobotCatalog
-from app.viewer.comparison import KINDS, Comparison, NothingToCompare, comparison_from_arrays
+from app.viewer.comparison import (
+    KINDS,
+    Comparison,
+    Kind,
+    NothingToCompare,
+    comparison_from_arrays,
+)
 from app.viewer.export import report_html, scene_html
 from app.viewer.scene import Layout, PreparedCache, PreparedComparison
 
@@ -26,7 +36,7 @@ if TYPE_CHECKING:
 
 
 def load_robot_spec(
-    spec: dict[str, Any], payload: float | None, folder: Path | None = None
+    spec: RobotSpec, payload: float | None, folder: Path | None = None
 ) -> tuple[Robot, str]:
     """Load a robot from a job spec: ``{"name"}`` (built in) or an uploaded robot's files.
 
@@ -75,20 +85,7 @@ class ComparisonLoader:
             raise NotFoundError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
         if kind == "front":
             return self._front_point(result_id, methods)
-        model: Any = RESULT_MODELS[kind]
-        with self.sessions() as session:
-            row = session.scalars(
-                select(model).where(model.id == result_id).options(undefer(model.arrays))
-            ).first()
-            if row is None:
-                raise NotFoundError(f"{kind} {result_id} does not exist")
-            if row.result is None or row.arrays is None:
-                job = session.get(JobRecord, result_id)
-                state = "unknown" if job is None else job.state
-                raise ConflictError(f"{kind} {result_id} has no result yet (job state {state})")
-            result = dict(row.result)
-            arrays = decode_arrays(row.arrays)
-            spec = self.robots.spec(session, row.robot)
+        result, arrays, spec = self._stored(kind, result_id)
         planned = list(result.get("methods") or ("quintic", "paper"))
         failed = result.get("method_errors") or {}
         for method in methods or ():
@@ -102,19 +99,7 @@ class ComparisonLoader:
                     f"method '{method}' {why}: expected two of {', '.join(planned)}",
                     field="methods",
                 )
-        payload = (result.get("conditions") or {}).get("payload")
-        folder = self.robots.folder(spec)
-        robot, urdf = load_robot_spec(spec, None if payload is None else float(payload), folder)
-        return comparison_from_arrays(
-            kind,
-            result_id,
-            arrays,
-            result,
-            robot,
-            urdf=urdf,
-            methods=methods,
-            allowed_roots=None if folder is None else (folder,),
-        )
+        return self._compare(kind, result_id, arrays, result, self._robot(spec, result), methods)
 
     def _front_point(self, front_id: int, methods: tuple[str, str] | None) -> Comparison:
         """A point of front ``front_id`` beside the quintic at its duration, in the slots
@@ -127,33 +112,62 @@ class ComparisonLoader:
         from app.services.fronts import point_arrays, viewed_point
 
         pid = viewed_point(methods)  # NotFoundError naming pid
-        model: Any = RESULT_MODELS["front"]
+        result, arrays, spec = self._stored("front", front_id)
+        result.pop("motions", None)  # the exports' blocks: not the viewer's
+        loaded = self._robot(spec, result)
+        arrays = point_arrays(arrays, result, pid, loaded[0])
+        return self._compare("front", front_id, arrays, result, loaded, methods)
+
+    def _stored(
+        self, kind: str, result_id: int
+    ) -> tuple[dict[str, Any], dict[str, NDArray[np.generic]], RobotSpec]:
+        """The finished result ``kind`` ``result_id``: (result JSON, decoded arrays, robot spec).
+
+        Raises:
+            NotFoundError: no such result.
+            ConflictError: its job has not succeeded (no result or arrays yet).
+        """
+        model: Any = RESULT_MODELS[kind]  # a union of mapped classes: mypy cannot select on it
         with self.sessions() as session:
             row = session.scalars(
-                select(model).where(model.id == front_id).options(undefer(model.arrays))
+                select(model).where(model.id == result_id).options(undefer(model.arrays))
             ).first()
             if row is None:
-                raise NotFoundError(f"front {front_id} does not exist")
+                raise NotFoundError(f"{kind} {result_id} does not exist")
             if row.result is None or row.arrays is None:
-                job = session.get(JobRecord, front_id)
-                state = "unknown" if job is None else job.state
-                raise ConflictError(f"front {front_id} has no result yet (job state {state})")
-            result = dict(row.result)
-            result.pop("motions", None)  # the exports' blocks: not the viewer's
-            arrays = decode_arrays(row.arrays)
-            spec = self.robots.spec(session, row.robot)
+                raise not_finished(session, result_id, f"{kind} {result_id}", lacks="no result yet")
+            return dict(row.result), decode_arrays(row.arrays), self.robots.spec(session, row.robot)
+
+    def _robot(
+        self, spec: RobotSpec, result: Mapping[str, Any]
+    ) -> tuple[Robot, str, tuple[Path, ...] | None]:
+        """The result's robot at its planned payload, its URDF text and the folders the viewer
+        may read its meshes from (None: a built-in robot)."""
         payload = (result.get("conditions") or {}).get("payload")
         folder = self.robots.folder(spec)
         robot, urdf = load_robot_spec(spec, None if payload is None else float(payload), folder)
+        return robot, urdf, None if folder is None else (folder,)
+
+    def _compare(
+        self,
+        kind: Kind,
+        result_id: int,
+        arrays: Mapping[str, NDArray[np.generic]],
+        result: dict[str, object],
+        loaded: tuple[Robot, str, tuple[Path, ...] | None],
+        methods: tuple[str, str] | None,
+    ) -> Comparison:
+        """The viewer's comparison of a stored result with its loaded robot (``_robot``)."""
+        robot, urdf, roots = loaded
         return comparison_from_arrays(
-            "front",
-            front_id,
-            point_arrays(arrays, result, pid, robot),
+            kind,
+            result_id,
+            arrays,
             result,
             robot,
             urdf=urdf,
             methods=methods,
-            allowed_roots=None if folder is None else (folder,),
+            allowed_roots=roots,
         )
 
 

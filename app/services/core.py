@@ -13,7 +13,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar
 
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session, sessionmaker
@@ -39,6 +39,11 @@ from app.viewer.access import ViewerAccess
 from app.viewer.kinematics import use_mesh_limits
 from app.viewer.scene import PreparedCache
 from app.viewer.server import ViewerServer
+
+if TYPE_CHECKING:
+    from app.planning.robots import MeshLimits
+
+T = TypeVar("T")
 
 logger = logging.getLogger(__name__)
 
@@ -122,7 +127,7 @@ class Services:
         """The migration the database is at (None: not migrated)."""
         return current_revision(self.engine)
 
-    def viewer_info(self) -> dict[str, Any]:
+    def viewer_info(self) -> dict[str, object]:
         """Where the viewer listens (``GET /api/viewer``); ``enabled`` is false without one."""
         v = self.viewer
         if v is None or not v.running:
@@ -130,7 +135,7 @@ class Services:
         return {"enabled": True, "url": v.url, "host": v.host, "port": v.port}
 
 
-def read_meshes(limits: Any, fn: Callable[..., list[Any]], *args: Any) -> list[Any]:
+def read_meshes(limits: MeshLimits | None, fn: Callable[..., list[T]], *args: object) -> list[T]:
     """A robot's meshes parsed in the upload sandbox (memory and time limited), each mesh
     checked against ``limits`` (the server's mesh caps) first; a mesh set past the sandbox's
     limits is drawn without meshes (a warning in the log), never parsed in this process."""
@@ -141,7 +146,9 @@ def read_meshes(limits: Any, fn: Callable[..., list[Any]], *args: Any) -> list[A
         return []
 
 
-def _meshes_within(limits: Any, fn: Callable[..., list[Any]], args: tuple[Any, ...]) -> list[Any]:
+def _meshes_within(
+    limits: MeshLimits | None, fn: Callable[..., list[T]], args: tuple[object, ...]
+) -> list[T]:
     """``fn(*args)`` in the child, with the server's mesh caps (the child was forked before
     the server set them)."""
     use_mesh_limits(limits)

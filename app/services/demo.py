@@ -14,14 +14,14 @@ import json
 import logging
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
 
 from app.config import Settings
 from app.db import crud
-from app.names import PHASE_BOUNDS_DEG, STANDARD_METHODS, TERMINAL_JOB_STATES
+from app.names import DEFAULT_OBJECTIVE, PHASE_BOUNDS_DEG, STANDARD_METHODS, TERMINAL_JOB_STATES
 from app.services.core import Services, start_services, stop_services
 from app.services.recordings import store_recording
 
@@ -58,6 +58,18 @@ def _curl_profile(s: FloatArray, peak_fraction: float) -> FloatArray:
     a = np.log(0.5) / np.log(peak_fraction)
     w = np.clip(s, 0.0, 1.0) ** a
     return np.asarray(10 * w**3 - 15 * w**4 + 6 * w**5, dtype=np.float64)
+
+
+class CurlOptions(TypedDict, total=False):
+    """Keywords of :func:`synthetic_curls`."""
+
+    lifts: int
+    rate: float
+    seed: int
+    rest: float
+    up: float
+    hold: float
+    down: float
 
 
 def synthetic_curls(
@@ -115,7 +127,7 @@ def synthetic_curls(
     return out
 
 
-def synthetic_curls_csv(**kwargs: Any) -> bytes:
+def synthetic_curls_csv(**kwargs: Unpack[CurlOptions]) -> bytes:
     """:func:`synthetic_curls` as the CSV a lab exports (time, EMG in uV, angles in deg)."""
     data = synthetic_curls(**kwargs)
     emg = [name for name in _EMG_TIMING]
@@ -132,12 +144,12 @@ def synthetic_curls_csv(**kwargs: Any) -> bytes:
 
 #: What the demo plans and simulates with the recorded template (a small swarm: it runs at
 #: every first start of ``make run``), with every method, as a plan from the page has.
-DEMO_TASK_PARAMS: dict[str, Any] = {
+DEMO_TASK_PARAMS: dict[str, object] = {
     "robot": "curtain_wall_6dof",
     "methods": list(STANDARD_METHODS),
     "duration": 1.0,
     "payload": 4.0,
-    "objective": "abs_work",
+    "objective": DEFAULT_OBJECTIVE,
     "seed": 0,
     "particles": 30,
     "iterations": 60,
@@ -150,7 +162,7 @@ def _quiet(line: str) -> None:
     logger.info("%s", line)
 
 
-def _wait(services: Services, job_id: int, timeout: float, say: Say) -> dict[str, Any]:
+def _wait(services: Services, job_id: int, timeout: float, say: Say) -> dict[str, object]:
     """Wait for a demo job, telling ``say`` each time its stage changes."""
     deadline = time.monotonic() + timeout
     shown = ""

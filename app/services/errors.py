@@ -7,8 +7,6 @@ they treat a reader's or the planner's errors. The API maps them by type: ``NotF
 
 from __future__ import annotations
 
-from typing import Any
-
 from app.errors import BioPlanError
 
 __all__ = [
@@ -44,7 +42,7 @@ class ServiceError(BioPlanError):
         *,
         field: str | None = None,
         file: str | None = None,
-        job: dict[str, Any] | None = None,
+        job: dict[str, object] | None = None,
     ) -> None:
         super().__init__(message)
         self.field = field

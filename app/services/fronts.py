@@ -1,6 +1,6 @@
 """Pareto fronts as the API serves them: submission checks, the stored front without its
 internal blocks, its CSV, one point's export file, and the viewer address that plays a point
-beside the quintic (job kind ``front``: ``app.jobs.front_task``).
+beside the quintic (job kind ``front``: ``app.jobs.tasks.fronts``).
 
 Plain JSON-ready dicts and service errors (``NotFoundError`` 404, ``ConflictError`` 409, any
 other ``ServiceError`` 422 naming the field); nothing here knows HTTP.
@@ -19,15 +19,17 @@ from sqlalchemy.orm import Session
 from app.errors import BioPlanError
 from app.names import FRONT_AXES
 from app.services.errors import ConflictError, NotFoundError, ServiceError
+from app.services.job_views import not_finished
 from app.services.results import (
     ExportFile,
     TrajectorySource,
     export_trajectory,
     get_result_row,
-    job_of,
 )
 
 if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
     from app.planning.robots import Robot
     from app.services.core import Services
 
@@ -36,7 +38,7 @@ if TYPE_CHECKING:
 INTERNAL_KEYS = ("motions",)
 
 
-def public_front(result: Any) -> Any:
+def public_front(result: object) -> object:
     """A stored front's result as the API serves it (without :data:`INTERNAL_KEYS`)."""
     if not isinstance(result, dict):
         return result
@@ -46,7 +48,7 @@ def public_front(result: Any) -> Any:
 def submit_front(
     services: Services, session: Session, params: dict[str, Any], *, label: str | None,
     left_out: Collection[str] = (),
-) -> dict[str, Any]:  # fmt: skip
+) -> dict[str, object]:  # fmt: skip
     """Check a front's request against the robot and queue its job.
 
     Raises:
@@ -89,13 +91,12 @@ def submit_front(
     )
 
 
-def finished_front(session: Session, front_id: int) -> dict[str, Any]:
+def finished_front(session: Session, front_id: int) -> dict[str, object]:
     """The stored result of a front that succeeded (NotFoundError, else ConflictError)."""
     row = get_result_row(session, "front", front_id)
     if row.result is None:
-        state = job_of(session, front_id)["state"]
-        raise ConflictError(f"front {front_id} has no result (job state {state})")
-    result: dict[str, Any] = row.result
+        raise not_finished(session, front_id, f"front {front_id}")
+    result: dict[str, object] = row.result
     return result
 
 
@@ -113,12 +114,12 @@ def front_csv(result: Mapping[str, Any]) -> str:
     return buffer.getvalue()
 
 
-def _cell(value: Any) -> str:
+def _cell(value: object) -> str:
     # repr gives the shortest text that reads back as the same float.
     return repr(float(value)) if isinstance(value, float) else str(value)
 
 
-def front_point(result: Mapping[str, Any], pid: str) -> dict[str, Any]:
+def front_point(result: Mapping[str, Any], pid: str) -> dict[str, object]:
     """Point ``pid`` of a front (``p0``, ...) or its quintic reference (``quintic``).
 
     Raises:
@@ -145,7 +146,8 @@ def point_source(session: Session, front_id: int, pid: str) -> TrajectorySource:
 
     result = finished_front(session, front_id)
     front_point(result, pid)  # NotFoundError naming pid
-    block = (result.get("motions") or {}).get(pid)
+    motions = result.get("motions")
+    block = motions.get(pid) if isinstance(motions, dict) else None
     if block is None:
         raise ConflictError(f"front {front_id} was stored without the motion of {pid}")
     try:
@@ -172,7 +174,7 @@ def export_point(
     )
 
 
-def point_view(services: Services, session: Session, front_id: int, pid: str) -> dict[str, Any]:
+def point_view(services: Services, session: Session, front_id: int, pid: str) -> dict[str, object]:
     """Point ``pid`` and the viewer address that plays it (solid) beside the quintic at its
     duration (ghost): ``{"point", "viewer": {"enabled", "url", "path", "host", "port"}}``;
     ``viewer`` is ``{"enabled": false}`` when the viewer does not run. ``pid`` ``quintic``
@@ -220,7 +222,7 @@ def viewed_point(methods: tuple[str, str] | None) -> str:
 
 def point_arrays(
     arrays: Mapping[str, Any], result: Mapping[str, Any], pid: str, robot: Robot
-) -> dict[str, Any]:
+) -> dict[str, NDArray[np.generic]]:
     """The arrays of point ``pid`` and of the quintic at its duration, on the point's grid:
     ``t``, ``<pid>_*`` and ``quintic_*`` (the stored reference when its grid is the point's,
     else the quintic planned at the point's duration, as a front along the duration needs).
@@ -228,7 +230,7 @@ def point_arrays(
     Raises:
         NotFoundError: ``pid`` is not a point of the front (field ``pid``).
     """
-    from app.jobs.front_task import trajectory_arrays
+    from app.jobs.tasks.fronts import trajectory_arrays
     from app.planning.evaluation import PlanTask, evaluate_trajectory
     from app.planning.profiles import quintic
 

@@ -85,7 +85,7 @@ def _recording_name(session: Session, recording_id: int | None) -> str | None:
     return f"recording #{rec.id}" + (f" “{name}”" if name else "")
 
 
-def _why_none(comparison: Comparison, params: dict[str, Any]) -> str:
+def _why_none(comparison: Comparison, params: dict[str, object]) -> str:
     if params.get("template") is not None:
         return "no recorded human: the template was given inline, without its recording"
     conditions = comparison.result.get("conditions") or {}

@@ -1,9 +1,10 @@
 """The job service: the API process's side of background jobs.
 
-It creates job rows, builds each job's plain-data payload from the database and the file store,
-hands it to a ``JobRunner``, and is the only writer of job state: runner events go through one
-queue to one writer thread, which updates the rows (progress at most every ``progress_interval``
-seconds, state changes at once) and publishes each update to the SSE broker.
+It creates job rows, builds each job's plain-data payload (by its kind's record in
+``app.services.kinds``), hands it to a ``JobRunner``, and is the only writer of job state:
+runner events go through one queue to one writer thread, which updates the rows (progress at
+most every ``progress_interval`` seconds, state changes at once) and publishes each update to
+the SSE broker.
 
 Progress is stored and served structured (``app.progress.Progress``): the overall fraction, the
 stage, its units done of all, the best objective so far and a line for people.
@@ -32,140 +33,64 @@ import logging
 import queue
 import threading
 import time
-from collections.abc import Collection, Iterable
-from datetime import UTC, datetime
+from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db import crud
 from app.db.blobs import BlobStore
-from app.db.models import Analysis, JobRecord, utcnow
+from app.db.models import JobRecord, utcnow
 from app.errors import BioPlanError, storage_problem, without_paths
 from app.jobs.runner import JobEvent, JobRunner
+from app.kinds import KIND_PATHS
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
-from app.services import cohorts, recordings, robot_logs
+from app.services import recordings
 from app.services.broker import JobBroker
 from app.services.errors import ConflictError, NotFoundError, ServiceError
+from app.services.job_views import job_summary, job_to_dict
+from app.services.kinds import KINDS, KindContext, analysis_template
 from app.services.limits import JobLimits
 from app.services.robots import RobotCatalog
 
+__all__ = [
+    "KIND_PATHS",
+    "NO_PROGRESS",
+    "JobService",
+    "QueueFullError",
+    "job_summary",
+    "job_to_dict",
+]
+
 logger = logging.getLogger(__name__)
 
-#: Where each kind of job's result is served (``/api/<path>/<id>``).
-KIND_PATHS = {
-    "analysis": "analyses",
-    "pose": "poses",
-    "plan": "plans",
-    "simulation": "simulations",
-    "sweep": "sweeps",
-    "profiles": "profiles",
-    "cohort": "cohorts",
-    "identify": "identifications",
-    "front": "fronts",
-}
+
+class ProgressColumns(TypedDict):
+    """A job row's structured progress (``JobRecord`` columns of the same names)."""
+
+    progress: float
+    stage: str
+    done: int
+    of: int
+    best: float | None
+
 
 #: Structured progress of a job that has not reported any yet.
-NO_PROGRESS: dict[str, Any] = {"progress": 0.0, "stage": "", "done": 0, "of": 1, "best": None}
+NO_PROGRESS: ProgressColumns = {"progress": 0.0, "stage": "", "done": 0, "of": 1, "best": None}
 
 
-def _aware(value: datetime | None) -> datetime | None:
-    # SQLite drops the time zone; every time stored here is UTC.
-    if value is None or value.tzinfo is not None:
-        return value
-    return value.replace(tzinfo=UTC)
-
-
-def _seconds(job: JobRecord) -> tuple[float | None, float | None]:
-    """(queue time, run time so far or in all) [s] of a job."""
-    created, started = _aware(job.created_at), _aware(job.started_at)
-    finished = _aware(job.finished_at)
-    queue_s = None if started is None or created is None else (started - created).total_seconds()
-    run_s = None
-    if started is not None:
-        run_s = max(((finished or datetime.now(UTC)) - started).total_seconds(), 0.0)
-    return (None if queue_s is None else max(queue_s, 0.0)), run_s
-
-
-def job_to_dict(job: JobRecord) -> dict[str, Any]:
-    """The JSON form of a job (``app.api.schemas.Job``)."""
-    queue_s, run_s = _seconds(job)
-    return {
-        "id": job.id,
-        "kind": job.kind,
-        "state": job.state,
-        "progress": job.progress,
-        "stage": job.stage or "",
-        "done": job.done or 0,
-        "of": job.of or 1,
-        "best": job.best,
-        "message": without_paths(job.message) if job.message else job.message,
-        "error": without_paths(job.error) if job.error else job.error,
-        "attempts": job.attempts,
-        "params": job.params,
-        "label": job.label,
-        "created_at": _aware(job.created_at),
-        "started_at": _aware(job.started_at),
-        "finished_at": _aware(job.finished_at),
-        "queue_seconds": queue_s,
-        "run_seconds": run_s,
-        "result_url": f"/api/{KIND_PATHS.get(job.kind, job.kind)}/{job.id}",
-        "events_url": f"/api/jobs/{job.id}/events",
-    }
-
-
-def _about(kind: str, params: dict[str, Any]) -> str:
-    """One line saying what a job works on ("curtain_wall_6dof, 4 kg, 1 s, abs_work")."""
-    if kind in ("analysis", "pose"):
-        return f"recording #{params.get('recording_id')}"
-    if kind == "cohort":
-        groups = params.get("groups") or {}
-        n = sum(len(ids) for ids in groups.values())
-        return f"{len(groups)} groups ({', '.join(groups)}), {n} recordings"
-    if kind == "identify":
-        logs = len(params.get("log_ids") or ())
-        return f"{params.get('robot', '')}, {logs} log(s) -> {params.get('version', '')}"
-    parts = [str(params.get("robot", ""))]
-    if kind == "front":
-        if params.get("payload_mass") is not None:
-            parts.append(f"{params['payload_mass']:g} kg")
-        parts.append(" vs ".join(params.get("objectives") or ()))
-        parts.append(f"{params.get('points')} points")
-    elif kind == "sweep":
-        cells = len(params.get("durations") or ()) * len(params.get("payloads") or ())
-        parts.append(f"{cells} cells" if cells else "")
-        parts.append(", ".join(params.get("objectives") or ()))
-    else:
-        if params.get("payload") is not None:
-            parts.append(f"{params['payload']:g} kg")
-        if isinstance(params.get("duration"), int | float):
-            parts.append(f"{params['duration']:g} s")
-        parts.append(str(params.get("objective") or ""))
-    return ", ".join(p for p in parts if p)
-
-
-def job_summary(job: dict[str, Any]) -> dict[str, Any]:
-    """A job's drawer form (``app.api.schemas.JobSummary``) from its JSON form: no request
-    (it can be large: a template), but one line on what it works on and, for analysis and
-    pose jobs, the recording they read."""
-    params = job["params"]
-    summary = {k: v for k, v in job.items() if k != "params"}
-    summary["about"] = _about(job["kind"], params)
-    rid = params.get("recording_id")
-    summary["recording_id"] = rid if isinstance(rid, int) else None
-    return summary
-
-
-def _progress_columns(ev: JobEvent) -> dict[str, Any]:
+def _progress_columns(ev: JobEvent) -> dict[str, object]:
     """Job columns from a ``progress`` event's structured detail."""
-    detail = ev.detail or {}
+    detail = ev.detail
+    if not detail:
+        return {**NO_PROGRESS, "progress": float(ev.progress or 0.0), "message": ev.message}
     return {
-        "progress": float(detail.get("fraction", ev.progress or 0.0)),
-        "stage": str(detail.get("stage", ""))[:32],
-        "done": int(detail.get("done", 0)),
-        "of": int(detail.get("of", 1)),
-        "best": detail.get("best"),
+        "progress": detail["fraction"],
+        "stage": detail["stage"][:32],
+        "done": detail["done"],
+        "of": detail["of"],
+        "best": detail["best"],
         "message": ev.message,
     }
 
@@ -242,7 +167,7 @@ class JobService:
         self.progress_interval = progress_interval
         self.max_video_seconds = max_video_seconds
         self.scratch_dir = scratch_dir
-        self._events: queue.Queue[Any] = queue.Queue()
+        self._events: queue.Queue[object] = queue.Queue()  # JobEvents, then _STOP
         self._writer: threading.Thread | None = None
         self._closed = False
 
@@ -283,8 +208,8 @@ class JobService:
         self,
         *,
         kind: str,
-        params: dict[str, Any],
-        resource: dict[str, Any],
+        params: Mapping[str, object],
+        resource: Mapping[str, object],
         label: str | None = None,
         left_out: Collection[str] = (),
         bounded: bool = True,
@@ -306,7 +231,7 @@ class JobService:
             if limit is not None and crud.count_jobs(session=session, state="queued") >= limit:
                 raise QueueFullError(limit)
             job = crud.create_job(
-                session=session, kind=kind, params=params, resource=resource, label=label
+                session=session, kind=kind, params=params, resource=dict(resource), label=label
             )
             data = job_to_dict(job)
         with contextlib.suppress(OSError):  # a deleted job's, under a reused id
@@ -325,7 +250,7 @@ class JobService:
             if crud.count_jobs(session=session, state="queued") + jobs > self.max_queued:
                 raise QueueFullError(self.max_queued)
 
-    def cancel(self, job_id: int) -> dict[str, Any]:
+    def cancel(self, job_id: int) -> dict[str, object]:
         """Cancel a queued or running job.
 
         Returns:
@@ -342,7 +267,7 @@ class JobService:
         self._set_state(job_id, "cancelled", message="cancelled by request")
         return self.get(job_id)
 
-    def find(self, job_id: int) -> dict[str, Any] | None:
+    def find(self, job_id: int) -> dict[str, object] | None:
         """The job's JSON form, or None when there is no such job."""
         with self.sessions() as session:
             job = crud.get_job(session=session, job_id=job_id)
@@ -360,7 +285,7 @@ class JobService:
                     found[job_id] = job
             return [job_summary(job_to_dict(found[i])) for i in sorted(found, reverse=True)]
 
-    def get(self, job_id: int) -> dict[str, Any]:
+    def get(self, job_id: int) -> dict[str, object]:
         """The job's JSON form.
 
         Raises:
@@ -371,7 +296,7 @@ class JobService:
             raise NotFoundError(f"job {job_id} does not exist")
         return job
 
-    def log(self, job_id: int) -> dict[str, Any]:
+    def log(self, job_id: int) -> dict[str, object]:
         """A job's log: ``lines`` (its records at INFO and above, oldest first, paths cut to
         their last part), ``complete`` (the job ended: the log is all there is; while it is
         queued or running its log is not here yet) and ``state``.
@@ -462,43 +387,29 @@ class JobService:
     # payloads ---------------------------------------------------------------------------------
 
     @staticmethod
-    def analysis_template(session: Session, analysis_id: int) -> dict[str, Any]:
-        """The human template of a finished analysis.
+    def analysis_template(session: Session, analysis_id: int) -> dict[str, object]:
+        """The human template of a finished analysis (``app.services.kinds``).
 
         Raises:
             NotFoundError: no such analysis.
             ConflictError: it has no template (yet).
         """
-        row = session.get(Analysis, analysis_id)
-        if row is None:
-            raise NotFoundError(f"analysis {analysis_id} does not exist")
-        if row.template is None:
-            job = session.get(JobRecord, analysis_id)
-            state = "unknown" if job is None else job.state
-            raise ConflictError(f"analysis {analysis_id} has no template yet (job state {state})")
-        return row.template
+        return analysis_template(session, analysis_id)
 
-    def build_payload(self, session: Session, job: JobRecord) -> dict[str, Any]:
-        """The job function's input, from the request stored with the job."""
-        params = job.params
-        if job.kind == "analysis":
-            return recordings.analysis_payload(session, self.blobs, params)
-        if job.kind == "cohort":
-            return cohorts.cohort_payload(session, self.blobs, params)
-        if job.kind == "identify":
-            return robot_logs.identify_payload(session, self.blobs, self.robots, params)
-        if job.kind == "pose":
-            scratch = None if self.scratch_dir is None else str(self.scratch_dir)
-            return recordings.pose_payload(
-                session, self.blobs, params, max_seconds=self.max_video_seconds, scratch_dir=scratch
-            )
-        payload = dict(params)
-        payload["robot"] = self.robots.spec(session, params["robot"])
-        has_template = job.kind in ("plan", "simulation", "front")
-        if has_template and params.get("template_analysis_id") is not None:
-            payload["template"] = self.analysis_template(session, params["template_analysis_id"])
-        payload.pop("template_analysis_id", None)
-        return payload
+    def context(self) -> KindContext:
+        """What the kinds' payload builders and result stores use besides the session."""
+        return KindContext(
+            blobs=self.blobs,
+            robots=self.robots,
+            max_video_seconds=self.max_video_seconds,
+            scratch_dir=self.scratch_dir,
+            inline_result_bytes=self.inline_result_bytes,
+        )
+
+    def build_payload(self, session: Session, job: JobRecord) -> dict[str, object]:
+        """The job function's input, from the request stored with the job (its kind's
+        ``payload`` builder)."""
+        return KINDS[job.kind].payload(session, self.context(), job.params)
 
     def _dispatch(self, job_id: int) -> None:
         try:
@@ -562,49 +473,23 @@ class JobService:
             self._set_state(ev.job_id, "cancelled", message=ev.message or "cancelled")
 
     def _store(self, ev: JobEvent) -> None:
+        """Keep a finished job's output (its kind's ``store``), then start what follows it."""
         out = ev.result or {}
-        analyse: int | None = None
         try:
             with self.sessions() as session:
                 job = crud.get_job(session=session, job_id=ev.job_id)
                 if job is None:
                     return
-                if job.kind == "pose":
-                    if recordings.store_pose(session, self.blobs, ev.job_id, out):
-                        analyse = int(job.params["recording_id"])
-                    else:  # cancelled meanwhile (left as it is) or its video deleted
-                        vanished = "its video was deleted before the landmarks were stored"
-                        self._set_state(ev.job_id, "failed", error=vanished)
-                        return
-                elif job.kind == "identify":
-                    why = robot_logs.store_identification(
-                        session,
-                        self.blobs,
-                        self.robots,
-                        ev.job_id,
-                        out,
-                        inline_bytes=self.inline_result_bytes,
-                    )
-                    if why is not None:
-                        self._set_state(ev.job_id, "failed", error=f"not stored: {why}")
-                        return
-                else:
-                    crud.store_result(
-                        session=session,
-                        job_id=ev.job_id,
-                        kind=job.kind,
-                        result=out["result"],
-                        arrays=out.get("arrays"),
-                        template=out.get("template"),
-                        blobs=self.blobs,
-                        inline_bytes=self.inline_result_bytes,
-                    )
+                stored = KINDS[job.kind].store(session, self.context(), job, out)
         except Exception as exc:
             logger.exception("cannot store the result of job %d", ev.job_id)
             self._set_state(ev.job_id, "failed", error=f"cannot store the result: {exc}")
             return
+        if stored.error is not None:
+            self._set_state(ev.job_id, "failed", error=stored.error)
+            return
         self._publish(ev.job_id)
-        self._analyse_after_pose(analyse)
+        self._analyse_after_pose(stored.analyse_recording)
 
     def _analyse_after_pose(self, recording_id: int | None) -> None:
         """Analyse a recording once its video became pose (with the options of its newest

@@ -8,7 +8,7 @@ variable that sets it, before any job is queued.
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,7 +44,9 @@ class JobLimits:
             cells=settings.max_sweep_cells,
         )
 
-    def fit(self, params: dict[str, Any], left_out: Collection[str] = ()) -> dict[str, Any]:
+    def fit(
+        self, params: Mapping[str, object], left_out: Collection[str] = ()
+    ) -> dict[str, object]:
         """``params`` with each field the request ``left_out`` lowered to its cap (a server
         capped below a default still takes a request that does not ask for more), then
         checked.
@@ -60,7 +62,7 @@ class JobLimits:
         self.check(out)
         return out
 
-    def check(self, params: dict[str, Any]) -> None:
+    def check(self, params: Mapping[str, object]) -> None:
         """Refuse ``params`` (a job's request) that ask for more than a cap.
 
         Raises:
@@ -85,7 +87,7 @@ _ENV = {
 }
 
 
-def _cells(params: dict[str, Any]) -> int | None:
+def _cells(params: Mapping[str, object]) -> int | None:
     grid = [params.get(k) for k in ("durations", "payloads", "objectives")]
     if not all(isinstance(g, list) for g in grid):
         return None

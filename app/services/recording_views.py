@@ -10,6 +10,7 @@ min/max-downsampled here for plotting.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -18,14 +19,14 @@ from sqlalchemy.orm import Session
 from app.analysis.downsample import minmax_downsample
 from app.db import crud
 from app.db.arrays import decode_array
-from app.db.models import PoseExtraction, RecordingFile, RecordingSession
+from app.db.models import JobRecord, PoseExtraction, RecordingFile, RecordingSession
 from app.planning.human_template import HumanTemplate
 from app.services.errors import NotFoundError
 from app.services.jobs import job_to_dict
 from app.services.recordings import get_recording
 
 
-def summary(rec: RecordingSession) -> dict[str, Any]:
+def summary(rec: RecordingSession) -> dict[str, object]:
     """The list's fields of a recording (the files the user uploaded)."""
     uploaded = [f for f in rec.files if not (f.role == "recording" and f.parent_id is not None)]
     return {
@@ -44,7 +45,7 @@ def summary(rec: RecordingSession) -> dict[str, Any]:
     }
 
 
-def rate_check(rec: RecordingSession, f: RecordingFile) -> dict[str, Any] | None:
+def rate_check(rec: RecordingSession, f: RecordingFile) -> dict[str, object] | None:
     """The reader's verdict on a file's EMG rate, with the request that applies the fix."""
     check = f.file_metadata.get("rate_check")
     if not isinstance(check, dict):
@@ -60,7 +61,7 @@ def rate_check(rec: RecordingSession, f: RecordingFile) -> dict[str, Any] | None
     }
 
 
-def _channels(f: RecordingFile, excluded: set[str]) -> list[dict[str, Any]]:
+def _channels(f: RecordingFile, excluded: set[str]) -> list[dict[str, object]]:
     flat = {str(n) for n in f.file_metadata.get("flat_channels", [])}
     return [
         {
@@ -81,14 +82,19 @@ def _channels(f: RecordingFile, excluded: set[str]) -> list[dict[str, Any]]:
     ]
 
 
-def _pose(f: RecordingFile, jobs: dict[int, Any], results: dict[int, Any]) -> dict[str, Any] | None:
+def _pose(
+    f: RecordingFile,
+    jobs: Mapping[int, JobRecord],
+    results: Mapping[int, dict[str, object] | None],
+) -> dict[str, object] | None:
+    """The pose extraction of video file ``f``: its newest job and that job's result."""
     job = jobs.get(f.id)
     if f.role != "video" or job is None:
         return None
     return {"job": job_to_dict(job), "result": results.get(job.id)}
 
 
-def recording_detail(session: Session, rec: RecordingSession) -> dict[str, Any]:
+def recording_detail(session: Session, rec: RecordingSession) -> dict[str, object]:
     """The JSON of ``GET /api/recordings/{id}`` (``app.api.schemas.RecordingDetail``)."""
     excluded = {str(n).lower() for n in rec.options.get("exclude_channels", [])}
     jobs = crud.pose_jobs(session=session, recording_id=rec.id)
@@ -96,9 +102,16 @@ def recording_detail(session: Session, rec: RecordingSession) -> dict[str, Any]:
         j.id: (row.result if (row := session.get(PoseExtraction, j.id)) is not None else None)
         for j in jobs.values()
     }
-    files: list[dict[str, Any]] = []
+    files: list[dict[str, object]] = []
+    checks: list[dict[str, object]] = []
+    warnings: list[str] = []
     for f in rec.files:
         video = f.file_metadata.get("video") if f.role == "video" else None
+        said = [str(w) for w in f.file_metadata.get("warnings", [])]
+        check = rate_check(rec, f)
+        if check is not None:
+            checks.append(check)
+        warnings += [f"{f.original_name}: {w}" for w in said]
         files.append(
             {
                 "id": f.id,
@@ -109,15 +122,13 @@ def recording_detail(session: Session, rec: RecordingSession) -> dict[str, Any]:
                 "metadata": f.file_metadata,
                 "role": f.role,
                 "parent_id": f.parent_id,
-                "warnings": [str(w) for w in f.file_metadata.get("warnings", [])],
-                "rate_check": rate_check(rec, f),
+                "warnings": said,
+                "rate_check": check,
                 "video": video,
                 "pose": _pose(f, jobs, results),
                 "channels": _channels(f, excluded),
             }
         )
-    checks = [x["rate_check"] for x in files if x["rate_check"] is not None]
-    warnings = [f"{x['original_name']}: {w}" for x in files for w in x["warnings"]]
     has_frames = any(f.role == "video" for f in rec.files) and bool(
         crud.skeleton_frames(session=session, recording_id=rec.id)
     )
@@ -133,7 +144,7 @@ def recording_detail(session: Session, rec: RecordingSession) -> dict[str, Any]:
     }
 
 
-def analysis_summary(result: dict[str, Any] | None) -> dict[str, Any] | None:
+def analysis_summary(result: Mapping[str, Any] | None) -> dict[str, object] | None:
     """Template origin, lifts and every warning of a finished analysis (None before)."""
     if result is None:
         return None
@@ -177,7 +188,7 @@ def signals(
     points: int,
     t0: float | None = None,
     t1: float | None = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """A recording's signals for plotting, min/max-downsampled to at most ``points`` samples
     per series, within ``[t0, t1]`` [s] when given.
 

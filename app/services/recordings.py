@@ -72,7 +72,7 @@ def is_video_upload(name: str, data: bytes) -> bool:
 def parse_upload(
     name: str,
     data: bytes,
-    options: dict[str, Any],
+    options: dict[str, object],
     sidecars: dict[str, bytes] | None = None,
 ) -> crud.ParsedFile:
     """Read one uploaded file (format detected from its content).
@@ -260,7 +260,7 @@ def parse_session(
 
 
 def _parse_one(
-    u: Upload, options: dict[str, Any], shared: bool, max_video_seconds: float
+    u: Upload, options: dict[str, object], shared: bool, max_video_seconds: float
 ) -> crud.ParsedFile:
     if u.role == "sidecar":
         return crud.ParsedFile(name=u.name, data=u.data, format="bids_sidecar", role="sidecar")
@@ -300,8 +300,8 @@ def store_recording(
     session: Session,
     blobs: BlobStore,
     files: Sequence[tuple[str, bytes]],
-    meta: dict[str, Any],
-    options: dict[str, Any],
+    meta: Mapping[str, object],
+    options: Mapping[str, object],
     session_mode: str = "separate",
     max_video_seconds: float = MAX_VIDEO_SECONDS,
 ) -> RecordingSession:
@@ -326,20 +326,20 @@ def store_recording(
     uploads = classify_uploads(files)
     if not any(u.role in ("recording", "video") for u in uploads):
         raise ServiceError("the upload holds sidecars only: send the recordings", field="files")
-    parsed = parse_session(uploads, options, max_video_seconds=max_video_seconds)
-    meta, options = _condition_from_names(uploads, meta, options)
+    parsed = parse_session(uploads, dict(options), max_video_seconds=max_video_seconds)
+    named, stored = _condition_from_names(uploads, dict(meta), dict(options))
     rec = crud.create_recording(
         session=session,
         blobs=blobs,
-        meta={**meta, "options": options, "session_mode": session_mode},
+        meta={**named, "options": stored, "session_mode": session_mode},
         files=parsed,
     )
     return _loaded(session, rec.id)
 
 
 def _condition_from_names(
-    uploads: Sequence[Upload], meta: dict[str, Any], options: dict[str, Any]
-) -> tuple[dict[str, Any], dict[str, Any]]:
+    uploads: Sequence[Upload], meta: dict[str, object], options: dict[str, object]
+) -> tuple[dict[str, object], dict[str, object]]:
     """The condition named by the files (``app.recordings.CONDITION_RULE``) when the user gave
     none; where it came from is kept in ``options["condition_from"]`` for the page."""
     if meta.get("condition"):
@@ -371,7 +371,7 @@ def is_pose_file(f: RecordingFile) -> bool:
     return f.role == "recording" and f.parent is not None and f.parent.role == "video"
 
 
-def file_read_options(f: RecordingFile, options: Mapping[str, Any]) -> dict[str, Any]:
+def file_read_options(f: RecordingFile, options: Mapping[str, Any]) -> dict[str, object]:
     """Reader options of one stored recording file: the session's (muscle map entries naming
     its channels only); a video's landmarks are MediaPipe JSON that states its own timing."""
     if is_pose_file(f):
@@ -455,7 +455,7 @@ def update_recording(
     reparsed = _reparse(rec, options, blobs) if reread else {}
     if "condition" in changes:  # the user's own now, not the file names'
         options.pop("condition_from", None)
-    values: dict[str, Any] = {k: changes[k] for k in _META_FIELDS if k in changes}
+    values: dict[str, object] = {k: changes[k] for k in _META_FIELDS if k in changes}
     if changes.get("session") is not None:
         values["session_mode"] = changes["session"]
     values["options"] = options
@@ -503,7 +503,7 @@ def analysis_params(session: Session, request: dict[str, Any]) -> dict[str, Any]
         ConflictError: its video is still being turned into pose (``job``: that pose job), or
             it has nothing to analyse (its only video's pose extraction failed).
     """
-    from app.services.jobs import job_to_dict  # jobs.py builds payloads from this module
+    from app.services.job_views import job_to_dict
 
     rid = request["recording_id"]
     rec = crud.get_recording(session=session, recording_id=rid)
@@ -534,7 +534,7 @@ def analysis_params(session: Session, request: dict[str, Any]) -> dict[str, Any]
     return params
 
 
-def rerun_params(session: Session, recording_id: int) -> dict[str, Any]:
+def rerun_params(session: Session, recording_id: int) -> dict[str, object]:
     """Options to analyse a recording again after a change: those of its newest analysis,
     except the ones the recording itself holds (taken as they are now)."""
     newest = session.scalars(
@@ -603,11 +603,11 @@ def videos_without_pose(rec: RecordingSession) -> list[RecordingFile]:
 def pose_payload(
     session: Session,
     blobs: BlobStore,
-    params: dict[str, Any],
+    params: dict[str, object],
     *,
     max_seconds: float,
     scratch_dir: str | None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """A pose job's input (``app.jobs.tasks.extract_pose_job``).
 
     Raises:
@@ -628,13 +628,13 @@ def pose_payload(
     }
 
 
-def skeleton_frame_list(session: Session, recording_id: int) -> list[dict[str, Any]]:
+def skeleton_frame_list(session: Session, recording_id: int) -> list[dict[str, object]]:
     """The recording's skeleton frames (``GET /api/recordings/{id}/frames``), each with whom it
     shows as its pose extraction decided (person 0 = the tracked person, >0 someone or
     something else, -1 unknown; quality 0-1; note in words), None where the extraction
     predates these labels."""
     jobs = crud.pose_jobs(session=session, recording_id=recording_id)
-    labels: dict[tuple[int, int], dict[str, Any]] = {}
+    labels: dict[tuple[int, int], dict[str, object]] = {}
     for file_id, job in jobs.items():
         row = session.get(PoseExtraction, job.id)
         for s in ((row.result or {}).get("skeletons") or []) if row is not None else []:
@@ -704,7 +704,7 @@ def list_recordings(
     q: str | None = None,
     created_after: datetime | None = None,
     created_before: datetime | None = None,
-) -> tuple[list[dict[str, Any]], int]:
+) -> tuple[list[dict[str, object]], int]:
     """A page of recording summaries, newest first, and how many match in all (``q``: text in
     names and notes; dates in UTC)."""
     return crud.list_recording_summaries(

@@ -235,6 +235,67 @@ def export_file(
     )
 
 
+def _ros_options(
+    fmt: str, *, goal: bool, topic: str | None, from_position: str | None
+) -> list[float] | None:
+    """The ROS 2 options checked for the format ``fmt``; returns ``from_position`` (degrees,
+    comma separated) as (n,) joint positions [rad], or None.
+
+    Raises:
+        ServiceError: a bad option, naming its field.
+    """
+    from app.planning.export import check_ros_options
+
+    start_from = None
+    if from_position is not None:
+        try:
+            start_from = [math.radians(float(v)) for v in from_position.split(",")]
+        except ValueError:
+            raise ServiceError(
+                f"from_position '{from_position}': expected joint positions in degrees "
+                "separated by commas",
+                field="from_position",
+            ) from None
+    try:
+        check_ros_options(fmt, goal=goal, topic=topic, from_position=start_from)
+    except BioPlanError as exc:
+        raise ServiceError(str(exc), field=_export_field(str(exc))) from None
+    return start_from
+
+
+def _export_rate(
+    motion: Any, fmt: str, *, rate: float | None, samples: int | None, max_samples: int | None
+) -> float | None:
+    """The export's sample rate [Hz]: ``rate``, or ``samples`` samples over the motion; the
+    file's size checked against ``max_samples`` before anything is sampled.
+
+    Raises:
+        ServiceError: both given, or the file too large (naming ``samples`` or ``rate``).
+    """
+    from app.planning.export import check_export_size, export_sample_limit
+
+    try:
+        if samples is not None:
+            if rate is not None:
+                raise ServiceError("give rate or samples, not both", field="samples")
+            joints = len(motion.joint_names)
+            limit = None if max_samples is None else export_sample_limit(joints, max_samples)
+            if limit is not None and samples > limit:
+                raise ServiceError(
+                    f"samples {samples} exceeds the limit {limit} for {joints} joints "
+                    "(BIOPLAN_MAX_EXPORT_SAMPLES)",
+                    field="samples",
+                )
+            rate = (samples - 1) / motion.duration
+        check_export_size(motion, fmt, rate, max_samples)
+    except ServiceError:
+        raise
+    except BioPlanError as exc:
+        field = "samples" if samples is not None else _export_field(str(exc))
+        raise ServiceError(str(exc), field=field) from None
+    return rate
+
+
 def export_trajectory(
     session: Session,
     robots: RobotCatalog,
@@ -261,50 +322,12 @@ def export_trajectory(
     ``goal``, ``topic`` and ``from_position`` (degrees, comma separated) are the ROS 2 options
     (a ServiceError naming them)."""
     from app.jobs.tasks import robot_from_spec
-    from app.planning.export import (
-        ExportRefused,
-        check_export_size,
-        check_ros_options,
-        export_sample_limit,
-        export_stream,
-    )
+    from app.planning.export import ExportRefused, export_stream
 
-    start_from = None
-    if from_position is not None:
-        try:
-            start_from = [math.radians(float(v)) for v in from_position.split(",")]
-        except ValueError:
-            raise ServiceError(
-                f"from_position '{from_position}': expected joint positions in degrees "
-                "separated by commas",
-                field="from_position",
-            ) from None
-    try:
-        check_ros_options(fmt, goal=goal, topic=topic, from_position=start_from)
-    except BioPlanError as exc:
-        raise ServiceError(str(exc), field=_export_field(str(exc))) from None
-
+    start_from = _ros_options(fmt, goal=goal, topic=topic, from_position=from_position)
     found = source()
     motion = found.motion
-    try:
-        if samples is not None:
-            if rate is not None:
-                raise ServiceError("give rate or samples, not both", field="samples")
-            joints = len(motion.joint_names)
-            limit = None if max_samples is None else export_sample_limit(joints, max_samples)
-            if limit is not None and samples > limit:
-                raise ServiceError(
-                    f"samples {samples} exceeds the limit {limit} for {joints} joints "
-                    "(BIOPLAN_MAX_EXPORT_SAMPLES)",
-                    field="samples",
-                )
-            rate = (samples - 1) / motion.duration
-        check_export_size(motion, fmt, rate, max_samples)
-    except ServiceError:
-        raise
-    except BioPlanError as exc:
-        field = "samples" if samples is not None else _export_field(str(exc))
-        raise ServiceError(str(exc), field=field) from None
+    rate = _export_rate(motion, fmt, rate=rate, samples=samples, max_samples=max_samples)
     spec = robots.spec(session, found.robot)
     payload = motion.conditions.get("payload")
     try:
@@ -356,3 +379,20 @@ def delete_job(session: Session, blobs: BlobStore, job_id: int) -> bool:
     """Delete a job with its result (and the result's file when nothing else refers to it);
     False when there is no such job."""
     return crud.delete_job(session=session, blobs=blobs, job_id=job_id)
+
+
+def with_joint_power(curves: dict[str, Any], comparison: Any, points: int) -> dict[str, Any]:
+    """``curves`` (``Comparison.curves(points=points)``) with each trajectory's per-joint power
+    ``joint_power`` [W] and cumulative energy ``joint_energy`` [J], (T, n) lists on the same
+    samples: integrated on the comparison's full grid, then decimated as the curves are, so the
+    page draws them and computes nothing."""
+    from app.planning.curves import joint_power
+
+    t = np.asarray(comparison.t, dtype=np.float64)
+    n = len(t)
+    idx = np.unique(np.linspace(0, n - 1, min(points, n)).round().astype(int))
+    for label in ("standard", "optimized"):
+        derived = joint_power(t, comparison.tau[label], comparison.qd[label])
+        curves[label]["joint_power"] = json_safe(derived.power[idx].tolist())
+        curves[label]["joint_energy"] = json_safe(derived.energy[idx].tolist())
+    return curves

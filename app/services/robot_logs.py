@@ -20,6 +20,7 @@ from app.db.models import IdentificationRecord, JobRecord, Plan, RobotLogRecord
 from app.errors import BioPlanError
 from app.jobs import tasks
 from app.services.errors import ConflictError, NotFoundError, ParseLimitError, ServiceError
+from app.services.job_views import not_finished
 from app.services.robots import RobotCatalog
 from app.services.sandbox import read_untrusted
 
@@ -38,7 +39,7 @@ _SUMMARY_KEYS = ("joints", "abs_work", "electrical_energy", "filter", "units")
 MIN_IDENTIFY_SECONDS = 2.0
 
 
-def log_to_dict(row: RobotLogRecord) -> dict[str, Any]:
+def log_to_dict(row: RobotLogRecord) -> dict[str, object]:
     """The JSON form of a stored log (``app.api.schemas.RobotLogOut``)."""
     return {
         "id": row.id,
@@ -71,7 +72,7 @@ def _run(payload: dict[str, Any], name: str) -> dict[str, Any]:
         raise
     except BioPlanError as exc:
         raise _refused(name, exc) from None
-    result: dict[str, Any] = out["result"]
+    result: dict[str, object] = out["result"]
     return result
 
 
@@ -84,7 +85,7 @@ def upload_log(
     file: tuple[str, bytes],
     topic: str | None = None,
     label: str | None = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Read a robot log, match it to ``robot``'s joints, validate it against the robot's model,
     then store it (bytes and row together); a log refused at any step stores nothing.
 
@@ -134,7 +135,7 @@ def get_log(session: Session, log_id: int) -> RobotLogRecord:
     return row
 
 
-def list_logs(session: Session, robot: str | None = None) -> list[dict[str, Any]]:
+def list_logs(session: Session, robot: str | None = None) -> list[dict[str, object]]:
     """Stored logs (JSON form), newest first (of one robot when ``robot`` is given)."""
     return [log_to_dict(r) for r in crud.list_robot_logs(session=session, robot=robot)]
 
@@ -149,18 +150,14 @@ def delete_log(session: Session, blobs: BlobStore, log_id: int) -> None:
         raise NotFoundError(f"robot log {log_id} does not exist")
 
 
-def _plan_motion(session: Session, plan_id: int) -> dict[str, Any]:
+def _plan_motion(session: Session, plan_id: int) -> dict[str, object]:
     row = session.get(Plan, plan_id)
     if row is None:
         raise NotFoundError(f"plan {plan_id} does not exist", field="plan")
     motion = (row.result or {}).get("motion")
     if not isinstance(motion, dict):
-        job = session.get(JobRecord, plan_id)
-        state = "unknown" if job is None else job.state
-        raise ConflictError(
-            f"plan {plan_id} has no planned motion (job state {state}): expected a finished plan",
-            field="plan",
-        )
+        raise not_finished(session, plan_id, f"plan {plan_id}", lacks="no planned motion",
+                           expected="a finished plan", field="plan")  # fmt: skip
     return motion
 
 
@@ -173,7 +170,7 @@ def validate_stored(
     robot: str | None = None,
     plan_id: int | None = None,
     cutoff_hz: float | None = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Measured against predicted torque of a stored log, with the plotted series.
 
     Args:
@@ -211,7 +208,7 @@ def identify_params(
     validate_fraction: float,
     cutoff_hz: float | None,
     identify_payload: bool,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The request of an identification job, checked before anything is stored.
 
     Raises:
@@ -270,7 +267,7 @@ def _free_name(session: Session, robots: RobotCatalog, stem: str) -> str:
 
 def identify_payload(
     session: Session, blobs: BlobStore, robots: RobotCatalog, params: dict[str, Any]
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The identify job's input: the robot's spec and the logs' bytes."""
     logs = []
     topic = None

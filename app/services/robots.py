@@ -13,7 +13,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from sqlalchemy.orm import Session
 
@@ -22,6 +22,7 @@ from app.db.blobs import BlobStore
 from app.db.models import RobotRecord
 from app.errors import BioPlanError
 from app.jobs import tasks
+from app.jobs.tasks import RobotSpec
 from app.services.errors import (
     ConflictError,
     NotFoundError,
@@ -33,7 +34,7 @@ from app.services.sandbox import read_untrusted
 
 if TYPE_CHECKING:
     from app.config import Settings
-    from app.planning.robots._package import MeshLimits
+    from app.planning.robots import MeshLimits
 
 _MB = 1024 * 1024
 #: The settings behind each ``MeshLimits`` cap, named in a refusal.
@@ -75,7 +76,7 @@ class UploadLimits:
 
 
 def _mesh_limits() -> MeshLimits:
-    from app.planning.robots._package import MeshLimits
+    from app.planning.robots import MeshLimits
 
     return MeshLimits()
 
@@ -83,7 +84,7 @@ def _mesh_limits() -> MeshLimits:
 def mesh_limits(settings: Settings) -> MeshLimits:
     """The mesh caps of ``settings`` (``BIOPLAN_MAX_MESH_MB``, ``BIOPLAN_MAX_MESH_TRIANGLES``,
     ``BIOPLAN_MAX_ROBOT_UNPACKED_MB``)."""
-    from app.planning.robots._package import MeshLimits
+    from app.planning.robots import MeshLimits
 
     return MeshLimits(
         max_bytes=int(settings.max_mesh_mb * _MB),
@@ -174,7 +175,7 @@ _OPTION_KEYS = (
 )
 
 
-def uploaded_robot(row: RobotRecord) -> dict[str, Any]:
+def uploaded_robot(row: RobotRecord) -> dict[str, object]:
     """The JSON form of an uploaded robot (``app.api.schemas.RobotInfo``)."""
     out = dict(row.description)
     out.update(
@@ -264,7 +265,7 @@ class RobotCatalog:
         self.blobs = blobs
         #: where uploaded robots' folders are kept (meshes for the viewer); in the data folder.
         self.files_dir = files_dir if files_dir is not None else blobs.root.parent / "robots"
-        self._described: dict[str, dict[str, Any]] = {}
+        self._described: dict[str, dict[str, object]] = {}
         self._lock = threading.Lock()
 
     @functools.cached_property
@@ -272,7 +273,7 @@ class RobotCatalog:
         """Names of the built-in robots."""
         return tasks.builtin_robots()
 
-    def describe_builtin(self, name: str) -> dict[str, Any]:
+    def describe_builtin(self, name: str) -> dict[str, object]:
         """Joints and limits of a built-in robot (loaded once, then cached)."""
         with self._lock:
             cached = self._described.get(name)
@@ -282,12 +283,12 @@ class RobotCatalog:
                 self._described[name] = cached
         return dict(cached)
 
-    def all(self, session: Session) -> list[dict[str, Any]]:
+    def all(self, session: Session) -> list[dict[str, object]]:
         """Built-in robots first, then uploaded ones."""
         out = [self.describe_builtin(name) for name in self.builtin]
         return out + [uploaded_robot(r) for r in crud.list_robots(session=session)]
 
-    def describe(self, session: Session, name: str) -> dict[str, Any]:
+    def describe(self, session: Session, name: str) -> dict[str, object]:
         """One robot's description.
 
         Raises:
@@ -312,13 +313,14 @@ class RobotCatalog:
             UnknownRobotError: no such robot.
         """
         if name in self.builtin:
-            return list(self.describe_builtin(name)["joint_names"])
+            names = self.describe_builtin(name)["joint_names"]
+            return [str(n) for n in names] if isinstance(names, list) else []
         row = crud.get_robot(session=session, name=name)
         if row is None:
             raise self._unknown(session, name)
         return list(row.description.get("joint_names", []))
 
-    def spec(self, session: Session, name: str) -> dict[str, Any]:
+    def spec(self, session: Session, name: str) -> RobotSpec:
         """The plain-data robot spec for a job: a built-in name, or the uploaded files.
 
         Raises:
@@ -346,7 +348,7 @@ class RobotCatalog:
             **{k: options.get(k) for k in _OPTION_KEYS},
         }
 
-    def folder(self, spec: dict[str, Any]) -> Path | None:
+    def folder(self, spec: RobotSpec) -> Path | None:
         """The kept folder of an uploaded robot's files (None for a built-in robot).
 
         Named by a digest of the files and options, so the same upload reuses it and a
@@ -375,9 +377,9 @@ class RobotCatalog:
         payload: float | None,
         package: tuple[str, bytes] | None = None,
         sidecar: tuple[str, bytes] | None = None,
-        options: dict[str, Any] | None = None,
+        options: dict[str, object] | None = None,
         limits: UploadLimits | None = None,
-    ) -> dict[str, Any]:
+    ) -> dict[str, object]:
         """Store a robot model after checking that the planning package can load it.
 
         Args:
@@ -452,7 +454,7 @@ class RobotCatalog:
             ServiceError: a mesh or the total past a cap (422 naming the member, the cap and
                 its setting), or a zip that is not one.
         """
-        from app.planning.robots._package import MeshLimitError, check_package_zip
+        from app.planning.robots import MeshLimitError, check_package_zip
 
         name = package[0]
         check = functools.partial(check_package_zip, name=name, limits=limits.mesh)
@@ -483,8 +485,8 @@ class RobotCatalog:
 
     @staticmethod
     def _package_members(
-        package: tuple[str, bytes], opts: dict[str, Any], need_urdf: bool, need_mjcf: bool
-    ) -> dict[str, Any]:
+        package: tuple[str, bytes], opts: dict[str, object], need_urdf: bool, need_mjcf: bool
+    ) -> dict[str, object]:
         """The package's model and sidecar members: named ones, else its only URDF/MJCF/YAML."""
         import zipfile
 

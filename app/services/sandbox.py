@@ -16,13 +16,12 @@ bad input, anything else for a bug) is raised again here unchanged, so a reader'
 from __future__ import annotations
 
 import contextlib
-import importlib
 import multiprocessing as mp
 import os
 import resource
 from collections.abc import Callable
 from multiprocessing.connection import Connection
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from app.jobs.runner import address_space, ensure_forkserver
 from app.services.errors import ParseLimitError
@@ -35,7 +34,9 @@ NICENESS = 10
 REAP_SECONDS = 5.0
 
 
-def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extra: int) -> None:
+def _child(
+    send: Connection, fn: Callable[..., object], args: tuple[object, ...], extra: int
+) -> None:
     """Run ``fn(*args)`` with at most ``extra`` bytes more address space; send (ok, value)."""
     from app.jobs.tasks import preload
 
@@ -46,7 +47,8 @@ def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extr
     preload()
     # Arrow's thread pools would reserve a stack per core, and its default allocator whole
     # arenas, inside the limit: one thread each, and plain malloc, so the limit counts data.
-    pyarrow = importlib.import_module("pyarrow")
+    import pyarrow
+
     pyarrow.set_cpu_count(1)
     pyarrow.set_io_thread_count(1)
     pyarrow.set_memory_pool(pyarrow.system_memory_pool())
@@ -59,7 +61,7 @@ def _child(send: Connection, fn: Callable[..., Any], args: tuple[Any, ...], extr
         limit = min(limit, hard)
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
     try:
-        outcome: tuple[bool, Any] = (True, fn(*args))
+        outcome: tuple[bool, object] = (True, fn(*args))
     except MemoryError:
         outcome = (False, MemoryError())
     except BaseException as exc:  # sent back whole: the parent raises it again
@@ -99,7 +101,7 @@ class ParseSandbox:
         self.memory_mb = memory_mb
         self.seconds = seconds
 
-    def run(self, fn: Callable[..., T], *args: Any, what: str) -> T:
+    def run(self, fn: Callable[..., T], *args: object, what: str) -> T:
         """``fn(*args)`` in a child; ``what`` names the file in a refusal.
 
         Raises:
@@ -160,7 +162,7 @@ def release(sandbox: ParseSandbox) -> None:
         _active = None
 
 
-def read_untrusted(fn: Callable[..., T], *args: Any, what: str) -> T:
+def read_untrusted(fn: Callable[..., T], *args: object, what: str) -> T:
     """``fn(*args)`` through the active sandbox, or in this process when there is none (the
     library and the CLI, which read the user's own files)."""
     if _active is None:

@@ -22,14 +22,12 @@ from numpy.typing import NDArray
 
 from app import names
 from app.jsonsafe import json_safe
+from app.options import OptionsError
 from app.planning.energy import EnergyMetrics, Floors, improvement_pct
 from app.progress import ProgressFn, report, within
+from app.simulation.options import SimulationOptions
 from app.simulation.tracking import (
-    DEFAULT_DAMPING_RATIO,
-    DEFAULT_NATURAL_FREQUENCY_HZ,
-    DEFAULT_TIMESTEP,
     INTEGRATOR,
-    Feedforward,
     SimulationError,
     TrackingResult,
     simulate_batch,
@@ -386,25 +384,12 @@ def _report_samples(duration: float, timestep: float) -> int:
 
 def simulate_comparison(
     robot: Robot,
+    options: SimulationOptions | None = None,
     *,
-    duration: float = 1.0,
-    objective: str = "abs_work",
-    seed: int = 0,
     task: PlanTask | None = None,
     template: HumanTemplate | None = None,
-    particles: int = 40,
-    iterations: int = 100,
-    peak_angle_deg: float | None = None,
-    methods: Sequence[str] | None = None,
-    human_constraint: str = "peak",
-    no_reversal: bool = True,
-    n_intervals: int | None = None,
-    converge: bool = False,
-    timestep: float = DEFAULT_TIMESTEP,
-    feedforward: Feedforward = "pinocchio",
-    natural_frequency_hz: float = DEFAULT_NATURAL_FREQUENCY_HZ,
-    damping_ratio: float = DEFAULT_DAMPING_RATIO,
     progress: ProgressFn | None = None,
+    **overrides: Any,
 ) -> SimulationResult:
     """Plan a task with the chosen methods, then simulate every trajectory in MuJoCo.
 
@@ -414,26 +399,13 @@ def simulate_comparison(
 
     Args:
         robot: the robot with its payload (``load_robot(name, payload=kg)``); needs an MJCF.
-        duration: motion time [s].
-        objective: the metric the planner minimises.
-        seed: PSO seed.
+        options: every option (``SimulationOptions``: the planning ones as ``plan``'s, the
+            time step [s], feed-forward and PD gains); None: the defaults.
         task: start/goal; defaults to the robot's curl task.
         template: the human template (default: the paper's).
-        particles: PSO swarm size.
-        iterations: PSO iterations.
-        peak_angle_deg: overrides the template's elbow peak-velocity angle [deg].
-        methods: methods to plan and simulate (None: ``plan``'s default, quintic and paper).
-        human_constraint: ``human_optimal``'s constraint (``peak``, ``phases``, ``none``).
-        no_reversal: the optimal-control methods never move a joint against its stroke.
-        n_intervals: constant-jerk intervals of the optimal-control transcription (None:
-            ``plan``'s default).
-        converge: refine every optimal-control result until its objective changes by less
-            than 0.1 % (``plan(converge=True)``).
-        timestep: simulation step [s].
-        feedforward: ``"pinocchio"``, ``"mujoco"`` or ``"none"``.
-        natural_frequency_hz: PD bandwidth [Hz].
-        damping_ratio: PD damping ratio [-].
         progress: called with a ``Progress`` (stages ``pso``, ``optimal_control``, ``simulate``).
+        **overrides: options by name over ``options`` (``duration=2.0``); an unknown name or
+            a value out of range is a SimulationError naming it.
 
     Returns:
         The comparison.
@@ -443,30 +415,19 @@ def simulate_comparison(
         PlanningError: the task cannot be planned.
         SimulationError: the simulation ran away or the input is bad.
     """
-    from app.planning.methods import DEFAULT_METHODS
-    from app.planning.optimal import DEFAULT_INTERVALS
+    from app.planning.options import MethodOptions, PlanOptions
     from app.planning.planner import plan
 
     _check_mjcf(robot)
-    if not (math.isfinite(duration) and duration > 0):
-        raise SimulationError(f"duration must be a positive number of seconds, got {duration}")
+    opts = _simulation_options(options, overrides)
+    duration, timestep = opts.duration, opts.timestep
+    shared = {k: v for k, v in opts.to_dict().items() if k in MethodOptions.names()}
     result = plan(
         robot,
+        PlanOptions(**shared, report_samples=_report_samples(duration, timestep)),
         task=task,
-        duration=duration,
-        objective=objective,
         template=template,
-        seed=seed,
-        particles=particles,
-        iterations=iterations,
-        report_samples=_report_samples(duration, timestep),
-        peak_angle_deg=peak_angle_deg,
-        methods=DEFAULT_METHODS if methods is None else methods,
-        human_constraint=human_constraint,
-        no_reversal=no_reversal,
         progress=within(progress, 0.0, 0.85),
-        n_intervals=DEFAULT_INTERVALS if n_intervals is None else int(n_intervals),
-        converge=converge,
     )
     report(progress, "simulate", 0, 1, fraction=0.85, message="simulating in MuJoCo")
     names_ = list(result.methods)
@@ -474,9 +435,9 @@ def simulate_comparison(
         robot,
         [result.methods[n].trajectory for n in names_],
         timestep=timestep,
-        feedforward=feedforward,
-        natural_frequency_hz=natural_frequency_hz,
-        damping_ratio=damping_ratio,
+        feedforward=opts.feedforward,  # type: ignore[arg-type]  # checked by its choices
+        natural_frequency_hz=opts.natural_frequency_hz,
+        damping_ratio=opts.damping_ratio,
     )
     by_name = dict(zip(names_, runs, strict=True))
     for name, run in by_name.items():
@@ -486,7 +447,7 @@ def simulate_comparison(
             run.metrics.abs_work, math.degrees(float(np.max(run.tracking_max))),
             "" if run.tracking_ok else " (poor tracking)",
         )  # fmt: skip
-    conditions = _conditions(robot, result, by_name["quintic"], locals())
+    conditions = _conditions(robot, result, by_name["quintic"], opts.to_dict())
     out = SimulationResult(
         plan=result,
         standard=by_name["quintic"],
@@ -500,6 +461,23 @@ def simulate_comparison(
     warnings = [*result.warnings, *_run_warnings(out)]
     report(progress, "simulate", 1, 1, message="simulation done")
     return dataclasses.replace(out, warnings=tuple(warnings))
+
+
+def _simulation_options(
+    options: SimulationOptions | None, overrides: dict[str, Any]
+) -> SimulationOptions:
+    """``options`` (default: ``SimulationOptions()``) with ``overrides`` by name; ``None`` for
+    ``methods`` or ``n_intervals`` keeps the default (as before the options existed)."""
+    changes = {k: v for k, v in overrides.items() if not (v is None and k in _NONE_IS_DEFAULT)}
+    try:
+        base = SimulationOptions() if options is None else options
+        return base.replace(**changes) if changes else base
+    except OptionsError as exc:
+        raise SimulationError(str(exc)) from None
+
+
+#: Overrides whose None meant "the default" in the keyword signature.
+_NONE_IS_DEFAULT = frozenset({"methods", "n_intervals"})
 
 
 def _conditions(

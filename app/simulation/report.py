@@ -33,13 +33,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from app import names
 from app.progress import ProgressFn, report, within
 
 if TYPE_CHECKING:
+    from app.planning.planner import PlanResult
     from app.simulation.comparison import SimulationResult
     from app.simulation.sweep import SweepResult
+    from app.simulation.tracking import TrackingResult
 
 
 #: Paper claims: (robot, metric, claimed saving [%], what the paper measured).
@@ -61,9 +64,9 @@ PHASE_COLOURS = {p.name: _rgba(p.colour, 0.12) for p in names.PHASES}
 _MARGIN = {"l": 90, "r": 40, "t": 90, "b": 70}
 
 
-def _style(method: str) -> dict[str, Any]:
+def _style(method: str) -> dict[str, str]:
     """Line style of a method: its colour from ``app.names``; the quintic dashed."""
-    style: dict[str, Any] = {"color": names.METHODS[method].colour}
+    style: dict[str, str] = {"color": names.METHODS[method].colour}
     if method == "quintic":
         style["dash"] = "dash"
     return style
@@ -182,12 +185,11 @@ def figure_quintic(duration: float = 1.0, stroke_deg: float = 150.0) -> Any:
     return fig
 
 
-def figure_comparison(result: Any, title: str) -> Any:
+def figure_comparison(result: PlanResult, title: str) -> Any:
     """Fig. 7: every planned method's elbow motion, power and cumulative energy, phases shaded.
 
     Phases are shaded for the paper's trajectory (the quintic's when the paper did not run).
     """
-    import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
     arrays = result.arrays()
@@ -205,18 +207,7 @@ def figure_comparison(result: Any, title: str) -> Any:
         for method in result.methods:
             y = arrays[f"{method}_{key}"]
             y = np.degrees(y[:, e]) if per_joint else y
-            fig.add_trace(
-                go.Scatter(
-                    x=t,
-                    y=y,
-                    name=names.METHODS[method].label,
-                    line=_style(method),
-                    showlegend=row == 1,
-                    legendgroup=method,
-                ),
-                row=row,
-                col=1,
-            )
+            _add_method_line(fig, method, t, y, row)
         fig.update_yaxes(title_text=label, row=row, col=1)
     shaded = "optimized" if "paper" in result.methods else "standard"
     t_ab, t_bc = result.phase_times(shaded)
@@ -226,7 +217,29 @@ def figure_comparison(result: Any, title: str) -> Any:
     return fig
 
 
-def _simulation_panels(sim: SimulationResult) -> list[tuple[str, Callable[[Any], Any]]]:
+def _add_method_line(
+    fig: Any, method: str, x: NDArray[np.float64], y: NDArray[np.float64], row: int
+) -> None:
+    """One method's curve ``y`` over ``x`` [s] in panel ``row`` (legend entry on the first row)."""
+    import plotly.graph_objects as go
+
+    fig.add_trace(
+        go.Scatter(
+            x=x,
+            y=y,
+            name=names.METHODS[method].label,
+            line=_style(method),
+            showlegend=row == 1,
+            legendgroup=method,
+        ),
+        row=row,
+        col=1,
+    )
+
+
+def _simulation_panels(
+    sim: SimulationResult,
+) -> list[tuple[str, Callable[[TrackingResult], NDArray[np.float64]]]]:
     c = sim.conditions
     e = sim.plan.elbow_joint
     joint_names = list(c["joint_names"])
@@ -257,18 +270,7 @@ def figure_simulation(sim: SimulationResult, title: str) -> Any:
     fig = make_subplots(rows=len(panels), cols=1, shared_xaxes=True, vertical_spacing=0.025)
     for row, (label, get) in enumerate(panels, start=1):
         for method, run in sim.runs.items():
-            fig.add_trace(
-                go.Scatter(
-                    x=run.t,
-                    y=get(run),
-                    name=names.METHODS[method].label,
-                    line=_style(method),
-                    showlegend=row == 1,
-                    legendgroup=method,
-                ),
-                row=row,
-                col=1,
-            )
+            _add_method_line(fig, method, run.t, get(run), row)
         fig.update_yaxes(title_text=label, row=row, col=1)
     for method, run in sim.runs.items():
         k = int(np.argmax(run.power))
@@ -572,6 +574,37 @@ def _write_atomically(out_dir: Path, page: str, summary: dict[str, Any]) -> Path
     return index
 
 
+def _run_cases(
+    cases: Sequence[DemoCase],
+    *,
+    seed: int,
+    particles: int,
+    iterations: int,
+    methods: Sequence[str],
+    progress: ProgressFn | None,
+) -> dict[str, SimulationResult]:
+    """Plan and simulate each demo case (PSO with ``particles`` x ``iterations``), by robot."""
+    from app.planning.robots import load_robot
+    from app.simulation.sweep import simulate_comparison
+
+    results: dict[str, SimulationResult] = {}
+    for i, case in enumerate(cases):
+        report(
+            progress, "report", i, len(cases), fraction=i / len(cases),
+            message=f"planning and simulating {case.robot}",
+        )  # fmt: skip
+        results[case.robot] = simulate_comparison(
+            load_robot(case.robot, payload=case.payload),
+            duration=case.duration,
+            objective=case.objective,
+            seed=seed,
+            particles=particles,
+            iterations=iterations,
+            methods=methods,
+        )
+    return results
+
+
 def write_demo_report(
     out_dir: Path,
     *,
@@ -611,28 +644,19 @@ def write_demo_report(
     """
     from app.names import STANDARD_METHODS
     from app.planning.robots import load_robot
-    from app.simulation.sweep import run_sweep, simulate_comparison
+    from app.simulation.sweep import run_sweep
 
     out_dir.mkdir(parents=True, exist_ok=True)
     cases_share = 0.45 if sweep_robot else 0.95
-    results: dict[str, SimulationResult] = {}
-    sections: list[str] = []
-    for i, case in enumerate(cases):
-        report(
-            progress, "report", i, len(cases), fraction=cases_share * i / len(cases),
-            message=f"planning and simulating {case.robot}",
-        )  # fmt: skip
-        sim = simulate_comparison(
-            load_robot(case.robot, payload=case.payload),
-            duration=case.duration,
-            objective=case.objective,
-            seed=seed,
-            particles=particles,
-            iterations=iterations,
-            methods=STANDARD_METHODS if methods is None else methods,
-        )
-        results[case.robot] = sim
-        sections.append(_case_section(case, sim))
+    results = _run_cases(
+        cases,
+        seed=seed,
+        particles=particles,
+        iterations=iterations,
+        methods=STANDARD_METHODS if methods is None else methods,
+        progress=within(progress, 0.0, cases_share),
+    )
+    sections = [_case_section(case, results[case.robot]) for case in cases]
     sweep = None
     if sweep_robot:
         sweep = run_sweep(

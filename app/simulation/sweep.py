@@ -23,7 +23,7 @@ import logging
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -32,6 +32,8 @@ from numpy.typing import NDArray
 
 from app import names
 from app.jsonsafe import json_safe
+from app.options import OptionsError
+from app.planning.options import LIBRARY_METHODS
 from app.progress import ProgressFn, report
 from app.simulation.comparison import (
     AGREEMENT_PCT,
@@ -44,8 +46,8 @@ from app.simulation.comparison import (
     scalar_metrics,
     simulate_comparison,
 )
+from app.simulation.options import SweepGrid
 from app.simulation.tracking import (
-    DEFAULT_TIMESTEP,
     INTEGRATOR,
     POOR_TRACKING_RAD,
     SimulationError,
@@ -77,9 +79,6 @@ FloatArray = NDArray[np.float64]
 NO_DIFFERENCE_PCT = 1.0
 #: The standard trajectory is "on the floor" when abs_work <= (1 + this) * delta_potential.
 AT_FLOOR_FRACTION = 0.01
-#: PSO budget per sweep cell (modest, so a 10 x 10 grid fits in a minute on two cores).
-SWEEP_PARTICLES = 24
-SWEEP_ITERATIONS = 40
 #: Seeds of the paper's PSO per cell (the cell's and the check seeds): a verdict is certain only
 #: when all agree.
 SWEEP_SEEDS = names.SWEEP_SEEDS
@@ -619,9 +618,9 @@ LOCAL_EXECUTOR = "local"
 
 def _distributed() -> Any:
     """The ``distributed`` module (untyped, hence ``Any``), imported when a sweep uses Dask."""
-    import importlib
+    import distributed
 
-    return importlib.import_module("distributed")
+    return distributed
 
 
 def _dask_client(executor: Any) -> tuple[Any, bool]:
@@ -665,6 +664,30 @@ def _run_on_dask(
     finally:
         if owned:
             client.close()
+
+
+def _sweep_grid(grid: SweepGrid | None, overrides: dict[str, Any]) -> SweepGrid:
+    """``grid`` (default: ``SweepGrid()``) with ``overrides`` by name, checked in the sweep's
+    words: an empty, repeated or out-of-range grid is a SimulationError, an unknown objective
+    or method the planner's PlanningError."""
+    values = {**(SweepGrid() if grid is None else grid).to_dict(), **overrides}
+    if "check_seed" in overrides and overrides["check_seed"] is None:
+        values.update(check_seed=-1, no_check=True)  # the keyword signature's "no check"
+    if values.get("methods") is None:
+        values.pop("methods")
+    try:
+        durs = tuple(float(d) for d in values["durations"])
+        pays = tuple(float(p) for p in values["payloads"])
+    except (TypeError, ValueError):
+        raise SimulationError("durations and payloads must be lists of numbers") from None
+    _check_grid(durs, pays, tuple(values["objectives"]), values.get("methods", LIBRARY_METHODS))
+    seeds = values.get("seeds")
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise SimulationError(f"seeds must be an integer >= 1, got {seeds!r}")
+    try:
+        return SweepGrid.from_dict(values)
+    except OptionsError as exc:
+        raise SimulationError(str(exc)) from None
 
 
 def _check_grid(
@@ -740,23 +763,123 @@ def _run_jobs(clean: Robot, jobs: list[_CellJob], n_workers: int, on_cell: Any) 
     return n_workers, ""
 
 
+def _cell_jobs(g: SweepGrid) -> list[_CellJob]:
+    """One job per cell of the checked grid, objective-major, then duration, then payload; the
+    paper's check seeds are the grid's ``seeds - 1`` seeds after ``check_seed`` (none with
+    ``no_check``)."""
+    from app.planning.methods import check_methods
+
+    chosen = check_methods(g.methods)
+    check = None if g.no_check else (int(g.seed) + 1 if g.check_seed == -1 else int(g.check_seed))
+    n_seeds = 1 if check is None else int(g.seeds)
+    checks = () if check is None else tuple(check + i for i in range(n_seeds - 1))
+    job = _CellJob(
+        duration=0.0,
+        payload=0.0,
+        objective="",
+        seed=int(g.seed),
+        particles=int(g.particles),
+        iterations=int(g.iterations),
+        timestep=float(g.timestep),
+        methods=chosen,
+        check_seeds=checks,
+        converge=bool(g.converge),
+    )
+    return [
+        dataclasses.replace(job, duration=d, payload=p, objective=o)
+        for o in g.objectives
+        for d in g.durations
+        for p in g.payloads
+    ]
+
+
+def _log_start(robot: Robot, g: SweepGrid, jobs: list[_CellJob], where: str) -> None:
+    """Log what the sweep is about to run (cells, methods, PSO budget, seeds) and ``where``."""
+    job = jobs[0]
+    logger.info(
+        "sweep of %s: %d cell(s) (%d durations x %d payloads x %d objectives), methods %s, PSO "
+        "%d particles x %d iterations, seeds %s, on %s",
+        robot.name, len(jobs), len(g.durations), len(g.payloads), len(g.objectives),
+        ", ".join(job.methods), job.particles, job.iterations,
+        ", ".join(str(s) for s in (job.seed, *job.check_seeds)), where,
+    )  # fmt: skip
+
+
+def _collector(
+    n_cells: int, progress: ProgressFn | None
+) -> tuple[list[SweepCell], Callable[[SweepCell], None]]:
+    """The list the finished cells go to and the callback that appends one, logs it and
+    reports the progress (stage ``sweep``: cells done of ``n_cells``)."""
+    results: list[SweepCell] = []
+
+    def on_cell(cell: SweepCell) -> None:
+        results.append(cell)
+        log = logger.info if cell.status == "ok" else logger.warning
+        log(
+            "sweep cell %d/%d: T=%g s, m=%g kg, %s: %s in %.2f s%s",
+            len(results), n_cells, cell.duration, cell.payload, cell.objective, cell.status,
+            cell.seconds, f" ({cell.message})" if cell.message else "",
+        )  # fmt: skip
+        report(
+            progress,
+            "sweep",
+            len(results),
+            n_cells,
+            message=f"cell {len(results)}/{n_cells}: T={cell.duration:g} s, "
+            f"m={cell.payload:g} kg, {cell.objective}: {cell.status}",
+        )
+
+    return results, on_cell
+
+
+def _conditions(
+    robot: Robot,
+    job: _CellJob,
+    n_workers: int,
+    where: str,
+    used: dict[str, int],
+    pool_note: str,
+) -> dict[str, Any]:
+    """``SweepResult.conditions`` but ``seconds``: the budget and seeds every cell ran with
+    (``job``, any cell's), the thresholds of the verdicts and where the cells ran."""
+    checks = job.check_seeds
+    paper = "paper" in job.methods
+    return {
+        "seed": job.seed,
+        "check_seed": checks[0] if checks else None,
+        "seeds": [job.seed, *checks] if paper else [],
+        "pso_budget": {
+            "particles": job.particles,
+            "iterations": job.iterations,
+            "seeds": 1 + len(checks) if paper else 0,
+            "certain_when": "every seed gives the same verdict",
+        },
+        "converge": job.converge,
+        "particles": job.particles,
+        "iterations": job.iterations,
+        "methods": list(job.methods),
+        "timestep": job.timestep,
+        "integrator": INTEGRATOR,
+        "workers": n_workers,
+        "executor": where,
+        "cells_per_worker": used,
+        "seconds": 0.0,  # set by run_sweep when the last cell is in
+        "no_difference_pct": NO_DIFFERENCE_PCT,
+        "at_floor_fraction": AT_FLOOR_FRACTION,
+        "poor_tracking_rad": POOR_TRACKING_RAD,
+        "payload_shape": [float(v) for v in robot.payload.size],
+        "pool_note": pool_note,
+    }
+
+
 def run_sweep(
     *,
     robot: Robot,
-    durations: Sequence[float],
-    payloads: Sequence[float],
-    objectives: Sequence[str] = ("abs_work",),
-    seed: int = 0,
-    particles: int = SWEEP_PARTICLES,
-    iterations: int = SWEEP_ITERATIONS,
-    timestep: float = DEFAULT_TIMESTEP,
+    grid: SweepGrid | None = None,
     workers: int | None = None,
-    methods: Sequence[str] | None = None,
-    check_seed: int | None = -1,
-    seeds: int = SWEEP_SEEDS,
-    converge: bool = False,
     executor: Any = LOCAL_EXECUTOR,
     progress: ProgressFn | None = None,
+    **overrides: Any,
 ) -> SweepResult:
     """Plan and simulate every (duration, payload, objective) cell; classify the changes.
 
@@ -768,27 +891,20 @@ def run_sweep(
 
     Args:
         robot: the robot (its payload shape is kept; the mass is set per cell); needs an MJCF.
-        durations: motion times [s], each > 0.
-        payloads: payload masses [kg], each >= 0.
-        objectives: planner objectives (``app.planning.energy.OBJECTIVES``).
-        seed: PSO seed for every cell.
-        particles: PSO swarm size per cell (modest by default; stated in the output).
-        iterations: PSO iterations per cell.
-        timestep: simulation step [s].
+        grid: the grid and the cells' options (``SweepGrid``: durations [s], payloads [kg],
+            objectives, PSO seed and budget per cell, methods, the seeds' check, converge,
+            time step [s]); None: its defaults. Every cell uses the same seed; the paper's PSO
+            runs with ``seeds`` seeds per cell (the cell's, then ``check_seed``,
+            ``check_seed + 1``...; ``no_check``: one), and a verdict is certain only when all
+            agree (:func:`certify_verdicts`).
         workers: processes in the pool.
-        methods: methods per cell (None: quintic and paper; ``bioplan sweep`` asks for all).
-        check_seed: the first check seed of the paper's PSO (-1: ``seed + 1``; None: no
-            check, one seed).
-        seeds: how many seeds the paper's PSO runs with per cell (>= 1): the cell's ``seed``,
-            then ``check_seed``, ``check_seed + 1``, ...; a verdict is certain only when all
-            agree (:func:`certify_verdicts`). The budget is stated in ``conditions``.
-        converge: refine every optimal-control result until its objective changes by less
-            than 0.1 % (``plan(converge=True)``; several times slower).
         executor: ``"local"`` (a process pool of ``workers`` processes), ``"dask://HOST:PORT"``
             (one task per cell on that Dask scheduler's workers; ``workers`` is ignored) or a
             ``distributed.Client`` (e.g. from inside a Dask task). ``conditions["executor"]``
             and ``conditions["cells_per_worker"]`` say where the cells ran.
         progress: called with a ``Progress`` (stage ``sweep``: cells done) as cells finish.
+        **overrides: grid options by name over ``grid`` (``durations=[1.0]``, ``seeds=2``;
+            ``check_seed=None`` is ``no_check=True``); an unknown name is an error naming it.
 
     Returns:
         The sweep; ``to_dict()`` for JSON, ``summary()`` for text.
@@ -798,71 +914,21 @@ def run_sweep(
         SimulationError: an empty grid, a bad duration or payload.
         PlanningError: an unknown objective or method.
     """
-    from app.planning.methods import DEFAULT_METHODS
-
     _check_mjcf(robot)
-    durs = tuple(float(d) for d in durations)
-    pays = tuple(float(p) for p in payloads)
-    objs = tuple(objectives)
-    chosen = _check_grid(durs, pays, objs, DEFAULT_METHODS if methods is None else methods)
+    g = _sweep_grid(grid, overrides)
     n_workers = min(2, os.cpu_count() or 1) if workers is None else int(workers)
     if n_workers < 1:
         raise SimulationError(f"workers must be >= 1, got {workers}")
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise SimulationError(f"seeds must be an integer >= 1, got {seeds!r}")
-    check = None if check_seed is None else (int(seed) + 1 if check_seed == -1 else int(check_seed))
-    n_seeds = 1 if check is None else int(seeds)
-    checks = () if check is None else tuple(check + i for i in range(n_seeds - 1))
-    jobs = [
-        _CellJob(
-            d,
-            p,
-            o,
-            int(seed),
-            int(particles),
-            int(iterations),
-            float(timestep),
-            chosen,
-            checks,
-            bool(converge),
-        )
-        for o in objs
-        for d in durs
-        for p in pays
-    ]
+    jobs = _cell_jobs(g)
     started = time.perf_counter()
-    results: list[SweepCell] = []
-
-    def on_cell(cell: SweepCell) -> None:
-        results.append(cell)
-        log = logger.info if cell.status == "ok" else logger.warning
-        log(
-            "sweep cell %d/%d: T=%g s, m=%g kg, %s: %s in %.2f s%s",
-            len(results), len(jobs), cell.duration, cell.payload, cell.objective, cell.status,
-            cell.seconds, f" ({cell.message})" if cell.message else "",
-        )  # fmt: skip
-        report(
-            progress,
-            "sweep",
-            len(results),
-            len(jobs),
-            message=f"cell {len(results)}/{len(jobs)}: T={cell.duration:g} s, "
-            f"m={cell.payload:g} kg, {cell.objective}: {cell.status}",
-        )
-
+    local = isinstance(executor, str) and executor == LOCAL_EXECUTOR
+    results, on_cell = _collector(len(jobs), progress)
     report(progress, "sweep", 0, len(jobs), message=f"{len(jobs)} cells on {n_workers} worker(s)")
-    logger.info(
-        "sweep of %s: %d cell(s) (%d durations x %d payloads x %d objectives), methods %s, PSO "
-        "%d particles x %d iterations, seeds %s, on %s",
-        robot.name, len(jobs), len(durs), len(pays), len(objs), ", ".join(chosen),
-        int(particles), int(iterations), ", ".join(str(s) for s in (int(seed), *checks)),
-        f"{n_workers} local worker(s)" if isinstance(executor, str) and executor == LOCAL_EXECUTOR
-        else "Dask",
-    )  # fmt: skip
+    _log_start(robot, g, jobs, f"{n_workers} local worker(s)" if local else "Dask")
     # A copy without cached Pinocchio/MuJoCo objects, so it pickles to the workers.
     clean = dataclasses.replace(robot)
     used: dict[str, int] = {}
-    if isinstance(executor, str) and executor == LOCAL_EXECUTOR:
+    if local:
         n_workers, pool_note = _run_jobs(clean, jobs, n_workers, on_cell)
         where = LOCAL_EXECUTOR
     else:
@@ -870,36 +936,13 @@ def run_sweep(
         where = executor if isinstance(executor, str) else "dask"
     order = {(j.duration, j.payload, j.objective): i for i, j in enumerate(jobs)}
     cells = tuple(sorted(results, key=lambda c: order[(c.duration, c.payload, c.objective)]))
+    conditions = _conditions(robot, jobs[0], n_workers, where, used, pool_note)
+    conditions["seconds"] = time.perf_counter() - started
     return SweepResult(
         robot=robot.name,
-        durations=durs,
-        payloads=pays,
-        objectives=objs,
+        durations=g.durations,
+        payloads=g.payloads,
+        objectives=g.objectives,
         cells=cells,
-        conditions={
-            "seed": int(seed),
-            "check_seed": checks[0] if checks else None,
-            "seeds": [int(seed), *checks] if "paper" in chosen else [],
-            "pso_budget": {
-                "particles": int(particles),
-                "iterations": int(iterations),
-                "seeds": n_seeds if "paper" in chosen else 0,
-                "certain_when": "every seed gives the same verdict",
-            },
-            "converge": bool(converge),
-            "particles": int(particles),
-            "iterations": int(iterations),
-            "methods": list(chosen),
-            "timestep": float(timestep),
-            "integrator": INTEGRATOR,
-            "workers": n_workers,
-            "executor": where,
-            "cells_per_worker": used,
-            "seconds": time.perf_counter() - started,
-            "no_difference_pct": NO_DIFFERENCE_PCT,
-            "at_floor_fraction": AT_FLOOR_FRACTION,
-            "poor_tracking_rad": POOR_TRACKING_RAD,
-            "payload_shape": [float(v) for v in robot.payload.size],
-            "pool_note": pool_note,
-        },
+        conditions=conditions,
     )

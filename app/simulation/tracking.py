@@ -47,11 +47,12 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from app.errors import BioPlanError
 from app.planning.energy import (
     EnergyMetrics,
+    MotorModel,
     cumulative_energy,
     electrical_power,
     energy_metrics,
@@ -71,6 +72,8 @@ Backend = Literal["auto", "rollout", "loop"]
 
 #: Simulation time step [s] (1 kHz).
 DEFAULT_TIMESTEP = 1e-3
+#: Longest time step [s] :func:`simulate_batch` accepts (100 Hz): options should use this bound.
+MAX_TIMESTEP = 0.01
 #: Default closed-loop natural frequency of the PD feedback [Hz] and damping ratio [-].
 DEFAULT_NATURAL_FREQUENCY_HZ = 10.0
 DEFAULT_DAMPING_RATIO = 1.0
@@ -441,7 +444,7 @@ def default_gains(
     return m_eff * w**2, 2.0 * damping_ratio * m_eff * w
 
 
-def _check_gains(name: str, value: Any, n: int) -> FloatArray:
+def _check_gains(name: str, value: ArrayLike, n: int) -> FloatArray:
     arr = np.asarray(value, dtype=np.float64)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
@@ -584,7 +587,7 @@ def _run_loop(
     return q, qd
 
 
-def _drawn_power(p_bus: FloatArray, motors: Sequence[Any]) -> FloatArray:
+def _drawn_power(p_bus: FloatArray, motors: Sequence[MotorModel]) -> FloatArray:
     """Bus power counted as drawn energy: the positive part minus the recovered negative part.
 
     Same rule as ``app.planning.energy.energy_metrics`` (eta = the smallest regeneration
@@ -595,6 +598,65 @@ def _drawn_power(p_bus: FloatArray, motors: Sequence[Any]) -> FloatArray:
     return drawn
 
 
+def _check_batch(
+    robot: Robot,
+    trajectories: Sequence[Trajectory],
+    timestep: float,
+    feedforward: str,
+    backend: str,
+) -> None:
+    """Refuse a batch's trajectories and options before any work (see :func:`simulate_batch`)."""
+    if not trajectories:
+        raise SimulationError("no trajectories to simulate: expected at least one")
+    if not (math.isfinite(timestep) and 0.0 < timestep <= MAX_TIMESTEP):
+        raise SimulationError(f"timestep must be in (0, {MAX_TIMESTEP:g}] s, got {timestep}")
+    if feedforward not in ("pinocchio", "mujoco", "none"):
+        raise SimulationError(
+            f"unknown feedforward {feedforward!r}: expected 'pinocchio', 'mujoco' or 'none'"
+        )
+    if backend not in ("auto", "rollout", "loop"):
+        raise SimulationError(f"unknown backend {backend!r}: expected 'auto', 'rollout' or 'loop'")
+    for traj in trajectories:
+        _check_trajectory(robot, traj)
+
+
+def _batch_gains(
+    robot: Robot,
+    cmds: Sequence[Trajectory],
+    kp: ArrayLike | None,
+    kd: ArrayLike | None,
+    natural_frequency_hz: float,
+    damping_ratio: float,
+) -> tuple[FloatArray, FloatArray]:
+    """(kp [Nm/rad], kd [Nm s/rad]), each (n,): the given ones, else :func:`default_gains`
+    over every commanded motion, so all runs share one controller."""
+    n = len(robot.joint_names)
+    if kp is None or kd is None:
+        kp0, kd0 = default_gains(
+            robot,
+            np.stack([c.q for c in cmds]),
+            natural_frequency_hz=natural_frequency_hz,
+            damping_ratio=damping_ratio,
+        )
+    kp_arr = _check_gains("kp", kp0 if kp is None else kp, n)
+    kd_arr = _check_gains("kd", kd0 if kd is None else kd, n)
+    return kp_arr, kd_arr
+
+
+def _use_rollout(robot: Robot, prep: _Prepared, backend: str) -> bool:
+    """Whether the batch runs in ``mujoco.rollout`` (every joint actuated, not ``"loop"``).
+
+    Raises:
+        SimulationError: ``"rollout"`` asked for a model without one actuator per joint.
+    """
+    if backend == "rollout" and prep.actuators is None:
+        raise SimulationError(
+            f"{robot.name}: backend 'rollout' needs one joint actuator per joint in the MJCF "
+            "(e.g. <motor joint=.../>): expected those, or backend='loop'"
+        )
+    return prep.actuators is not None and backend != "loop"
+
+
 def simulate_batch(
     robot: Robot,
     trajectories: Sequence[Trajectory],
@@ -603,8 +665,8 @@ def simulate_batch(
     feedforward: Feedforward = "pinocchio",
     natural_frequency_hz: float = DEFAULT_NATURAL_FREQUENCY_HZ,
     damping_ratio: float = DEFAULT_DAMPING_RATIO,
-    kp: Any = None,
-    kd: Any = None,
+    kp: ArrayLike | None = None,
+    kd: ArrayLike | None = None,
     backend: Backend = "auto",
 ) -> list[TrackingResult]:
     """Simulate several commanded trajectories on one robot with the same controller.
@@ -636,41 +698,16 @@ def simulate_batch(
         SimulationError: bad input (shapes, NaN, a commanded motion outside the joint limits,
             bad gains or time step) or a run-away simulation.
     """
-    if not trajectories:
-        raise SimulationError("no trajectories to simulate: expected at least one")
-    if not (math.isfinite(timestep) and 0.0 < timestep <= 0.01):
-        raise SimulationError(f"timestep must be in (0, 0.01] s, got {timestep}")
-    if feedforward not in ("pinocchio", "mujoco", "none"):
-        raise SimulationError(
-            f"unknown feedforward {feedforward!r}: expected 'pinocchio', 'mujoco' or 'none'"
-        )
-    if backend not in ("auto", "rollout", "loop"):
-        raise SimulationError(f"unknown backend {backend!r}: expected 'auto', 'rollout' or 'loop'")
-    for traj in trajectories:
-        _check_trajectory(robot, traj)
-    n = len(robot.joint_names)
+    _check_batch(robot, trajectories, timestep, feedforward, backend)
     tau_max = np.asarray(robot.tau_max, dtype=np.float64)
     prep = _prepare_model(robot, timestep)
-    if backend == "rollout" and prep.actuators is None:
-        raise SimulationError(
-            f"{robot.name}: backend 'rollout' needs one joint actuator per joint in the MJCF "
-            "(e.g. <motor joint=.../>): expected those, or backend='loop'"
-        )
-    use_rollout = prep.actuators is not None and backend != "loop"
+    use_rollout = _use_rollout(robot, prep, backend)
 
     # One common grid, long enough for the longest trajectory; shorter ones hold their goal.
     durations = [float(tr.t[-1]) for tr in trajectories]
     grid = simulation_grid(max(durations), timestep)
     cmds = [_on_grid(tr, grid) for tr in trajectories]
-    if kp is None or kd is None:
-        kp0, kd0 = default_gains(
-            robot,
-            np.stack([c.q for c in cmds]),
-            natural_frequency_hz=natural_frequency_hz,
-            damping_ratio=damping_ratio,
-        )
-    kp_arr = _check_gains("kp", kp0 if kp is None else kp, n)
-    kd_arr = _check_gains("kd", kd0 if kd is None else kd, n)
+    kp_arr, kd_arr = _batch_gains(robot, cmds, kp, kd, natural_frequency_hz, damping_ratio)
     ffs = _feedforward(robot, prep, cmds, feedforward)
 
     with _capture_mujoco_warnings() as mj_warnings:
@@ -680,28 +717,25 @@ def simulate_batch(
         else:
             q_all, qd_all = _run_loop(prep, cmds, ffs, kp_arr, kd_arr, tau_max)
 
-    results = []
-    for b, (traj, cmd, ff) in enumerate(zip(trajectories, cmds, ffs, strict=True)):
-        n_keep = simulation_grid(durations[b], timestep).size
-        results.append(
-            _assemble(
-                robot,
-                traj.name,
-                cmd,
-                ff,
-                q_all[b],
-                qd_all[b],
-                n_keep,
-                kp_arr,
-                kd_arr,
-                tau_max,
-                timestep=timestep,
-                backend="rollout" if use_rollout else "loop",
-                feedforward=feedforward,
-                mj_warnings=mj_warnings,
-            )
+    return [
+        _assemble(
+            robot,
+            traj.name,
+            cmd,
+            ff,
+            q_all[b],
+            qd_all[b],
+            simulation_grid(durations[b], timestep).size,
+            kp_arr,
+            kd_arr,
+            tau_max,
+            timestep=timestep,
+            backend="rollout" if use_rollout else "loop",
+            feedforward=feedforward,
+            mj_warnings=mj_warnings,
         )
-    return results
+        for b, (traj, cmd, ff) in enumerate(zip(trajectories, cmds, ffs, strict=True))
+    ]
 
 
 def simulate_tracking(
@@ -712,8 +746,8 @@ def simulate_tracking(
     feedforward: Feedforward = "pinocchio",
     natural_frequency_hz: float = DEFAULT_NATURAL_FREQUENCY_HZ,
     damping_ratio: float = DEFAULT_DAMPING_RATIO,
-    kp: Any = None,
-    kd: Any = None,
+    kp: ArrayLike | None = None,
+    kd: ArrayLike | None = None,
     backend: Backend = "auto",
 ) -> TrackingResult:
     """Simulate one commanded trajectory (see :func:`simulate_batch` for the arguments)."""

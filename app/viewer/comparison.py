@@ -10,22 +10,25 @@ and commanded ``qdd_cmd``); this is the one place that knows.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from app.names import METHODS, PHASE_BOUNDS_DEG
 from app.names import PHASES as _PHASES
 
 if TYPE_CHECKING:
     from app.analysis.replay import HumanReplay
+    from app.planning.planner import PlanTask
     from app.planning.robots import Robot
 
 FloatArray = NDArray[np.float64]
+#: A stored result's arrays by name (``t``, ``<method>_q``...), as decoded [SI units].
+StoredArrays = Mapping[str, ArrayLike]
 Kind = Literal["plan", "simulation", "front"]
 #: ``front``: one point of a Pareto front beside the quintic at its duration (two "methods":
 #: ``quintic`` and the point's id, ``p0``...).
@@ -302,7 +305,7 @@ def crossing_times(
     return out[0], out[1]
 
 
-def _get(arrays: Mapping[str, Any], key: str) -> FloatArray:
+def _get(arrays: StoredArrays, key: str) -> FloatArray:
     if key not in arrays:
         raise ComparisonError(f"the stored arrays have no {key!r} (have {sorted(arrays)})")
     return np.asarray(arrays[key], dtype=np.float64)
@@ -310,7 +313,7 @@ def _get(arrays: Mapping[str, Any], key: str) -> FloatArray:
 
 def _task_and_bounds(
     conditions: Mapping[str, Any], robot: Robot
-) -> tuple[Any, tuple[float, float]]:
+) -> tuple[PlanTask, tuple[float, float]]:
     """The job's task (start and goal [rad]) and phase bounds [deg], from its conditions."""
     from app.planning.planner import PlanTask
 
@@ -322,7 +325,7 @@ def _task_and_bounds(
 
 
 def _trajectory(
-    arrays: Mapping[str, Any], label: str, kind: str, t: FloatArray, n_joints: int
+    arrays: StoredArrays, label: str, kind: str, t: FloatArray, n_joints: int
 ) -> dict[str, FloatArray]:
     """One trajectory's ``q, qd, qdd, tau`` (T, n) and ``power, energy`` (T,), shapes checked."""
     acc_key = "qdd_cmd" if kind == "simulation" else "qdd"
@@ -342,10 +345,38 @@ def _trajectory(
     return out
 
 
+def _curves(
+    arrays: StoredArrays,
+    labels: Sequence[str],
+    kind: Kind,
+    t: FloatArray,
+    robot: Robot,
+    task: PlanTask,
+    bounds: tuple[float, float],
+) -> tuple[dict[str, dict[str, FloatArray]], dict[str, tuple[float, float]]]:
+    """Per quantity (``q``, ``qd``, ``qdd``, ``tau``, ``power``, ``energy``, ``flex``) the
+    arrays of each label, and each label's phase-crossing times (t_AB, t_BC) [s]."""
+    from app.planning.planner import elbow_flexion_deg
+
+    data: dict[str, dict[str, FloatArray]] = {
+        k: {} for k in ("q", "qd", "qdd", "tau", "power", "energy", "flex")
+    }
+    times: dict[str, tuple[float, float]] = {}
+    for label in labels:
+        for name, arr in _trajectory(arrays, label, kind, t, len(robot.joint_names)).items():
+            data[name][label] = arr
+        # Phases follow the commanded elbow in a simulation (as the simulator reports them).
+        q_phase = np.asarray(arrays.get(f"{label}_q_cmd", data["q"][label]), dtype=np.float64)
+        flex = elbow_flexion_deg(q_phase[:, robot.elbow_joint], task, robot.elbow_joint)
+        data["flex"][label] = np.asarray(flex, dtype=np.float64)
+        times[label] = crossing_times(t, data["flex"][label], bounds)
+    return data, times
+
+
 def comparison_from_arrays(
     kind: Kind,
     result_id: int,
-    arrays: Mapping[str, Any],
+    arrays: StoredArrays,
     result: Mapping[str, Any],
     robot: Robot,
     *,
@@ -374,8 +405,6 @@ def comparison_from_arrays(
             planned.
         NothingToCompare: no pair was given and the result has no two trajectories.
     """
-    from app.planning.planner import elbow_flexion_deg
-
     if kind not in KINDS:
         raise ComparisonError(f"unknown comparison kind {kind!r} (expected one of {KINDS})")
     if methods is None and not all(f"{label}_q" in arrays for label in LABELS):
@@ -385,21 +414,10 @@ def comparison_from_arrays(
     t = _get(arrays, "t")
     conditions = dict(result.get("conditions") or {})
     task, bounds = _task_and_bounds(conditions, robot)
-    data: dict[str, dict[str, FloatArray]] = {
-        k: {} for k in ("q", "qd", "qdd", "tau", "power", "energy", "flex")
-    }
-    times: dict[str, tuple[float, float]] = {}
     planned = tuple(m for m in METHODS if f"{m}_q" in arrays and f"{m}_tau" in arrays)
     if kind == "front" and methods is not None:
         planned = methods  # a point's id is no planning method
-    for label in (*LABELS, *planned):
-        for name, arr in _trajectory(arrays, label, kind, t, len(robot.joint_names)).items():
-            data[name][label] = arr
-        # Phases follow the commanded elbow in a simulation (as the simulator reports them).
-        q_phase = np.asarray(arrays.get(f"{label}_q_cmd", data["q"][label]), dtype=np.float64)
-        flex = elbow_flexion_deg(q_phase[:, robot.elbow_joint], task, robot.elbow_joint)
-        data["flex"][label] = np.asarray(flex, dtype=np.float64)
-        times[label] = crossing_times(t, data["flex"][label], bounds)
+    data, times = _curves(arrays, (*LABELS, *planned), kind, t, robot, task, bounds)
     payload = robot.payload
     return Comparison(
         kind=kind,
@@ -448,7 +466,7 @@ def workspace_obstacles(robot: Robot) -> tuple[dict[str, Any], ...]:
     return tuple(dataclasses.asdict(o) for o in scene.obstacles)
 
 
-def default_methods(arrays: Mapping[str, Any]) -> tuple[str, str]:
+def default_methods(arrays: StoredArrays) -> tuple[str, str]:
     """The pair shown when none was asked for: the quintic (else the first planned method)
     and the paper's method (else the first other planned one).
 
@@ -466,7 +484,7 @@ def default_methods(arrays: Mapping[str, Any]) -> tuple[str, str]:
     return solid, ghost
 
 
-def _method_arrays(arrays: Mapping[str, Any], methods: tuple[str, str]) -> dict[str, Any]:
+def _method_arrays(arrays: StoredArrays, methods: tuple[str, str]) -> dict[str, ArrayLike]:
     """``arrays`` with the two methods' ``<method>_*`` arrays as ``standard_*``/``optimized_*``."""
     out = {k: v for k, v in arrays.items() if not k.startswith(LABELS)}
     for label, method in zip(LABELS, methods, strict=True):

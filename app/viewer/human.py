@@ -98,21 +98,20 @@ class HumanFigure:
             f"{root}/head", radius=0.1 * s, color=BODY, position=(-0.06 * s, 0.2 * s, 0.2 * s)
         )
         self.upper = scene.add_frame(f"{root}/upper", show_axes=False)
-        scene.add_box(
-            f"{root}/upper/arm",
-            color=SKIN,
-            dimensions=(thick, thick, l1),
-            position=(0.0, 0.0, -0.5 * l1),
-        )
-        scene.add_icosphere(f"{root}/upper/shoulder", radius=0.7 * thick, color=SKIN)
+
+        def add_limb(frame: str, joint: str, length: float) -> None:
+            """A limb of ``length`` [m] hanging down (-z) from ``frame``, a sphere at its joint."""
+            scene.add_box(
+                f"{frame}/arm",
+                color=SKIN,
+                dimensions=(thick, thick, length),
+                position=(0.0, 0.0, -0.5 * length),
+            )
+            scene.add_icosphere(f"{frame}/{joint}", radius=0.7 * thick, color=SKIN)
+
+        add_limb(f"{root}/upper", "shoulder", l1)
         self.fore = scene.add_frame(f"{root}/upper/fore", show_axes=False, position=(0.0, 0.0, -l1))
-        scene.add_box(
-            f"{root}/upper/fore/arm",
-            color=SKIN,
-            dimensions=(thick, thick, l2),
-            position=(0.0, 0.0, -0.5 * l2),
-        )
-        scene.add_icosphere(f"{root}/upper/fore/elbow", radius=0.7 * thick, color=SKIN)
+        add_limb(f"{root}/upper/fore", "elbow", l2)
         self.hand = scene.add_icosphere(
             f"{root}/upper/fore/hand",
             radius=1.1 * thick,

@@ -86,7 +86,7 @@ def _mesh_handler(
     So does a mesh past the mesh limits (``use_mesh_limits``), with a warning: it is never
     parsed in this process (a stored 300 MB STL took 45 s and 3 GB to draw).
     """
-    from app.planning.robots._package import MeshLimits, check_mesh, resolve_mesh
+    from app.planning.robots import MeshLimits, check_mesh, resolve_mesh
 
     def handler(fname: str) -> str:
         found = resolve_mesh(

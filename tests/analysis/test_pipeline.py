@@ -192,3 +192,22 @@ def test_analyze_files_c3d_and_mediapipe() -> None:
     assert len(marker.lifts) == 3
     assert landmarks.angles is not None and len(landmarks.angles.gaps) >= 5
     assert "deltoid" in result.template.activation_order
+
+
+def test_analyze_files_passes_exactly_the_keywords_of_analyze_recordings() -> None:
+    """``analyze_files`` forwards ``AnalysisKeywords``: they are ``analyze_recordings``' own
+    keyword parameters with the same types, and a misspelt one is refused, not ignored."""
+    import inspect
+    import typing
+
+    from app.analysis import analyze_files
+    from app.analysis.pipeline import AnalysisKeywords
+    from tests.conftest import shared_file
+
+    own = inspect.signature(analyze_recordings).parameters
+    keywords = [n for n, p in own.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    hints = typing.get_type_hints(analyze_recordings)
+    assert typing.get_type_hints(AnalysisKeywords) == {n: hints[n] for n in keywords}
+    c3d = shared_file("pyomeca_upperlimb_c3d_emg/markers_analogs.c3d")
+    with pytest.raises(TypeError, match="load_mas"):
+        analyze_files([c3d], load_mas=2.0)  # type: ignore[call-arg]

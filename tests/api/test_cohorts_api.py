@@ -215,6 +215,15 @@ def test_options_come_from_the_library(shared_client: TestClient) -> None:
     schema = shared_client.get("/openapi.json").json()["components"]["schemas"]["CohortOptionsIn"]
     assert schema["properties"]["alpha"]["exclusiveMaximum"] == 1.0
     assert schema["properties"]["correction"]["enum"] == ["holm", "bonferroni", "fdr_bh", "none"]
+    assert schema["properties"]["min_n"]["minimum"] == 2
+    assert schema["properties"]["subject_pattern"]["maxLength"] == 200
+    # The page's names for the bounds (low/high exclusive, minimum inclusive) and JSON types.
+    info = {o["name"]: o for o in got}
+    assert (info["alpha"]["low"], info["alpha"]["high"]) == (0.0, 1.0)
+    assert (info["emg_rate"]["low"], info["emg_rate"]["unit"]) == (0.0, "Hz")
+    assert (info["min_n"]["minimum"], info["min_n"]["type"]) == (2, "integer")
+    assert info["paired"]["choices"] == ["auto", "yes", "no"]
+    assert info["alpha"]["type"] == "number" and info["test"]["type"] == "string"
 
 
 def test_real_noraxon_recordings(client: TestClient) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -139,6 +140,45 @@ def test_list_filters_and_pages(db: tuple[Session, BlobStore]) -> None:
     assert total == 1 and items[0].notes == "trial 3"
     items, total = crud.list_recordings(session=session, format="nope")
     assert total == 0
+    # The summaries (narrow columns) page and filter exactly as the ORM listing does.
+    pages: list[dict[str, Any]] = [
+        {"limit": 2, "offset": 1},
+        {"subject": "s0"},
+        {"q": "trial 4"},
+        {"task": "x"},
+    ]
+    for page in pages:
+        rows, n = crud.list_recordings(session=session, **page)
+        summaries, n_summary = crud.list_recording_summaries(session=session, **page)
+        assert [r["id"] for r in summaries] == [r.id for r in rows] and n_summary == n
+        assert all(r["file_names"] == [f"f{int(r['notes'][-1])}.csv"] for r in summaries)
+
+
+def test_job_and_pose_lists_filter_page_and_count(db: tuple[Session, BlobStore]) -> None:
+    session, blobs = db
+    rec = crud.create_recording(session=session, blobs=blobs, meta={}, files=[_file("a", b"a")])
+    made = []  # (id, kind, state, recording) in creation order
+    for i in range(8):
+        kind = ("plan", "pose", "analysis")[i % 3]
+        resource = (
+            {"robot": "ur5"} if kind == "plan" else {"recording_id": rec.id if i < 5 else None}
+        )
+        job = crud.create_job(session=session, kind=kind, params={}, resource=resource)
+        state = "succeeded" if i % 2 else "queued"
+        crud.update_job(session=session, job_id=job.id, only_if_active=False, state=state)
+        made.append((job.id, kind, state, resource.get("recording_id")))
+    newest = made[::-1]
+    for kind, state in [(None, None), ("pose", None), (None, "queued"), ("plan", "succeeded")]:
+        want = [i for i, k, st, _ in newest if kind in (None, k) and state in (None, st)]
+        jobs, total = crud.list_jobs(session=session, kind=kind, state=state, limit=2, offset=1)
+        assert [j.id for j in jobs] == want[1:3] and total == len(want)
+    for state, rid in [(None, None), ("queued", None), (None, rec.id), ("succeeded", rec.id)]:
+        want = [
+            i for i, k, st, r in newest if k == "pose" and state in (None, st) and rid in (None, r)
+        ]
+        rows, total = crud.list_pose_extractions(session=session, state=state, recording_id=rid)
+        assert [row.id for row, job in rows] == want and total == len(want)
+        assert all(row.id == job.id for row, job in rows)
 
 
 def test_result_is_not_stored_for_a_cancelled_job(db: tuple[Session, BlobStore]) -> None:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import queue
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -12,10 +14,11 @@ import pytest
 
 from app.errors import BioPlanError
 from app.jobs.runner import DaskRunner
+from app.logs import MAX_LINES
 from app.names import TERMINAL_JOB_STATES as TERMINAL
 from tests.utils.data import shared_file
 from tests.utils.db import DB_KINDS
-from tests.utils.jobs import Collector, target
+from tests.utils.jobs import Collector, log_target, target
 
 
 @pytest.fixture(scope="module")
@@ -94,6 +97,64 @@ def test_cancel_stops_a_running_task(runner: tuple[DaskRunner, Collector], tmp_p
     last = beat.read_text()
     time.sleep(1.0)
     assert beat.read_text() == last, "the cancelled task kept running"
+
+
+@pytest.fixture(scope="module")
+def log_runner(cluster: Any) -> Iterator[tuple[DaskRunner, Collector]]:
+    sink = Collector()
+    r = DaskRunner(cluster.scheduler_address, target=log_target)
+    r.start(sink)
+    yield r, sink
+    r.shutdown()
+
+
+def test_a_dask_job_keeps_its_last_lines_as_a_local_one(
+    log_runner: tuple[DaskRunner, Collector],
+) -> None:
+    """The same bound as the local runner's (``app.logs.LogTail``), through worker events and
+    the task's return value: lines sent with progress and the rest with the outcome."""
+    r, sink = log_runner
+    r.submit(11, "plan", {"n": MAX_LINES + 150})
+    ev = sink.wait_for(11, {"succeeded", "failed"})
+    assert ev.type == "succeeded" and ev.result == {"result": {"n": MAX_LINES + 150}}
+    assert ev.log is not None and len(ev.log) == MAX_LINES + 1
+    assert "150 earlier line(s) left out" in ev.log[0]
+    assert ev.log[1].endswith("INFO bioplan.planning: line 150 of 650")
+    assert ev.log[-1].endswith("line 649 of 650")
+    assert not any("detail" in line for line in ev.log)  # DEBUG is not kept
+    assert all(e.log is None for e in sink.of(11) if e.type != "succeeded")
+
+
+def test_a_failed_dask_job_logs_its_error_last(log_runner: tuple[DaskRunner, Collector]) -> None:
+    r, sink = log_runner
+    r.submit(12, "plan", {"n": 3, "fail": "no trajectory in 0.1 s"})
+    ev = sink.wait_for(12, {"failed", "succeeded"})
+    assert ev.type == "failed" and ev.error == "no trajectory in 0.1 s"
+    assert ev.log is not None and [line.split(" ", 1)[1] for line in ev.log] == [
+        "INFO bioplan.planning: line 0 of 3",
+        "INFO bioplan.planning: line 1 of 3",
+        "INFO bioplan.planning: line 2 of 3",
+        "ERROR bioplan: job failed: no trajectory in 0.1 s",
+    ]
+
+
+def test_a_cancelled_dask_job_keeps_what_it_said_by_its_last_progress(
+    log_runner: tuple[DaskRunner, Collector],
+) -> None:
+    r, sink = log_runner
+    # 100 lines with a progress report after each 50, then it sleeps (a few seconds: Dask
+    # cannot interrupt the task's thread, which finishes its sleep on the worker).
+    r.submit(13, "plan", {"n": 100, "every": 50, "sleep": 3})
+    deadline = time.monotonic() + 60
+    while not any(e.detail and e.detail["done"] == 100 for e in sink.of(13)):  # now it sleeps
+        assert time.monotonic() < deadline, sink.of(13)
+        with contextlib.suppress(queue.Empty):
+            sink.seen.append(sink.events.get(timeout=0.1))
+    assert r.cancel(13)
+    ev = sink.wait_for(13, {"cancelled", "succeeded"})
+    assert ev.type == "cancelled"
+    assert ev.log is not None and len(ev.log) == 100
+    assert ev.log[-1].endswith("line 99 of 100")
 
 
 @pytest.mark.parametrize("db_kind", DB_KINDS)

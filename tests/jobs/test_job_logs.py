@@ -15,31 +15,11 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.blobs import BlobStore
 from app.db.session import make_engine, make_sessionmaker, upgrade
-from app.errors import BioPlanError
 from app.jobs.runner import JobEvent, LocalRunner
-from app.logs import MAX_LINES, get_logger
-from app.progress import ProgressFn, report
+from app.logs import MAX_LINES
 from app.services import JobBroker, JobService
 from tests.utils.api import TestClient, make_client, wait_job
-from tests.utils.jobs import Collector, RecordingRunner
-
-
-def log_target(kind: str, payload: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
-    """Logs ``n`` INFO lines (and as many DEBUG ones, not kept) on the planning logger,
-    reporting progress every ``every`` lines; fails at the end when ``fail`` is given."""
-    log = get_logger("planning")
-    n, every = int(payload["n"]), int(payload.get("every", 50))
-    for i in range(n):
-        log.info("line %d of %d", i, n)
-        log.debug("detail %d", i)
-        if (i + 1) % every == 0:
-            report(progress, "log", i + 1, n)
-            time.sleep(0.03)  # past the progress throttle: every report is sent
-    if payload.get("sleep"):
-        time.sleep(float(payload["sleep"]))
-    if payload.get("fail"):
-        raise BioPlanError(str(payload["fail"]))
-    return {"result": {"n": n}}
+from tests.utils.jobs import Collector, RecordingRunner, log_target
 
 
 @pytest.fixture(scope="module")

@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 
+from app.planning.methods import mesh_error_estimate
 from app.planning.planner import plan
 from app.planning.robots import load_robot
 from tests.utils.api import TestClient, make_client, wait_job
@@ -45,7 +46,12 @@ def _check_evidence(conv: dict[str, Any], value: float, start: int) -> None:
     assert conv["relative_change"] == pytest.approx(
         abs(objs[-1] - objs[-2]) / max(abs(objs[-1]), abs(objs[-2])), rel=1e-9
     )
-    assert conv["converged"] == (conv["relative_change"] < conv["tolerance"])
+    # Converged: the last change, or the Richardson estimate of the error left (from the third
+    # mesh, when the changes shrink at least by half), is under the tolerance.
+    estimate, _ = mesh_error_estimate(objs)
+    assert conv["error_estimate"] == pytest.approx(estimate, rel=1e-9)
+    assert conv["error_estimate"] <= conv["relative_change"] * (1 + 1e-12)
+    assert conv["converged"] == (conv["error_estimate"] < conv["tolerance"])
 
 
 def test_plan_converge_refines_the_bound_and_shows_the_evidence(

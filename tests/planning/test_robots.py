@@ -95,10 +95,10 @@ def test_de_leva_segments_sum_to_body_mass(sex: str, body_mass: float) -> None:
 def test_the_robot_cache_is_bounded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Issue 14: every distinct subject wrote two files to the cache, never cleaned. Now the
     least recently used go first and the cache keeps at most ``CACHE_MAX_FILES``."""
-    from app.planning.robots import _loader
+    from app.planning.robots import _cache
 
     monkeypatch.setenv("BIOPLAN_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(_loader, "CACHE_MAX_FILES", 6)
+    monkeypatch.setattr(_cache, "CACHE_MAX_FILES", 6)
     first = load_robot("human_arm_2dof", body_mass=60.0)
     for mass in (61.0, 62.0):
         load_robot("human_arm_2dof", body_mass=mass)

@@ -282,3 +282,18 @@ def test_wrong_stored_rate_warns_and_emg_rate_fixes(tmp_path: Path) -> None:
     ch = fixed.channels["biceps"]
     assert ch.rate == 2000.0 and ch.time is None and ch.duration == pytest.approx(10.0)
     assert "suggested_emg_rate" not in fixed.metadata
+
+
+def test_a_misspelt_reader_keyword_is_refused(tmp_path: Path) -> None:
+    """``read_recording``/``read_bytes`` take their keywords as one TypedDict: a misspelt one
+    is a TypeError naming it (not silently ignored), the right one changes the result."""
+    data = "\n".join(_emg_csv()).encode()
+    path = tmp_path / "emg.csv"
+    path.write_bytes(data)
+    with pytest.raises(TypeError, match="emg_rat"):
+        read_bytes(data, "emg.csv", emg_rat=2000.0)  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="emg_rat"):
+        read_recording(path, emg_rat=2000.0)  # type: ignore[call-arg]
+    assert {ch.rate for ch in read_recording(path).channels.values()} == {1000.0}
+    fixed = read_bytes(data, "emg.csv", emg_rate=2000.0)
+    assert {ch.rate for ch in fixed.channels.values() if ch.kind == "emg"} == {2000.0}

@@ -12,6 +12,7 @@ from typing import Any
 
 from app.errors import BioPlanError
 from app.jobs.runner import EventSink, JobEvent, JobRunner
+from app.logs import get_logger
 from app.progress import ProgressFn, report
 
 
@@ -44,6 +45,24 @@ def target(kind: str, payload: dict[str, Any], progress: ProgressFn) -> dict[str
     if kind == "crash":
         os._exit(7)
     raise KeyError(kind)
+
+
+def log_target(kind: str, payload: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
+    """Logs ``n`` INFO lines (and as many DEBUG ones, not kept) on the planning logger,
+    reporting progress every ``every`` lines; fails at the end when ``fail`` is given."""
+    log = get_logger("planning")
+    n, every = int(payload["n"]), int(payload.get("every", 50))
+    for i in range(n):
+        log.info("line %d of %d", i, n)
+        log.debug("detail %d", i)
+        if (i + 1) % every == 0:
+            report(progress, "log", i + 1, n)
+            time.sleep(0.03)  # past the progress throttle: every report is sent
+    if payload.get("sleep"):
+        time.sleep(float(payload["sleep"]))
+    if payload.get("fail"):
+        raise BioPlanError(str(payload["fail"]))
+    return {"result": {"n": n}}
 
 
 def service_target(kind: str, payload: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:

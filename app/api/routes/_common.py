@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 from pathlib import PurePosixPath
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from fastapi import Depends, Path, Query, Response
 from pydantic import BeforeValidator, Field
@@ -25,7 +25,7 @@ IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
 MAX_POINTS = 10_000
 
 #: The error answers every route documents, with the problem's schema.
-PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
+PROBLEM_RESPONSES: dict[int | str, dict[str, object]] = {
     code: {
         "description": desc,
         "content": {"application/problem+json": {"schema": Problem.model_json_schema()}},
@@ -52,7 +52,7 @@ EXPORT_MEDIA_TYPES: dict[str, str] = {
     "mot": "text/plain",
 }
 #: The trajectory routes' documented answers: a file of one of the export media types.
-EXPORT_RESPONSES: dict[int | str, dict[str, Any]] = {
+EXPORT_RESPONSES: dict[int | str, dict[str, object]] = {
     200: {
         "description": "the export file",
         "content": {media: {} for media in sorted(set(EXPORT_MEDIA_TYPES.values()))},
@@ -146,7 +146,7 @@ def export_options(
     goal: GoalQuery = False,
     topic: TopicQuery = None,
     from_position: FromPositionQuery = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The export query options every trajectory download takes beside its format, rate and
     method, with this server's sample cap (``app.services.results.export_trajectory``'s
     keyword arguments)."""
@@ -162,7 +162,7 @@ def export_options(
 
 
 #: ``export_options`` as a dependency (its query parameters are the route's).
-ExportOptions = Annotated[dict[str, Any], Depends(export_options)]
+ExportOptions = Annotated[dict[str, object], Depends(export_options)]
 
 
 def trajectory_out(
@@ -174,7 +174,7 @@ def trajectory_out(
     fmt: str,
     rate: float | None,
     method: str | None,
-    **options: Any,
+    **options: object,
 ) -> Response:
     """A stored plan's or simulation's export file, streamed as an attachment
     (``app.services.results.export_file``: its refusals are 404, 409 and 422 naming the
@@ -197,7 +197,7 @@ def export_response(out: ExportFile, fmt: str) -> Response:
     )
 
 
-def _iso_only(value: Any) -> Any:
+def _iso_only(value: object) -> object:
     """Refuse a bare number as a date (pydantic would read ``0.5`` as a Unix time)."""
     if isinstance(value, str):
         try:

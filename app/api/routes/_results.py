@@ -23,6 +23,7 @@ from sqlalchemy.orm import Session
 from app.api.checks import check_task
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
+from app.api.result_models import RESULT_OUT_MODELS
 from app.api.routes._common import (
     EXPORT_RESPONSES,
     MAX_POINTS,
@@ -62,6 +63,8 @@ ShapeFn = Callable[[Session, dict[str, Any]], dict[str, Any]]
 SubmitFn = Callable[[Any, Session, Services], dict[str, Any]]
 
 _KW = inspect.Parameter.KEYWORD_ONLY
+_EMPTY = inspect.Parameter.empty
+_SESSION = ("session", SessionDep, _EMPTY)
 _LIST_DEFAULTS: tuple[tuple[str, Any, Any], ...] = (
     ("limit", Annotated[int, Query(ge=1, le=500)], 50),
     ("offset", Annotated[int, Query(ge=0, le=10**9)], 0),
@@ -93,7 +96,9 @@ class ResultRoutes:
         noun: the singular in route names and messages (``get_plan``, "plan 3 does not exist");
             default ``kind``.
         plural: the plural in the list route's name (``list_plans``); default ``noun`` + "s".
-        response_model: what list items and fetched results are (a ``Page`` of it for lists).
+        response_model: what list items and fetched results are (a ``Page`` of it for lists);
+            default the kind's typed model of ``RESULT_OUT_MODELS``. Served with
+            ``exclude_unset``: a field a stored result lacks is not added as null.
         filters: the list's query parameters beside ``limit``, ``offset`` and ``state``: name to
             annotated type, each defaulting to None and handed to ``page`` by name.
         page: a page of items; default ``list_results`` of ``kind``.
@@ -124,6 +129,8 @@ class ResultRoutes:
     names: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        if self.response_model is ResultOut:  # the kind's typed result (app.api.result_models)
+            object.__setattr__(self, "response_model", RESULT_OUT_MODELS.get(self.kind, ResultOut))
         object.__setattr__(self, "noun", self.noun or self.kind)
         object.__setattr__(self, "plural", self.plural or f"{self.noun}s")
 
@@ -188,148 +195,194 @@ def _endpoint(
 
 
 def add_result_routes(router: APIRouter, spec: ResultRoutes) -> None:
-    """Add the shared routes of ``spec``'s kind to ``router`` (whose prefix is the kind's)."""
-    kind, id_name, empty = spec.kind, spec.id_name, inspect.Parameter.empty
-    id_param = (id_name, IdPath, empty)
-    session_param = ("session", SessionDep, empty)
-
-    def one(session: Session, result_id: int) -> dict[str, Any]:
-        out = spec.item(session, result_id) if spec.item else result_out(session, kind, result_id)
-        return spec.shape(session, out) if spec.shape else out
-
+    """Add the shared routes of ``spec``'s kind to ``router`` (whose prefix is the kind's), in
+    this order: submit, list, get, relabel, delete, arrays, trajectory (each when ``spec``
+    asks for it)."""
     if spec.submit is not None:
-        if spec.request is None:
-            raise ValueError(f"{kind}: a submit needs its request model (request=...)")
-        submit_fn = spec.submit
+        _add_submit(router, spec, spec.submit)
+    _add_list(router, spec)
+    _add_get(router, spec)
+    if spec.label:
+        _add_relabel(router, spec)
+    if spec.delete:
+        _add_delete(router, spec)
+    if spec.arrays:
+        _add_arrays(router, spec)
+    if spec.trajectory:
+        _add_trajectory(router, spec)
 
-        def submit(**kw: Any) -> dict[str, Any]:
-            job = submit_fn(kw["body"], kw["session"], kw["services"])
-            kw["response"].headers["Location"] = job["result_url"]
-            return job
 
-        router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])(
-            _endpoint(
-                submit,
-                spec.name("submit"),
-                spec.doc("submit"),
-                [
-                    ("body", spec.request, empty),
-                    session_param,
-                    ("services", ServicesDep, empty),
-                    ("response", Response, empty),
-                ],
-            )
+def _id_param(spec: ResultRoutes) -> tuple[str, Any, Any]:
+    """The path parameter of one result, named after the kind (``plan_id``...)."""
+    return (spec.id_name, IdPath, _EMPTY)
+
+
+def _one(spec: ResultRoutes, session: Session, result_id: int) -> dict[str, Any]:
+    """One result as the kind serves it (its own ``item`` and ``shape`` when it has them)."""
+    kind = spec.kind
+    out = spec.item(session, result_id) if spec.item else result_out(session, kind, result_id)
+    return spec.shape(session, out) if spec.shape else out
+
+
+def _add_submit(router: APIRouter, spec: ResultRoutes, submit_fn: SubmitFn) -> None:
+    """``POST ""``: queue a job (202, its ``Location`` the result's URL)."""
+    if spec.request is None:
+        raise ValueError(f"{spec.kind}: a submit needs its request model (request=...)")
+
+    def submit(**kw: Any) -> dict[str, Any]:
+        job = submit_fn(kw["body"], kw["session"], kw["services"])
+        kw["response"].headers["Location"] = job["result_url"]
+        return job
+
+    router.post("", status_code=202, response_model=Job, dependencies=[WriteAccess])(
+        _endpoint(
+            submit,
+            spec.name("submit"),
+            spec.doc("submit"),
+            [
+                ("body", spec.request, _EMPTY),
+                _SESSION,
+                ("services", ServicesDep, _EMPTY),
+                ("response", Response, _EMPTY),
+            ],
         )
+    )
+
+
+def _add_list(router: APIRouter, spec: ResultRoutes) -> None:
+    """``GET ""``: a page of results, with the kind's filters."""
 
     def list_(**kw: Any) -> dict[str, Any]:
         session, limit, offset = kw.pop("session"), kw["limit"], kw["offset"]
         if spec.page is not None:
             items, total = spec.page(session, **kw)
         else:
-            items, total = list_results(session, kind, **kw)
+            items, total = list_results(session, spec.kind, **kw)
         if spec.shape is not None:
             items = [spec.shape(session, item) for item in items]
         return {"items": items, "total": total, "limit": limit, "offset": offset}
 
     filters = [(name, annotation, None) for name, annotation in spec.filters.items()]
     page_model: Any = Page  # a generic built at run time (mypy reads ``Page[x]`` as a type)
-    router.get("", response_model=page_model[spec.response_model])(
+    router.get(
+        "", response_model=page_model[spec.response_model], response_model_exclude_unset=True
+    )(
         _endpoint(
             list_,
             spec.name("list"),
             spec.doc("list"),
-            [session_param, *_LIST_DEFAULTS, *filters],
+            [_SESSION, *_LIST_DEFAULTS, *filters],
         )
     )
+
+
+def _add_get(router: APIRouter, spec: ResultRoutes) -> None:
+    """``GET /{id}``: one result."""
+    id_name = spec.id_name
 
     def get(**kw: Any) -> dict[str, Any]:
-        return one(kw["session"], kw[id_name])
+        return _one(spec, kw["session"], kw[id_name])
 
-    router.get(f"/{{{id_name}:int}}", response_model=spec.response_model)(
-        _endpoint(get, spec.name("get"), spec.doc("get"), [session_param, id_param])
+    router.get(
+        f"/{{{id_name}:int}}", response_model=spec.response_model, response_model_exclude_unset=True
+    )(_endpoint(get, spec.name("get"), spec.doc("get"), [_SESSION, _id_param(spec)]))
+
+
+def _add_relabel(router: APIRouter, spec: ResultRoutes) -> None:
+    """``PATCH /{id}``: set or clear a result's label."""
+    id_name = spec.id_name
+
+    def relabel_(**kw: Any) -> dict[str, Any]:
+        session, result_id = kw["session"], kw[id_name]
+        out = relabel(session, spec.kind, result_id, kw["body"].label)
+        return _one(spec, session, result_id) if spec.item or spec.shape else out
+
+    router.patch(
+        f"/{{{id_name}:int}}",
+        response_model=spec.response_model,
+        response_model_exclude_unset=True,
+        dependencies=[WriteAccess],
+    )(
+        _endpoint(
+            relabel_,
+            spec.name("relabel"),
+            spec.doc("relabel"),
+            [_SESSION, _id_param(spec), ("body", LabelPatch, _EMPTY)],
+        )
     )
 
-    if spec.label:
 
-        def relabel_(**kw: Any) -> dict[str, Any]:
-            session, result_id = kw["session"], kw[id_name]
-            out = relabel(session, kind, result_id, kw["body"].label)
-            return one(session, result_id) if spec.item or spec.shape else out
+def _add_delete(router: APIRouter, spec: ResultRoutes) -> None:
+    """``DELETE /{id}``: a result and its job (a queued or running job is cancelled first)."""
+    id_name = spec.id_name
 
-        router.patch(
-            f"/{{{id_name}:int}}", response_model=spec.response_model, dependencies=[WriteAccess]
-        )(
-            _endpoint(
-                relabel_,
-                spec.name("relabel"),
-                spec.doc("relabel"),
-                [session_param, id_param, ("body", LabelPatch, empty)],
-            )
+    def delete(**kw: Any) -> Response:
+        services, session, result_id = kw["services"], kw["session"], kw[id_name]
+        get_result_row(session, spec.kind, result_id)  # 404 when there is none
+        if job_of(session, result_id)["state"] in ("queued", "running"):
+            with contextlib.suppress(ConflictError):  # it ended meanwhile
+                services.jobs.cancel(result_id)
+        if not delete_job(session, services.blobs, result_id):
+            raise ApiError(404, f"{spec.noun} {result_id} does not exist")
+        return Response(status_code=204)
+
+    router.delete(f"/{{{id_name}:int}}", status_code=204, dependencies=[WriteAccess])(
+        _endpoint(
+            delete,
+            spec.name("delete"),
+            spec.doc("delete"),
+            [("services", ServicesDep, _EMPTY), _SESSION, _id_param(spec)],
+        )
+    )
+
+
+def _add_arrays(router: APIRouter, spec: ResultRoutes) -> None:
+    """``GET /{id}/arrays``: a result's stored arrays, down-sampled to ``points``."""
+    id_name = spec.id_name
+
+    def arrays(**kw: Any) -> dict[str, Any]:
+        return result_arrays(
+            kw["session"], spec.kind, kw[id_name], points=kw["points"], names=kw["name"]
         )
 
-    if spec.delete:
+    router.get(f"/{{{id_name}:int}}/arrays", response_model=ArraysOut)(
+        _endpoint(
+            arrays,
+            spec.name("arrays"),
+            spec.doc("arrays"),
+            [
+                _SESSION,
+                _id_param(spec),
+                ("points", Annotated[int, Query(ge=2, le=MAX_POINTS)], 500),
+                ("name", ArrayNames, None),
+            ],
+        )
+    )
 
-        def delete(**kw: Any) -> Response:
-            services, session, result_id = kw["services"], kw["session"], kw[id_name]
-            get_result_row(session, kind, result_id)  # 404 when there is none
-            if job_of(session, result_id)["state"] in ("queued", "running"):
-                with contextlib.suppress(ConflictError):  # it ended meanwhile
-                    services.jobs.cancel(result_id)
-            if not delete_job(session, services.blobs, result_id):
-                raise ApiError(404, f"{spec.noun} {result_id} does not exist")
-            return Response(status_code=204)
 
-        router.delete(f"/{{{id_name}:int}}", status_code=204, dependencies=[WriteAccess])(
-            _endpoint(
-                delete,
-                spec.name("delete"),
-                spec.doc("delete"),
-                [("services", ServicesDep, empty), session_param, id_param],
-            )
+def _add_trajectory(router: APIRouter, spec: ResultRoutes) -> None:
+    """``GET /{id}/trajectory``: a result's motion as an export file."""
+    id_name = spec.id_name
+
+    def trajectory(**kw: Any) -> Response:
+        return trajectory_out(
+            kw["session"],
+            kw["robots"],
+            spec.kind,
+            kw[id_name],
+            fmt=kw["format"],
+            rate=kw["rate"],
+            method=kw["method"],
+            **kw["options"],
         )
 
-    if spec.arrays:
-
-        def arrays(**kw: Any) -> dict[str, Any]:
-            return result_arrays(
-                kw["session"], kind, kw[id_name], points=kw["points"], names=kw["name"]
-            )
-
-        router.get(f"/{{{id_name}:int}}/arrays", response_model=ArraysOut)(
-            _endpoint(
-                arrays,
-                spec.name("arrays"),
-                spec.doc("arrays"),
-                [
-                    session_param,
-                    id_param,
-                    ("points", Annotated[int, Query(ge=2, le=MAX_POINTS)], 500),
-                    ("name", ArrayNames, None),
-                ],
-            )
+    router.get(
+        f"/{{{id_name}:int}}/trajectory", response_class=Response, responses=EXPORT_RESPONSES
+    )(
+        _endpoint(
+            trajectory,
+            spec.name("trajectory"),
+            spec.doc("trajectory"),
+            [_SESSION, ("robots", RobotsDep, _EMPTY), _id_param(spec), *_TRAJECTORY_QUERIES],
         )
-
-    if spec.trajectory:
-
-        def trajectory(**kw: Any) -> Response:
-            return trajectory_out(
-                kw["session"],
-                kw["robots"],
-                kind,
-                kw[id_name],
-                fmt=kw["format"],
-                rate=kw["rate"],
-                method=kw["method"],
-                **kw["options"],
-            )
-
-        router.get(
-            f"/{{{id_name}:int}}/trajectory", response_class=Response, responses=EXPORT_RESPONSES
-        )(
-            _endpoint(
-                trajectory,
-                spec.name("trajectory"),
-                spec.doc("trajectory"),
-                [session_param, ("robots", RobotsDep, empty), id_param, *_TRAJECTORY_QUERIES],
-            )
-        )
+    )

@@ -3,17 +3,18 @@ template."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 from fastapi import APIRouter, Query
 from sqlalchemy.orm import Session
 
 from app.api.deps import SessionDep
-from app.api.errors import ApiError
+from app.api.result_models import AnalysisResultOut
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.routes._results import ResultRoutes, add_result_routes
-from app.api.schemas import AnalysisOut, AnalysisRequest
+from app.api.schemas import AnalysisRequest
 from app.services import Services
+from app.services.job_views import not_finished
 from app.services.recording_views import analysis_summary
 from app.services.recordings import analysis_params
 from app.services.results import get_result_row, job_of
@@ -21,14 +22,14 @@ from app.services.results import get_result_row, job_of
 router = APIRouter(prefix="/api/analyses", tags=["analyses"], responses=PROBLEM_RESPONSES)
 
 
-def _submit(body: AnalysisRequest, session: Session, services: Services) -> dict[str, Any]:
+def _submit(body: AnalysisRequest, session: Session, services: Services) -> dict[str, object]:
     params = analysis_params(session, body.model_dump(mode="json"))
     return services.jobs.submit(
         kind="analysis", params=params, resource={"recording_id": body.recording_id}
     )
 
 
-def _item(session: Session, analysis_id: int) -> dict[str, Any]:
+def _item(session: Session, analysis_id: int) -> dict[str, object]:
     row = get_result_row(session, "analysis", analysis_id)
     return {
         "id": row.id,
@@ -39,8 +40,9 @@ def _item(session: Session, analysis_id: int) -> dict[str, Any]:
     }
 
 
-def _summarised(session: Session, item: dict[str, Any]) -> dict[str, Any]:
-    return {**item, "summary": analysis_summary(item["result"])}
+def _summarised(session: Session, item: dict[str, object]) -> dict[str, object]:
+    result = item["result"]
+    return {**item, "summary": analysis_summary(result if isinstance(result, dict) else None)}
 
 
 _SUBMIT_DOC = """Queue an analysis of a stored recording; poll the job or follow its events.
@@ -57,7 +59,7 @@ add_result_routes(
     ResultRoutes(
         kind="analysis",
         plural="analyses",
-        response_model=AnalysisOut,
+        response_model=AnalysisResultOut,
         filters={
             "recording_id": Annotated[
                 int | None,
@@ -73,12 +75,11 @@ add_result_routes(
 )
 
 
-@router.get("/{analysis_id:int}/template", response_model=dict[str, Any])
-def get_template(session: SessionDep, analysis_id: IdPath) -> dict[str, Any]:
+@router.get("/{analysis_id:int}/template", response_model=dict[str, object])
+def get_template(session: SessionDep, analysis_id: IdPath) -> dict[str, object]:
     """The HumanTemplate JSON (what ``bioplan analyze --out`` writes; ``plan --template``)."""
     row = get_result_row(session, "analysis", analysis_id)
     if row.template is None:
-        state = job_of(session, row.id)["state"]
-        raise ApiError(409, f"analysis {analysis_id} has no template yet (job state {state})")
-    template: dict[str, Any] = row.template
+        raise not_finished(session, row.id, f"analysis {analysis_id}", lacks="no template yet")
+    template: dict[str, object] = row.template
     return template

@@ -9,19 +9,20 @@ from fastapi import APIRouter, Response
 from sqlalchemy.orm import Session
 
 from app.api.deps import SessionDep
-from app.api.errors import ApiError
+from app.api.result_models import CohortResultOut
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.routes._results import ResultRoutes, add_result_routes
-from app.api.schemas import CohortOptionInfo, CohortOut, CohortRequest
+from app.api.schemas import CohortOptionInfo, CohortRequest
 from app.services import Services
 from app.services.cohorts import cohort_csv, cohort_option_info, cohort_params
-from app.services.results import get_result_row, job_of
+from app.services.job_views import not_finished
+from app.services.results import get_result_row
 
 router = APIRouter(prefix="/api/cohorts", tags=["cohorts"], responses=PROBLEM_RESPONSES)
 
 
 @router.get("/options", response_model=list[CohortOptionInfo])
-def cohort_options() -> list[dict[str, Any]]:
+def cohort_options() -> list[dict[str, object]]:
     """Every option of a comparison with its default, help, unit, choices and range."""
     return cohort_option_info()
 
@@ -30,7 +31,7 @@ def _out(session: Session, item: dict[str, Any]) -> dict[str, Any]:
     return {**item, "groups": item["job"]["params"].get("groups") or {}}
 
 
-def _submit(body: CohortRequest, session: Session, services: Services) -> dict[str, Any]:
+def _submit(body: CohortRequest, session: Session, services: Services) -> dict[str, object]:
     params = cohort_params(session, body.model_dump(mode="json", exclude={"label"}))
     return services.jobs.submit(kind="cohort", params=params, resource={}, label=body.label)
 
@@ -44,8 +45,7 @@ def get_cohort_csv(session: SessionDep, cohort_id: IdPath) -> Response:
     """One row per measured recording: recording id, group, file, subject, every measure."""
     row = get_result_row(session, "cohort", cohort_id)
     if row.result is None:
-        state = job_of(session, row.id)["state"]
-        raise ApiError(409, f"cohort {cohort_id} has no result (job state {state})")
+        raise not_finished(session, row.id, f"cohort {cohort_id}")
     return Response(
         cohort_csv(row.result),
         media_type="text/csv",
@@ -67,7 +67,7 @@ _DOCS = {"submit": _SUBMIT_DOC, "list": _LIST_DOC, "delete": _DELETE_DOC}
 add_result_routes(
     router,
     ResultRoutes(
-        "cohort", response_model=CohortOut, shape=_out, submit=_submit, request=CohortRequest,
+        "cohort", response_model=CohortResultOut, shape=_out, submit=_submit, request=CohortRequest,
         delete=True, docs=_DOCS,
     ),
 )  # fmt: skip

@@ -12,16 +12,18 @@ import hashlib
 import itertools
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import FileResponse
 
 from app.api.deps import ServicesDep
 from app.api.errors import ApiError
+from app.api.result_models import ComparisonView
 from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath
 from app.names import METHODS
 from app.services.comparisons import comparison_data, comparison_file, prepare_comparison
+from app.services.results import with_joint_power
 
 router = APIRouter(prefix="/api/viewer", tags=["viewer"], responses=PROBLEM_RESPONSES)
 
@@ -102,19 +104,25 @@ def method_pair(methods: str | None) -> tuple[str, str] | None:
     return a, b
 
 
-@router.get("/comparisons/{kind}/{result_id:int}", response_model=dict[str, Any])
+@router.get(
+    "/comparisons/{kind}/{result_id:int}",
+    response_model=ComparisonView,
+    response_model_exclude_unset=True,
+)
 def comparison(
     services: ServicesDep,
     kind: ComparisonKind,
     result_id: IdPath,
     points: Annotated[int, Query(ge=2, le=MAX_POINTS, description="samples per curve")] = 400,
     methods: MethodsQuery = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """A finished plan's or simulation's curves per joint (SI units), phases, metrics, floors,
     and where the 3-D viewer shows it. ``methods=a,b`` shows any two planned methods as
     ``standard`` (a) and ``optimized`` (b); ``summary.methods`` says which."""
     pair = method_pair(methods)
-    out = comparison_data(prepare_comparison(services.comparisons, kind, result_id, pair), points)
+    prepared = prepare_comparison(services.comparisons, kind, result_id, pair)
+    out = comparison_data(prepared, points)
+    out["curves"] = with_joint_power(out["curves"], prepared.comparison, points)
     viewer = services.viewer
     out["viewer"] = (
         {
@@ -165,14 +173,14 @@ def export(
     )
 
 
-@router.get("/recordings/{recording_id:int}/analysis", response_model=dict[str, Any])
+@router.get("/recordings/{recording_id:int}/analysis", response_model=dict[str, object])
 def recording_analysis(
     services: ServicesDep,
     recording_id: IdPath,
     points: Annotated[int, Query(ge=2, le=MAX_POINTS, description="samples per series")] = 2000,
     t0: Annotated[float | None, Query(description="window start [s]")] = None,
     t1: Annotated[float | None, Query(description="window end [s]")] = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The plot overlays of the newest finished analysis of a recording: envelopes with onsets,
     shoulder/elbow angles and velocities [deg, deg/s], lifts with their A/B/C phases and the
     human template, downsampled to ``points`` samples per series within the window [t0, t1].
@@ -193,7 +201,7 @@ def recording_analysis(
     }
 
 
-@router.get("/sessions", response_model=list[dict[str, Any]])
-def sessions(services: ServicesDep) -> list[dict[str, Any]]:
+@router.get("/sessions", response_model=list[dict[str, object]])
+def sessions(services: ServicesDep) -> list[dict[str, object]]:
     """The viewer's open tabs: which comparison, playing or not, redraws per second."""
     return [] if services.viewer is None else services.viewer.sessions()

@@ -3,7 +3,7 @@ point's trajectory as a file, and the viewer address that plays a point."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 from fastapi import APIRouter, Path, Response
 from sqlalchemy.orm import Session
@@ -42,7 +42,7 @@ PointPath = Annotated[
 ]
 
 
-def _submit(body: FrontRequest, session: Session, services: Services) -> dict[str, Any]:
+def _submit(body: FrontRequest, session: Session, services: Services) -> dict[str, object]:
     return submit_front(
         services,
         session,
@@ -52,7 +52,7 @@ def _submit(body: FrontRequest, session: Session, services: Services) -> dict[st
     )
 
 
-def _public(session: Session, item: dict[str, Any]) -> dict[str, Any]:
+def _public(session: Session, item: dict[str, object]) -> dict[str, object]:
     return {**item, "result": public_front(item["result"])}
 
 
@@ -111,10 +111,10 @@ def export_front_point(
     return export_response(out, format)
 
 
-@router.get("/{front_id:int}/points/{pid}/view", response_model=dict[str, Any])
+@router.get("/{front_id:int}/points/{pid}/view", response_model=dict[str, object])
 def view_front_point(
     services: ServicesDep, session: SessionDep, front_id: IdPath, pid: PointPath
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Point ``pid`` and where the 3-D viewer plays it (solid) beside the quintic at the same
     duration: ``{"point", "viewer": {"enabled", "url", "path", "host", "port"}}``."""
     return point_view(services, session, front_id, pid)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import AsyncIterator, Callable
-from typing import Annotated, Any
+from typing import Annotated, TypeVar
 
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import StreamingResponse
@@ -27,6 +27,8 @@ from app.services import ALL_JOBS, Services, Subscription, job_summary
 from app.services.broker import StreamRefused, StreamTicket
 from app.services.results import job_page
 
+T = TypeVar("T")
+
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], responses=PROBLEM_RESPONSES)
 #: Streams about many jobs at once (the dashboard's job drawer).
 events_router = APIRouter(prefix="/api/events", tags=["jobs"], responses=PROBLEM_RESPONSES)
@@ -39,7 +41,7 @@ KEEPALIVE_SECONDS = 15.0
 IDLE_END = ": idle: nothing changed for {:g} s; reconnect for a fresh snapshot\n\n"
 
 #: The 429 of a refused stream, in the OpenAPI document.
-STREAM_REFUSED: dict[int | str, dict[str, Any]] = {
+STREAM_REFUSED: dict[int | str, dict[str, object]] = {
     429: {
         "description": "Too many open event streams (BIOPLAN_MAX_STREAMS or "
         "BIOPLAN_MAX_STREAMS_PER_CLIENT); `Retry-After` says when to try again",
@@ -55,7 +57,7 @@ def list_jobs(
     offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
     kind: JobKind | None = None,
     state: JobState | None = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     items, total = job_page(session, limit=limit, offset=offset, kind=kind, state=state)
     return {
         "items": items,
@@ -66,13 +68,13 @@ def list_jobs(
 
 
 @router.get("/{job_id:int}", response_model=Job)
-def get_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
+def get_job(jobs: JobsDep, job_id: IdPath) -> dict[str, object]:
     """A job: state, structured progress (``stage``, ``done`` of ``of``, ``best``), timings."""
     return jobs.get(job_id)
 
 
 @router.post("/{job_id:int}/cancel", response_model=Job, dependencies=[WriteAccess])
-def cancel_job(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
+def cancel_job(jobs: JobsDep, job_id: IdPath) -> dict[str, object]:
     """Cancel a queued or running job (a running one is stopped); 409 when it already ended."""
     return jobs.cancel(job_id)
 
@@ -94,7 +96,7 @@ class JobLog(BaseModel):
 
 
 @router.get("/{job_id:int}/log", response_model=JobLog)
-def get_job_log(jobs: JobsDep, job_id: IdPath) -> dict[str, Any]:
+def get_job_log(jobs: JobsDep, job_id: IdPath) -> dict[str, object]:
     """What the job's science said while it ran: methods, solve times, channels, failures."""
     return jobs.log(job_id)
 
@@ -116,8 +118,8 @@ def _open_stream(request: Request, services: Services) -> StreamTicket:
 
 
 async def _subscribed(
-    services: Services, ticket: StreamTicket, key: int, read: Callable[..., Any], *args: Any
-) -> tuple[Subscription, Any]:
+    services: Services, ticket: StreamTicket, key: int, read: Callable[..., T], *args: object
+) -> tuple[Subscription, T]:
     """Subscribe to ``key``'s updates, then read the snapshot (so no update is lost); the
     ticket is released when either fails."""
     try:
@@ -176,13 +178,13 @@ class _Idle:
         return False
 
 
-def _same(a: dict[str, Any], b: dict[str, Any]) -> bool:
+def _same(a: dict[str, object], b: dict[str, object]) -> bool:
     """Nothing a client shows changed between two reads of a job."""
     keys = ("state", "progress", "stage", "done", "best", "message")
     return all(a[k] == b[k] for k in keys)
 
 
-def _sse(event: str, data: dict[str, Any], model: type[Job | JobSummary] = Job) -> str:
+def _sse(event: str, data: dict[str, object], model: type[Job | JobSummary] = Job) -> str:
     return f"event: {event}\ndata: {model.model_validate(data).model_dump_json()}\n\n"
 
 
@@ -234,7 +236,7 @@ async def job_events(request: Request, services: ServicesDep, job_id: IdPath) ->
     return _EventStream(stream(), ticket, sub)
 
 
-def _sse_summaries(event: str, jobs: list[dict[str, Any]]) -> str:
+def _sse_summaries(event: str, jobs: list[dict[str, object]]) -> str:
     data = ",".join(JobSummary.model_validate(job).model_dump_json() for job in jobs)
     return f"event: {event}\ndata: [{data}]\n\n"
 

@@ -12,7 +12,8 @@ from sqlalchemy import text
 
 from app import __version__, names
 from app.api.deps import ServicesDep
-from app.api.schemas import Health, Meta, Version, ViewerInfo
+from app.api.result_models import MetaOut
+from app.api.schemas import Health, Version, ViewerInfo
 from app.config import Settings
 from app.services.robots import data_usage
 
@@ -73,10 +74,12 @@ def version(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-@router.get("/meta", response_model=Meta)
+@router.get("/meta", response_model=MetaOut)
 def meta() -> dict[str, Any]:
     """The names every page shares (``app.names``): metrics with units and formulas, the A/B/C
-    phases with bounds and colours, planning methods, muscle colours, PSO defaults, job states.
+    phases with bounds and colours, planning methods, muscle colours, PSO defaults, job states,
+    the axes a front trades with their words, and the physical floors' formulas (the pages
+    print them, never write them).
     """
     return names.as_json()
 

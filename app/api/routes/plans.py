@@ -3,22 +3,22 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import Annotated, TypeGuard
 
 from fastapi import APIRouter, Query
 
 from app.api.deps import SessionDep
-from app.api.errors import ApiError
 from app.api.routes._common import PROBLEM_RESPONSES
 from app.api.routes._results import ResultRoutes, add_result_routes
 from app.api.schemas import PlanComparison, PlanRequest
-from app.services.results import get_result_row, job_of
+from app.services.job_views import not_finished
+from app.services.results import get_result_row
 
 router = APIRouter(prefix="/api/plans", tags=["plans"], responses=PROBLEM_RESPONSES)
 
 
-def _diff(a: Any, b: Any) -> dict[str, Any] | None:
-    def number(x: Any) -> bool:
+def _diff(a: object, b: object) -> dict[str, object] | None:
+    def number(x: object) -> TypeGuard[float]:
         return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
 
     def one(x: float, y: float) -> tuple[float, float | None]:
@@ -38,8 +38,8 @@ def _diff(a: Any, b: Any) -> dict[str, Any] | None:
     return None
 
 
-def _compare_metrics(ma: dict[str, Any], mb: dict[str, Any]) -> dict[str, Any]:
-    out = {}
+def _compare_metrics(ma: dict[str, object], mb: dict[str, object]) -> dict[str, object]:
+    out: dict[str, object] = {}
     for key in ma:
         if key in mb and (d := _diff(ma[key], mb[key])) is not None:
             out[key] = d
@@ -51,14 +51,13 @@ def compare_plans(
     session: SessionDep,
     a: Annotated[int, Query(ge=1, le=2**31 - 1, description="first plan id")],
     b: Annotated[int, Query(ge=1, le=2**31 - 1, description="second plan id")],
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Metric by metric, ``b - a`` and ``100 (b - a) / |a|`` for both trajectories."""
     results = []
     for pid in (a, b):
         row = get_result_row(session, "plan", pid)
         if row.result is None:
-            state = job_of(session, pid)["state"]
-            raise ApiError(409, f"plan {pid} has no result (job state {state})")
+            raise not_finished(session, pid, f"plan {pid}")
         results.append(row.result)
     ra, rb = results
     return {

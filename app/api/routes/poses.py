@@ -4,20 +4,36 @@ one and its worker); the list and get routes are made by ``app.api.routes._resul
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Protocol
 
 from fastapi import APIRouter, Query
 from sqlalchemy.orm import Session
 
+from app.api.result_models import PoseResultOut
 from app.api.routes._common import PROBLEM_RESPONSES
 from app.api.routes._results import ResultRoutes, add_result_routes
-from app.api.schemas import PoseOut
 from app.services.results import get_result_row, job_of, pose_page
 
 router = APIRouter(prefix="/api/poses", tags=["recordings"], responses=PROBLEM_RESPONSES)
 
 
-def _out(row: Any, job: dict[str, Any]) -> dict[str, Any]:
+class _PoseRow(Protocol):
+    """What the routes read of a stored pose extraction."""
+
+    @property
+    def id(self) -> int: ...
+
+    @property
+    def recording_id(self) -> int | None: ...
+
+    @property
+    def video_file_id(self) -> int | None: ...
+
+    @property
+    def result(self) -> object: ...
+
+
+def _out(row: _PoseRow, job: dict[str, object]) -> dict[str, object]:
     return {
         "id": row.id,
         "recording_id": row.recording_id,
@@ -32,7 +48,7 @@ def _page(session: Session, **query: Any) -> tuple[list[dict[str, Any]], int]:
     return [_out(row, job) for row, job in rows], total
 
 
-def _item(session: Session, pose_id: int) -> dict[str, Any]:
+def _item(session: Session, pose_id: int) -> dict[str, object]:
     row = get_result_row(session, "pose", pose_id)
     return _out(row, job_of(session, row.id))
 
@@ -45,7 +61,7 @@ add_result_routes(
     router,
     ResultRoutes(
         kind="pose",
-        response_model=PoseOut,
+        response_model=PoseResultOut,
         filters={
             "recording_id": Annotated[
                 int | None, Query(ge=1, le=2**31 - 1, description="only this recording's")

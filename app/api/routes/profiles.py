@@ -3,8 +3,6 @@ one task (``bioplan profiles``): submit (202 + job), list, fetch (``app.api.rout
 
 from __future__ import annotations
 
-from typing import Any
-
 from fastapi import APIRouter
 from sqlalchemy.orm import Session
 
@@ -17,7 +15,7 @@ from app.services import Services
 router = APIRouter(prefix="/api/profiles", tags=["profiles"], responses=PROBLEM_RESPONSES)
 
 
-def _submit(body: ProfilesRequest, session: Session, services: Services) -> dict[str, Any]:
+def _submit(body: ProfilesRequest, session: Session, services: Services) -> dict[str, object]:
     joints = services.robots.joints(session, body.robot)  # UnknownRobotError: 404 naming the field
     for name in ("start_deg", "goal_deg"):
         angles = getattr(body, name)

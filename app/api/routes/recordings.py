@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 import json
 import re
-from typing import Annotated, Any, get_args
+from typing import Annotated, get_args
 
 from fastapi import APIRouter, File, Form, Path, Query, Request, Response, UploadFile
 from pydantic import Field, TypeAdapter
@@ -113,6 +113,53 @@ def _image_size(text: str | None) -> tuple[int, int] | None:
     return int(w), int(h)
 
 
+_UploadFiles = Annotated[
+    list[UploadFile],
+    File(
+        min_length=1,
+        description="recording files (format detected from content), BIDS sidecars of an"
+        " EDF (<stem>_channels.tsv, <stem>_emg.json), videos (mp4, mov, avi)",
+    ),
+]
+_SessionForm = Annotated[
+    SessionMode,
+    Form(
+        alias="session",
+        description="separate: trials on their own clocks (default); together: recorded at"
+        " the same time (e.g. an EMG file and the video of the same lifts)",
+    ),
+]
+_MuscleMapForm = Annotated[
+    str | None,
+    Form(description='JSON object: channel label -> site, e.g. {"Biceps.EMG4": "biceps"}'),
+]
+_ImageSizeForm = Annotated[
+    str | None,
+    Form(
+        json_schema_extra={"pattern": IMAGE_SIZE},  # checked by _image_size, in words
+        description="WIDTHxHEIGHT [px] for normalised landmarks",
+    ),
+]
+
+
+def _read_uploads(services: Services, files: list[UploadFile]) -> list[tuple[str, bytes]]:
+    """(checked file name, content) of every upload; a 4xx when together they would take the
+    data directory over its quota."""
+    uploads = [
+        (upload_name(f.filename, f"upload-{i + 1}", field="files"), f.file.read())
+        for i, f in enumerate(files)
+    ]
+    settings = services.settings
+    check_data_quota(
+        settings.data_dir,
+        int(settings.data_quota_mb * 1024 * 1024),
+        uploads[0][0] if uploads else "files",
+        sum(len(data) for _, data in uploads),
+        what=f"{len(uploads)} file(s)",
+    )
+    return uploads
+
+
 @router.post(
     "",
     status_code=201,
@@ -123,14 +170,7 @@ def _image_size(text: str | None) -> tuple[int, int] | None:
 def upload_recording(
     services: ServicesDep,
     session: SessionDep,
-    files: Annotated[
-        list[UploadFile],
-        File(
-            min_length=1,
-            description="recording files (format detected from content), BIDS sidecars of an"
-            " EDF (<stem>_channels.tsv, <stem>_emg.json), videos (mp4, mov, avi)",
-        ),
-    ],
+    files: _UploadFiles,
     subject: Annotated[str | None, Form(max_length=200)] = None,
     task: Annotated[str | None, Form(max_length=200)] = None,
     load_kg: Annotated[float | None, Form(ge=0, le=100, description="load lifted [kg]")] = None,
@@ -142,36 +182,20 @@ def upload_recording(
         str | None,
         Form(max_length=100, description="the experimental condition (a cohort groups by it)"),
     ] = None,
-    session_mode: Annotated[
-        SessionMode,
-        Form(
-            alias="session",
-            description="separate: trials on their own clocks (default); together: recorded at"
-            " the same time (e.g. an EMG file and the video of the same lifts)",
-        ),
-    ] = "separate",
-    muscle_map: Annotated[
-        str | None,
-        Form(description='JSON object: channel label -> site, e.g. {"Biceps.EMG4": "biceps"}'),
-    ] = None,
+    session_mode: _SessionForm = "separate",
+    muscle_map: _MuscleMapForm = None,
     rate: Annotated[
         float | None, Form(ge=1, le=RATE_MAX_HZ, description="rate of files that state none [Hz]")
     ] = None,
     emg_rate: Annotated[
         float | None, Form(ge=EMG_RATE_MIN_HZ, le=RATE_MAX_HZ, description="true EMG rate [Hz]")
     ] = None,
-    image_size: Annotated[
-        str | None,
-        Form(
-            json_schema_extra={"pattern": IMAGE_SIZE},  # checked by _image_size, in words
-            description="WIDTHxHEIGHT [px] for normalised landmarks",
-        ),
-    ] = None,
+    image_size: _ImageSizeForm = None,
     frame_rate: Annotated[float | None, Form(gt=0, le=1e4, description="video [fps]")] = None,
     format: Annotated[
         ReaderFormat | None, Form(description="reader to use instead of detecting it")
     ] = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Parse and store every file in one transaction: all of them, or none when one fails.
 
     Videos are checked here (container, video track, stated duration within the server's
@@ -186,18 +210,7 @@ def upload_recording(
         "frame_rate": frame_rate,
         "format": format,
     }
-    uploads = [
-        (upload_name(f.filename, f"upload-{i + 1}", field="files"), f.file.read())
-        for i, f in enumerate(files)
-    ]
-    settings = services.settings
-    check_data_quota(
-        settings.data_dir,
-        int(settings.data_quota_mb * 1024 * 1024),
-        uploads[0][0] if uploads else "files",
-        sum(len(data) for _, data in uploads),
-        what=f"{len(uploads)} file(s)",
-    )
+    uploads = _read_uploads(services, files)
     videos = sum(is_video_upload(name, data) for name, data in uploads)
     if videos:
         _require_pose_environment(services)
@@ -236,7 +249,7 @@ def _require_pose_environment(services: Services) -> None:
 
 def _submit_pose(
     services: Services, recording_id: int, video_ids: list[int]
-) -> list[dict[str, Any]]:
+) -> list[dict[str, object]]:
     """One pose-extraction job per video (file ids)."""
     return [
         services.jobs.submit(
@@ -249,7 +262,7 @@ def _submit_pose(
     ]
 
 
-def _detail(session: Session, recording_id: int, **extra: Any) -> dict[str, Any]:
+def _detail(session: Session, recording_id: int, **extra: object) -> dict[str, object]:
     # A fresh read: jobs started by this request were written by other sessions.
     session.commit()
     rec = get_stored(session, recording_id)
@@ -301,7 +314,7 @@ async def list_recordings(
 
 
 @router.get("/{recording_id:int}", response_model=RecordingDetail)
-def get_recording(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
+def get_recording(session: SessionDep, recording_id: IdPath) -> dict[str, object]:
     """Files (role, warnings, rate check, a video's pose extraction) and channels (flat,
     excluded), the session mode and the options in use."""
     return recording_detail(session, get_stored(session, recording_id))
@@ -315,7 +328,7 @@ def get_recording(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
 )
 def patch_recording(
     services: ServicesDep, session: SessionDep, recording_id: IdPath, body: RecordingPatch
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Change metadata, the session mode, reader options (the files are read again from their
     stored bytes: muscle map, EMG rate...) and excluded channels; with ``analyse`` (default),
     queue an analysis with these settings (``analysis_job``). Earlier analyses are kept."""
@@ -347,7 +360,7 @@ def patch_recording(
 )
 def restart_pose(
     services: ServicesDep, session: SessionDep, recording_id: IdPath
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """A pose job for every video of the recording (after a failure or a cancel; a success
     replaces the landmarks and skeleton frames). 409 while one is queued or running."""
     rec = get_stored(session, recording_id)
@@ -366,7 +379,7 @@ def restart_pose(
 
 
 @router.get("/{recording_id:int}/frames", response_model=SkeletonFrames)
-def list_frames(session: SessionDep, recording_id: IdPath) -> dict[str, Any]:
+def list_frames(session: SessionDep, recording_id: IdPath) -> dict[str, object]:
     """The video frames with the detected skeleton drawn (a few per video), to check the fit."""
     get_stored(session, recording_id)
     return {"recording_id": recording_id, "frames": skeleton_frame_list(session, recording_id)}
@@ -406,7 +419,7 @@ def get_signals(
     points: Annotated[int, Query(ge=2, le=MAX_POINTS, description="points per series")] = 2000,
     t0: Annotated[float | None, Query(description="window start [s]")] = None,
     t1: Annotated[float | None, Query(description="window end [s]")] = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Signals for plotting, min/max-downsampled to at most ``points`` samples per series."""
     return signals(
         session, recording_id, channel_ids=channel, names=name, points=points, t0=t0, t1=t1

@@ -10,11 +10,11 @@ from sqlalchemy.orm import Session
 
 from app.api.deps import RobotsDep, ServicesDep, SessionDep, WriteAccess
 from app.api.errors import ApiError
+from app.api.result_models import IdentificationResultOut
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath, upload_name
 from app.api.routes._results import ResultRoutes, add_result_routes
 from app.api.schemas import (
     ROBOT_NAME,
-    IdentificationOut,
     IdentifyRequest,
     RobotLogOut,
 )
@@ -48,7 +48,7 @@ def upload_robot_log(
         str | None, Form(max_length=200, description="a bag's JointState topic")
     ] = None,
     label: Annotated[str | None, Form(max_length=200)] = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Read the log, match its joints to the robot's, validate it against the robot's model and
     store it. A log refused at any step (unknown joint names, time going back, a gap, a NaN run,
     too short, no torques) is a 422 naming the file and the line, channel or joint, and nothing
@@ -75,13 +75,13 @@ def upload_robot_log(
 def list_robot_logs(
     session: SessionDep,
     robot: Annotated[str | None, Query(pattern=ROBOT_NAME)] = None,
-) -> list[dict[str, Any]]:
+) -> list[dict[str, object]]:
     """Stored logs, newest first (of one robot with ``robot``)."""
     return robot_logs.list_logs(session, robot)
 
 
 @router.get("/{log_id:int}", response_model=RobotLogOut)
-def get_robot_log(session: SessionDep, log_id: IdPath) -> dict[str, Any]:
+def get_robot_log(session: SessionDep, log_id: IdPath) -> dict[str, object]:
     return robot_logs.log_to_dict(robot_logs.get_log(session, log_id))
 
 
@@ -102,7 +102,7 @@ def validate_robot_log(
     cutoff_hz: Annotated[
         float | None, Query(gt=0, le=1000, description="low-pass cutoff [Hz] (default 10)")
     ] = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Measured against predicted torque per joint (``bioplan validate --json``) with the
     plotted series (``series``: t [s], measured and predicted [Nm] per joint, power [W]),
     computed now (about half a second for 20 s at 1 kHz, so no job). With ``plan``: the log
@@ -125,7 +125,7 @@ def delete_robot_log(services: ServicesDep, session: SessionDep, log_id: IdPath)
     return Response(status_code=204)
 
 
-def _submit(body: IdentifyRequest, session: Session, services: Services) -> dict[str, Any]:
+def _submit(body: IdentifyRequest, session: Session, services: Services) -> dict[str, object]:
     params = robot_logs.identify_params(
         session,
         services.robots,
@@ -143,7 +143,7 @@ def _submit(body: IdentifyRequest, session: Session, services: Services) -> dict
     )
 
 
-def _item(session: Session, identification_id: int) -> dict[str, Any]:
+def _item(session: Session, identification_id: int) -> dict[str, object]:
     row = get_result_row(session, "identify", identification_id)
     return {
         "id": row.id,
@@ -171,7 +171,7 @@ add_result_routes(
         kind="identify",
         noun="identification",
         plural="identifications",
-        response_model=IdentificationOut,
+        response_model=IdentificationResultOut,
         filters={"robot": Annotated[str | None, Query(pattern=ROBOT_NAME)]},
         page=_page,
         item=_item,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 from fastapi import APIRouter, File, Form, Path, Response, UploadFile
 
@@ -24,13 +24,13 @@ MAX_LOCKS = 64
 
 
 @router.get("", response_model=list[RobotInfo])
-def list_robots(session: SessionDep, robots: RobotsDep) -> list[dict[str, Any]]:
+def list_robots(session: SessionDep, robots: RobotsDep) -> list[dict[str, object]]:
     """Built-in robots first, then uploaded ones, each with joints and limits (SI units)."""
     return robots.all(session)
 
 
 @router.get("/{name}", response_model=RobotInfo)
-def get_robot(session: SessionDep, robots: RobotsDep, name: RobotName) -> dict[str, Any]:
+def get_robot(session: SessionDep, robots: RobotsDep, name: RobotName) -> dict[str, object]:
     return robots.describe(session, name)
 
 
@@ -44,7 +44,9 @@ def _read_model(upload: UploadFile, field: str, limit: int = MAX_MODEL_BYTES) ->
     return name, data
 
 
-def _optional(upload: UploadFile | None, field: str, limit: int = MAX_MODEL_BYTES) -> Any:
+def _optional(
+    upload: UploadFile | None, field: str, limit: int = MAX_MODEL_BYTES
+) -> tuple[str, bytes] | None:
     return None if upload is None else _read_model(upload, field, limit)
 
 
@@ -111,7 +113,7 @@ def upload_robot(
     urdf_member: Member = None,
     mjcf_member: Member = None,
     sidecar_member: Member = None,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """Store a robot (URDF and/or MJCF, or a zip with meshes, plus a sidecar) after checking
     that the planning package loads it; a URDF/MJCF pair that disagrees is refused naming the
     joint."""

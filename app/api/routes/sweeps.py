@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from fastapi import APIRouter
 from sqlalchemy.orm import Session
 
@@ -15,7 +13,7 @@ from app.services import Services
 router = APIRouter(prefix="/api/sweeps", tags=["sweeps"], responses=PROBLEM_RESPONSES)
 
 
-def _submit(body: SweepRequest, session: Session, services: Services) -> dict[str, Any]:
+def _submit(body: SweepRequest, session: Session, services: Services) -> dict[str, object]:
     services.robots.joints(session, body.robot)  # UnknownRobotError: 404 naming the field
     return services.jobs.submit(
         kind="sweep", params=body.model_dump(mode="json"), resource={"robot": body.robot}

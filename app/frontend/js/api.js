@@ -8,6 +8,7 @@ export function token() {
   return localStorage.getItem(TOKEN_KEY) || "";
 }
 
+/** @param {string} value */
 export function setToken(value) {
   if (value) localStorage.setItem(TOKEN_KEY, value);
   else localStorage.removeItem(TOKEN_KEY);
@@ -15,6 +16,10 @@ export function setToken(value) {
 
 /** An API failure: the server's problem (status, title, detail, field, file). */
 export class ApiError extends Error {
+  /**
+   * @param {number} status HTTP status
+   * @param {import("./types").Problem} problem
+   */
   constructor(status, problem) {
     super(problem.detail || problem.title || `HTTP ${status}`);
     this.status = status;
@@ -28,6 +33,10 @@ function authHeaders() {
   return t ? { Authorization: `Bearer ${t}` } : {};
 }
 
+/**
+ * @param {Response} response
+ * @returns {Promise<import("./types").Problem>}
+ */
 async function problemOf(response) {
   let body = null;
   try {
@@ -63,7 +72,11 @@ export async function api(path, { method = "GET", body, signal } = {}) {
   return response.json();
 }
 
-/** Query string from an object, skipping null/undefined; arrays repeat the key. */
+/**
+ * Query string from an object, skipping null/undefined; arrays repeat the key.
+ * @param {Record<string, any>} params
+ * @returns {string}
+ */
 export function qs(params) {
   const q = new URLSearchParams();
   for (const [k, v] of Object.entries(params)) {
@@ -79,6 +92,10 @@ export function qs(params) {
  * POST multipart form data with upload progress (fetch cannot report it; XHR can).
  * onProgress(fraction) is called while the body is sent. Resolves with the JSON body,
  * rejects with ApiError (the server's problem) or a network Error.
+ * @param {string} path
+ * @param {FormData} form
+ * @param {(fraction: number) => void} [onProgress]
+ * @returns {Promise<any>} the JSON answer
  */
 export function upload(path, form, onProgress) {
   return new Promise((resolve, reject) => {
@@ -111,12 +128,20 @@ export function upload(path, form, onProgress) {
 /**
  * Follow a job's Server-Sent Events until it ends. onUpdate(job) for every update.
  * Returns a function that stops listening. Resolves `done` with the final job.
+ * @param {{ id: number, events_url: string }} job
+ * @param {(job: import("./types").JobInfo) => void} onUpdate
+ * @returns {{ done: Promise<import("./types").JobInfo>, stop(): void }}
  */
 export function followJob(job, onUpdate) {
-  let source = null;
+  // Set as the promise starts (synchronously), before anything reads it.
+  let source = /** @type {EventSource} */ (/** @type {unknown} */ (null));
   let stopped = false;
   const done = new Promise((resolve) => {
     source = new EventSource(job.events_url);
+    /**
+     * @param {MessageEvent} event
+     * @param {boolean} final
+     */
     const handle = (event, final) => {
       const data = JSON.parse(event.data);
       onUpdate(data);

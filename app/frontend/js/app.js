@@ -19,6 +19,7 @@ const routes = [
 ];
 
 const main = /** @type {HTMLElement} */ (document.getElementById("app"));
+/** @type {(() => void) | null} */
 let current = null; // the page's cleanup function
 let drawerMounted = false;
 let visits = 0; // which route() call is the latest
@@ -51,7 +52,7 @@ async function route() {
     await loadNames();
     if (!drawerMounted) {
       // The job drawer reads the shared job states, so it is mounted once they are loaded.
-      mountJobDrawer(document.getElementById("jobs-button"), document.getElementById("job-drawer"));
+      mountJobDrawer(/** @type {HTMLElement} */ (document.getElementById("jobs-button")), /** @type {HTMLElement} */ (document.getElementById("job-drawer")));
       drawerMounted = true;
     }
     // The stylesheet's trajectory colours follow the shared names too.

@@ -11,11 +11,31 @@ import { banner, clear, fmt, h, inFormWords, tag, when } from "./ui.js";
 
 /** Group colours, in group order (any two groups differ). */
 const PALETTE = ["#2563eb", "#ea8c14", "#16a34a", "#9333ea", "#dc2626", "#0891b2", "#a16207", "#db2777"];
+/** @type {Record<string, string>} */
 const FIELD_WORDS = { groups: "Groups", group_by: "Grouping", recording_ids: "Recordings", options: "Options" };
+/** @type {Record<string, string>} */
 const TEST_WORDS = { welch_t: "Welch's t", mann_whitney_u: "Mann-Whitney U", paired_t: "paired t", wilcoxon: "Wilcoxon signed-rank" };
+/** @type {Record<string, string>} */
 const EFFECT_WORDS = { hedges_g: "Hedges' g", hedges_g_z: "Hedges' g_z", rank_biserial: "rank-biserial r" };
 
+/**
+ * An option of the comparison (GET /api/cohorts/options: the library's CohortOptions).
+ * @typedef {{ name: string, type: string, default: any, choices?: string[] | null, minimum: number | null,
+ *   unit?: string | null, help: string }} CohortOption
+ */
+/**
+ * The comparison's statistics (app/analysis/cohort.py `CohortResult.as_json`): the generated
+ * `CohortResult` leaves them `unknown`, so the page reads them untyped.
+ * @typedef {any} CohortResult
+ */
+/** @typedef {import("./api_types").CohortResultOut} CohortResultOut */
+
+/**
+ * @param {HTMLElement} main
+ * @param {Array<string | undefined>} match the comparison's id, if any
+ */
 export async function render(main, [id]) {
+  /** @type {(() => void)[]} */
   const stops = [];
   if (id) await resultPage(main, Number(id), stops);
   else await formPage(main, stops);
@@ -24,6 +44,7 @@ export async function render(main, [id]) {
 
 // ---- the form ----------------------------------------------------------------------------
 
+/** @param {CohortOption} o */
 function optionInput(o) {
   const attrs = { id: `opt-${o.name}`, name: o.name, title: o.help };
   if (o.choices) return h("select", attrs, o.choices.map((c) => h("option", { value: c, selected: c === o.default }, c)));
@@ -34,7 +55,12 @@ function optionInput(o) {
   return input;
 }
 
+/**
+ * @param {CohortOption[]} options
+ * @returns {Record<string, string | number | null>}
+ */
 function optionValues(options) {
+  /** @type {Record<string, string | number | null>} */
   const out = {};
   for (const o of options) {
     const raw = /** @type {HTMLInputElement | HTMLSelectElement} */ (document.getElementById(`opt-${o.name}`)).value.trim();
@@ -44,7 +70,12 @@ function optionValues(options) {
   return out;
 }
 
+/**
+ * @param {HTMLElement} main
+ * @param {(() => void)[]} stops the page's cleanup functions
+ */
 async function formPage(main, stops) {
+  /** @type {[import("./types").Page<any>, CohortOption[], import("./types").Page<CohortResultOut>]} */
   const [page, options, previous] = await Promise.all([
     api(`/api/recordings${qs({ limit: 500 })}`),
     api("/api/cohorts/options"),
@@ -88,6 +119,7 @@ async function formPage(main, stops) {
   groupNames.addEventListener("change", rows);
 
   function body() {
+    /** @type {{ label: string | null, options: Record<string, unknown>, group_by?: string, recording_ids?: number[], groups?: Record<string, number[]> }} */
     const out = { label: label.value.trim() || null, options: optionValues(options) };
     if (mode.value === "condition") {
       out.group_by = "condition";
@@ -95,12 +127,14 @@ async function formPage(main, stops) {
       out.recording_ids = [.../** @type {NodeListOf<HTMLInputElement>} */ (tbody.querySelectorAll("input.group-pick:checked"))].map((c) => Number(c.dataset.id)).sort((x, y) => x - y);
       return out;
     }
+    /** @type {Record<string, number[]>} */
     const groups = {};
     for (const s of /** @type {NodeListOf<HTMLSelectElement>} */ (tbody.querySelectorAll("select.group-pick"))) if (s.value) (groups[s.value] ||= []).push(Number(s.dataset.id));
     out.groups = groups;
     return out;
   }
 
+  /** @param {SubmitEvent} e */
   async function onSubmit(e) {
     e.preventDefault();
     clear(error);
@@ -141,9 +175,11 @@ async function formPage(main, stops) {
         h("div", {}, h("label", { for: "cohort-label" }, "Label"), label)),
       h("div", { class: "row", style: "margin-top:14px" }, submit),
       error, progress),
-    previousCard(previous.items));
+    // With no earlier comparison there is no card (append() would write null as "null").
+    previousCard(previous.items) ?? "");
 }
 
+/** @param {CohortResultOut[]} items */
 function previousCard(items) {
   if (!items.length) return null;
   return h("section", { class: "card" }, h("h2", {}, "Earlier comparisons"),
@@ -154,10 +190,16 @@ function previousCard(items) {
 
 // ---- the result --------------------------------------------------------------------------
 
+/**
+ * @param {HTMLElement} main
+ * @param {number} id the comparison's id
+ * @param {(() => void)[]} stops the page's cleanup functions
+ */
 async function resultPage(main, id, stops) {
   const head = h("div", { class: "page-head" }, h("div", {}, h("a", { href: "#/cohort", class: "small" }, "← New comparison"), h("h1", {}, `Cohort #${id}`)));
   const body = h("div", { id: "cohort-result" });
   main.append(head, body);
+  /** @type {CohortResultOut} */
   let out = await api(`/api/cohorts/${id}`);
   if (out.job.state !== "succeeded") {
     const line = h("p", { class: "muted", id: "cohort-progress-text" }, out.job.message);
@@ -174,24 +216,29 @@ async function resultPage(main, id, stops) {
     }
     clear(body);
   }
-  const r = out.result;
+  const r = /** @type {CohortResult} */ (out.result); // set once the job succeeded
   const groups = Object.keys(r.groups);
   const colour = Object.fromEntries(groups.map((g, i) => [g, PALETTE[i % PALETTE.length]]));
   head.append(h("div", { class: "actions" }, h("a", { class: "button", id: "cohort-csv", href: `/api/cohorts/${id}/csv`, download: `cohort-${id}.csv` }, "Download CSV (one row per recording)")));
   if (out.label) /** @type {HTMLElement} */ (head.querySelector("h1")).append(` “${out.label}”`);
   body.append(
     h("p", { class: "small muted" }, `${groups.map((g) => `${g}: ${r.groups[g].n} recording(s)`).join(" · ")}. ${r.subject_rule}.`),
-    ...r.pairings.map((p) => h("p", { class: "small" }, `${p.groups[0]} vs ${p.groups[1]}: ${p.why}`)),
+    ...r.pairings.map((/** @type {any} */ p) => h("p", { class: "small" }, `${p.groups[0]} vs ${p.groups[1]}: ${p.why}`)),
     groupCard(r, groups),
     testsCard(r),
     plotsCard(r),
     orderCard(r, groups),
-    r.warnings.length ? h("details", { class: "card" }, h("summary", {}, `${r.warnings.length} warning(s) from the analysis`), h("ul", {}, r.warnings.map((w) => h("li", { class: "small" }, w)))) : "");
+    r.warnings.length ? h("details", { class: "card" }, h("summary", {}, `${r.warnings.length} warning(s) from the analysis`), h("ul", {}, r.warnings.map((/** @type {string} */ w) => h("li", { class: "small" }, w)))) : "");
   drawPlots(r, groups, colour);
 }
 
+/** @type {(r: CohortResult, m: string) => string} */
 const unitOf = (r, m) => (r.units[m] ? ` [${r.units[m]}]` : "");
 
+/**
+ * @param {CohortResult} r
+ * @param {string[]} groups
+ */
 function groupCard(r, groups) {
   const measures = Object.keys(r.units);
   return h("section", { class: "card" }, h("h2", {}, "Groups"),
@@ -209,13 +256,14 @@ function groupCard(r, groups) {
         })))))));
 }
 
+/** @param {CohortResult} r */
 function testsCard(r) {
   const c = r.correction;
   return h("section", { class: "card" }, h("h2", {}, "Tests between groups"),
     h("p", { class: "small", id: "cohort-correction" }, `Correction: ${c.statement}.`),
     h("div", { class: "table-wrap" }, h("table", { id: "cohort-tests" },
       h("thead", {}, h("tr", {}, ["Measure", "Groups", "Test", "Statistic", "p", `p (${c.method})`, "Effect", "Why this test"].map((x) => h("th", {}, x)))),
-      h("tbody", {}, r.tests.map((t) => h("tr", { class: t.significant ? "significant" : "" },
+      h("tbody", {}, r.tests.map((/** @type {any} */ t) => h("tr", { class: t.significant ? "significant" : "" },
         h("td", { class: "mono small" }, t.measure),
         h("td", { class: "small" }, `${t.groups[0]} vs ${t.groups[1]} (${t.design}, n ${t.n.join("/")})`),
         t.skipped
@@ -229,6 +277,7 @@ function testsCard(r) {
     h("p", { class: "small muted" }, `* adjusted p < ${c.alpha}. Effects: the first group minus the second.`));
 }
 
+/** @param {CohortResult} r */
 function plotsCard(r) {
   const measures = Object.keys(r.units);
   return h("section", { class: "card" }, h("h2", {}, "Per recording, per group"),
@@ -236,12 +285,17 @@ function plotsCard(r) {
     h("div", { class: "grid-plots", id: "cohort-plots" }, measures.map((m) => h("div", { class: "plot cohort-plot", id: `plot-${m}`, dataset: { measure: m } }))));
 }
 
+/**
+ * @param {CohortResult} r
+ * @param {string[]} groups
+ * @param {Record<string, string>} colour per group
+ */
 function drawPlots(r, groups, colour) {
   for (const m of Object.keys(r.units)) {
     const traces = groups.map((g) => {
-      const members = r.recordings.filter((x) => x.group === g && x.measures[m] !== null && x.measures[m] !== undefined);
+      const members = r.recordings.filter((/** @type {any} */ x) => x.group === g && x.measures[m] !== null && x.measures[m] !== undefined);
       return {
-        type: "box", name: g, y: members.map((x) => x.measures[m]), text: members.map((x) => `${x.source} (${x.subject})`),
+        type: "box", name: g, y: members.map((/** @type {any} */ x) => x.measures[m]), text: members.map((/** @type {any} */ x) => `${x.source} (${x.subject})`),
         boxpoints: "all", jitter: 0.4, pointpos: 0, marker: { color: colour[g], size: 7 }, line: { color: colour[g] },
         hovertemplate: "%{text}: %{y}<extra></extra>",
       };
@@ -251,6 +305,10 @@ function drawPlots(r, groups, colour) {
   }
 }
 
+/**
+ * @param {CohortResult} r
+ * @param {string[]} groups
+ */
 function orderCard(r, groups) {
   return h("section", { class: "card" }, h("h2", {}, "Onset order"),
     h("div", { class: "table-wrap" }, h("table", { id: "cohort-orders" },

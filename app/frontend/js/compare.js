@@ -15,12 +15,8 @@ import { banner, fmt, h, messageOf, pct, when } from "./ui.js";
 /** @typedef {import("./types").Safety} Safety */
 /** @typedef {import("./types").TrajectoryCurves} TrajectoryCurves */
 
-// Older results name their floors after the physics only (ΔPE, ΔPE/T).
-const LEGACY_FLOOR_KEYS = { abs_work: "delta_potential", pos_work: "delta_potential", peak_power: "min_peak_power" };
-const FLOOR_TEXT = {
-  abs_work: "|ΔPE|", pos_work: "max(ΔPE, 0)", peak_power: "|ΔPE|/T (loose: the bound is the reference)", electrical_energy: "ΔPE + friction",
-  delta_potential: "ΔPE", min_peak_power: "ΔPE/T (loose: the bound is the reference)",
-};
+// The floors' formulas and older results' floor names come from /api/meta (names.floor_formulas,
+// names.legacy_floor_keys): the page prints them, it never writes them.
 // Said plainly where a metric has no physical floor (tau_sq, peak_torque, torque_change).
 const NO_FLOOR = "no floor";
 /** The trajectory formats a plan exports in ([format, what it is]); a front's points too (front.js). */
@@ -28,7 +24,9 @@ export const EXPORT_FORMATS = [
   ["csv", "CSV (t, q, qd, qdd, tau per joint)"], ["json", "JSON"], ["yaml", "YAML (ROS 2 JointTrajectory)"],
   ["mcap", "MCAP (rosbag2)"], ["script", "URScript"], ["mot", "OpenSim .mot"],
 ];
-const CURVES = ["qd", "tau", "power", "energy"];
+/** The curves drawn per joint, each a (T, n) field of the trajectory's curves (the server
+ * derives joint_power and joint_energy, app/planning/curves.py). */
+const CURVES = /** @type {const} */ (["qd", "tau", "joint_power", "joint_energy"]);
 
 /**
  * A method's name, label and colour (grey for one the server does not name).
@@ -39,26 +37,42 @@ export function methodInfo(name) {
   return names.methods.find((m) => m.name === name) || { name, label: name, colour: "#6b7280" };
 }
 
-/** [floor value, floor key] of a metric in a result's floors, or [null, null]. */
+/**
+ * [floor value, floor key] of a metric in a result's floors, or [null, null].
+ * @param {Record<string, unknown>} floors the result's `floors` [SI]
+ * @param {import("./types").MetricInfo} metric
+ * @returns {[number | null, string | null]}
+ */
 function floorOf(floors, metric) {
   if (metric.floor === null) return [null, null];
-  for (const key of [metric.name, metric.floor, LEGACY_FLOOR_KEYS[metric.name]]) {
-    if (key && floors[key] !== undefined && floors[key] !== null) return [floors[key], key];
+  for (const key of [metric.name, metric.floor, names.legacy_floor_keys[metric.name]]) {
+    const value = key ? floors[key] : undefined;
+    if (key && typeof value === "number") return [value, key];
   }
   return [null, null];
 }
 
 /** "below", "at" or "above" its floor (null without one). Within `tolerance` (relative: the
  * integration error the planner or simulator accepts, sent as `floor_tolerance`) a value is at
- * its floor: 159.79 against 159.8 is round-off, not an impossible number. */
+ * its floor: 159.79 against 159.8 is round-off, not an impossible number.
+ * @param {unknown} value the method's value [SI]
+ * @param {number | null} floor
+ * @param {number} tolerance relative
+ * @returns {"below" | "at" | "above" | null}
+ */
 function floorState(value, floor, tolerance) {
-  if (floor === null || floor === undefined || value === null || value === undefined) return null;
+  if (floor === null || typeof value !== "number") return null;
   const slack = tolerance * Math.max(Math.abs(floor), 1e-12);
   if (value < floor - slack) return "below";
   return value <= floor + slack ? "at" : "above";
 }
 
-/** What tells one comparison from another in the picker. */
+/**
+ * What tells one comparison from another in the picker.
+ * @param {import("./types").PlanOut} item a plan or simulation as listed
+ * @param {string} kind "plan" or "simulation"
+ * @returns {string}
+ */
 export function title(item, kind) {
   const c = (item.result && item.result.conditions) || {};
   const p = item.job.params || {};
@@ -69,10 +83,16 @@ export function title(item, kind) {
   return `${what} #${item.id}${label}: ${item.robot}, ${c.payload ?? p.payload ?? "default"} kg, ${c.duration ?? p.duration} s, ${c.objective ?? p.objective}, ${planned.length || 2} methods${template} · ${when(item.job.finished_at)}`;
 }
 
-/** Rename the shown comparison (PATCH its label); the picker shows the new name at once. */
+/**
+ * Rename the shown comparison (PATCH its label); the picker shows the new name at once.
+ * @param {Choice} selected
+ * @param {string} kind
+ * @param {HTMLSelectElement} picker
+ */
 function renameForm(selected, kind, picker) {
   const input = h("input", { id: "label-input", maxlength: "200", placeholder: "label (optional)", value: selected.item.label || "", "aria-label": "Label" });
   const status = h("span", { class: "small muted", id: "label-status" });
+  /** @param {Event} e */
   const save = async (e) => {
     e.preventDefault();
     try {
@@ -89,14 +109,6 @@ function renameForm(selected, kind, picker) {
     input, h("button", { type: "submit", class: "small", id: "label-save" }, "Rename"), status);
 }
 
-/** Per-joint power |τ_j ω_j| [W] and its running integral [J] (trapezoid). */
-function jointPower(t, tau, qd, j) {
-  const p = t.map((_, i) => Math.abs(tau[i][j] * qd[i][j]));
-  const e = [0];
-  for (let i = 1; i < t.length; i++) e.push(e[i - 1] + 0.5 * (p[i] + p[i - 1]) * (t[i] - t[i - 1]));
-  return [p, e];
-}
-
 /** Curves of every planned method: the shown pair's, plus those of the others (fetched as
  * further pairs, since one answer carries two). */
 /**
@@ -107,8 +119,10 @@ function jointPower(t, tau, qd, j) {
 async function allCurves(base, data) {
   const out = { [data.methods.standard]: data.curves.standard, [data.methods.optimized]: data.curves.optimized };
   const rest = data.planned.filter((m) => !(m in out));
+  /** @type {[string, string][]} */
   const pairs = [];
   for (let i = 0; i < rest.length; i += 2) pairs.push([rest[i], rest[i + 1] ?? data.methods.standard]);
+  /** @type {ComparisonView[]} */
   const answers = await Promise.all(pairs.map((pair) => api(`${base}${qs({ points: 400, methods: pair.join(",") })}`)));
   answers.forEach((a, i) => {
     out[pairs[i][0]] = a.curves.standard;
@@ -117,10 +131,19 @@ async function allCurves(base, data) {
   return out;
 }
 
+/** A comparison the picker offers: a plan or simulation as listed. */
+/** @typedef {{ kind: string, item: import("./types").PlanOut }} Choice */
+
+/**
+ * @param {HTMLElement} main
+ * @param {(string | undefined)[]} args the route's kind, id and query
+ */
 export async function render(main, [kindArg, idArg, query]) {
   const params = new URLSearchParams(query || "");
   const methodsArg = params.get("methods") || undefined;
   const sweepArg = params.get("sweep");
+  /** @typedef {import("./types").Page<import("./types").PlanOut>} PlanPage */
+  /** @type {[PlanPage, PlanPage, import("./types").Page<import("./types").SweepOut>, any]} */
   const [plans, sims, sweeps, chosenSweep] = await Promise.all([
     api(`/api/plans${qs({ state: "succeeded", limit: 100 })}`),
     api(`/api/simulations${qs({ state: "succeeded", limit: 100 })}`),
@@ -154,7 +177,8 @@ export async function render(main, [kindArg, idArg, query]) {
     ({ kind } = options[0]);
     id = options[0].item.id;
   }
-  const selected = options.find((o) => o.kind === kind && o.item.id === id);
+  // Found: kind and id were just set to an offered comparison.
+  const selected = /** @type {Choice} */ (options.find((o) => o.kind === kind && o.item.id === id));
   const picker = h("select", { id: "comparison-select", "aria-label": "Comparison" },
     options.map((o) => h("option", { value: `${o.kind}/${o.item.id}`, selected: o.kind === kind && o.item.id === id }, title(o.item, o.kind))));
   picker.addEventListener("change", () => (location.hash = `#/compare/${picker.value}`));
@@ -226,7 +250,7 @@ export function safetyText(safety) {
   if (safety.checked !== true) return safety.reason || "not checked";
   const findings = safety.findings || [];
   // No clearance when no pair was near (as the server's summary: n/a, never "0 mm").
-  const clearance = safety.min_clearance === null ? "n/a" : `${fmt(1000 * safety.min_clearance, 3)} mm`;
+  const clearance = safety.min_clearance === null || safety.min_clearance === undefined ? "n/a" : `${fmt(1000 * safety.min_clearance, 3)} mm`;
   if (safety.ok === true || !findings.length) return `ok, min clearance ${clearance}`;
   const f = findings[0];
   const links = (f.links || []).join(" and ");
@@ -237,7 +261,7 @@ export function safetyText(safety) {
 
 /** Where the template came from, in the card itself: the paper's default or whose lifts. */
 /**
- * @param {{ source?: string }} template
+ * @param {{ source?: string | null }} template
  * @param {PlanResult} result
  */
 function templateSource(template, result) {
@@ -246,10 +270,16 @@ function templateSource(template, result) {
   return `${(result.conditions || {}).template || "the paper's default"}, peak at ${fmt(target, 3)}°`;
 }
 
+/**
+ * @param {string} k
+ * @param {string | Node} v
+ * @param {string} [id]
+ */
 function fact(k, v, id) {
   return h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v", style: "font-size:14px", id }, v));
 }
 
+/** @param {string} name */
 function methodHead(name) {
   const m = methodInfo(name);
   return h("th", { class: "num", dataset: { method: name }, title: m.description || "" },
@@ -266,6 +296,7 @@ function methodHead(name) {
  */
 function metricsCard(kind, result, planned, jointNames, tolerance) {
   const floors = result.floors || {};
+  /** @param {string} name */
   const side = (name) => (result.methods && result.methods[name]) || (name === "quintic" ? result.standard : name === "paper" ? result.optimized : null);
   const objective = (result.conditions || {}).objective;
   const rows = names.metrics.filter((m) => !m.per_joint).map((m) => {
@@ -273,8 +304,10 @@ function metricsCard(kind, result, planned, jointNames, tolerance) {
     const cells = planned.map((name) => {
       /** @type {Partial<import("./types").MethodResult>} */
       const s = side(name) || {};
-      const value = s[m.name];
-      const change = name === "quintic" ? null : (s.improvement_pct || {})[m.name];
+      // A metric is a field by its name (names.metrics), beside the ones the model lists.
+      const value = /** @type {Record<string, unknown>} */ (/** @type {unknown} */ (s))[m.name];
+      const found = name === "quintic" ? null : (s.improvement_pct || {})[m.name];
+      const change = typeof found === "number" ? found : null;
       const state = floorState(value, floor, tolerance);
       const below = state === "below";
       return h("td", { class: `num${below ? " below-floor" : ""}`, dataset: { method: name, value: value ?? "", floorState: state ?? "" } },
@@ -283,7 +316,7 @@ function metricsCard(kind, result, planned, jointNames, tolerance) {
         below ? h("div", { class: "worse small", role: "alert" }, "below floor!") : null,
         state === "at" ? h("div", { class: "small muted at-floor", title: `within ${100 * tolerance} % of the floor: the integration's round-off` }, "at the floor") : null);
     });
-    const floorText = floorKey === "electrical_energy" && floors.friction_energy ? `ΔPE + friction ${fmt(floors.friction_energy)} J` : FLOOR_TEXT[floorKey] ?? floorKey;
+    const floorText = floorKey === "electrical_energy" && floors.friction_energy ? `${names.floor_formulas.electrical_energy} ${fmt(floors.friction_energy)} J` : (floorKey && names.floor_formulas[floorKey]) ?? floorKey;
     return h("tr", { dataset: { metric: m.name }, class: m.name === objective ? "objective-row" : "" },
       h("td", {}, h("strong", {}, m.name), h("span", { class: "narrow-only" }, ` [${m.unit}]`), m.name === objective ? h("span", { class: "small muted" }, " (objective)") : null, h("div", { class: "small muted" }, m.formula),
         // On a narrow window the unit and floor columns give way to these lines.
@@ -297,7 +330,10 @@ function metricsCard(kind, result, planned, jointNames, tolerance) {
   const shareRow = h("tr", { dataset: { metric: "share" } },
     h("td", {}, h("strong", {}, "share of the achievable saving"), h("div", { class: "small muted" }, `(quintic − method) / (quintic − bound) on ${objective || "the objective"}`)),
     h("td", { class: "wide-only" }, "%"),
-    planned.map((name) => h("td", { class: "num", dataset: { method: name, value: shares[name] ?? "" } }, shares[name] === null || shares[name] === undefined ? "–" : `${shares[name].toFixed(1)} %`)),
+    planned.map((name) => {
+      const share = shares[name];
+      return h("td", { class: "num", dataset: { method: name, value: share ?? "" } }, typeof share === "number" ? `${share.toFixed(1)} %` : "–");
+    }),
     h("td", { class: "wide-only" }, ""));
   const angleRow = h("tr", { dataset: { metric: "peak_velocity_angle_deg" } },
     h("td", {}, h("strong", {}, "elbow peak-velocity angle"), h("div", { class: "small muted" }, `template: ${fmt(result.target_peak_velocity_angle_deg ?? (result.conditions || {}).target_peak_velocity_angle_deg, 3)}°`)),
@@ -314,7 +350,7 @@ function metricsCard(kind, result, planned, jointNames, tolerance) {
         h("tbody", {}, rows, shareRow, angleRow),
       ),
     ),
-    h("p", { class: "small muted" }, "Under each value: its change against the standard quintic, 100 (quintic − method) / quintic; positive (green) uses less. Floors: no rest-to-rest motion does less work than |ΔPE| or has a lower peak power than |ΔPE|/T (a loose floor: the bound is the reference); electrical energy adds the friction no motion avoids; tau_sq and peak torque have no floor. Shares are never above 100 %: the bound is solved from every method's trajectory until none beats it."),
+    h("p", { class: "small muted" }, "Under each value: its change against the standard quintic, 100 (quintic − method) / quintic; positive (green) uses less. " + names.floor_note + " Shares are never above 100 %: the bound is solved from every method's trajectory until none beats it."),
     torqueTable(result, planned, jointNames, side),
   );
 }
@@ -335,7 +371,8 @@ function torqueTable(result, planned, jointNames, side) {
         const values = (side(name) || {}).peak_torque || [];
         return h("tr", { dataset: { method: name } }, h("td", {}, methodInfo(name).label),
           values.map((v, j) => {
-            const higher = name !== "quintic" && v > reference[j] * 1.005;
+            const ref = reference[j];
+            const higher = name !== "quintic" && v !== null && ref !== null && ref !== undefined && v > ref * 1.005;
             return h("td", { class: `num${higher ? " worse" : ""}`, title: higher ? "higher than the standard quintic's" : "" }, fmt(v), higher ? " ↑" : "");
           }));
       })),
@@ -357,7 +394,9 @@ async function drawCurves(card, data, curvesOf, pair) {
   const tEnd = t[t.length - 1];
   const seg = h("div", { class: "seg", role: "group", "aria-label": "Joint" });
   const grid = h("div", { class: "grid-plots", id: "curves" });
-  const divs = Object.fromEntries(CURVES.map((k) => [k, h("div", { class: "plot", id: `plot-${k}` })]));
+  // The plots keep their ids (plot-power, plot-energy) whichever field feeds them.
+  const plotId = { qd: "qd", tau: "tau", joint_power: "power", joint_energy: "energy" };
+  const divs = Object.fromEntries(CURVES.map((k) => [k, h("div", { class: "plot", id: `plot-${plotId[k]}` })]));
   Object.values(divs).forEach((d) => grid.append(h("div", {}, d)));
   const legend = h("div", { class: "legend-inline", id: "methods-legend" },
     data.planned.map((m) => h("span", {}, h("span", { class: "swatch", style: `background:${methodInfo(m).colour}` }), methodInfo(m).label, pair.includes(m) ? " (in the viewer)" : "")),
@@ -365,10 +404,10 @@ async function drawCurves(card, data, curvesOf, pair) {
   const redraw = () => Promise.all(CURVES.map((k) => {
     const j = joint;
     const name = jointNames[j];
-    const label = { qd: `${name} velocity [rad/s]`, tau: `${name} torque [Nm]`, power: `${name} power |τ·ω| [W]`, energy: `${name} cumulative energy [J]` }[k];
+    const label = { qd: `${name} velocity [rad/s]`, tau: `${name} torque [Nm]`, joint_power: `${name} power |τ·ω| [W]`, joint_energy: `${name} cumulative energy [J]` }[k];
     const traces = data.planned.map((m) => {
       const c = curvesOf[m];
-      const y = k === "qd" ? c.qd.map((r) => r[j]) : k === "tau" ? c.tau.map((r) => r[j]) : jointPower(t, c.tau, c.qd, j)[k === "power" ? 0 : 1];
+      const y = c[k].map((r) => r[j]);
       return { x: t, y, mode: "lines", name: methodInfo(m).label, line: { color: methodInfo(m).colour, width: pair.includes(m) ? 2.4 : 1.3 } };
     });
     return draw(divs[k], traces, layout({
@@ -406,6 +445,7 @@ async function drawHuman(card, data, curvesOf) {
   /** @type {Partial<NonNullable<ComparisonView["human"]>>} */
   const info = data.human || {};
   const div = h("div", { class: "plot", id: "plot-human" });
+  /** @type {{ x: number[], y: (number | null)[], mode: string, name: string, line: Record<string, string | number> }[]} */
   const traces = data.planned.map((m) => ({
     x: t, y: curvesOf[m].elbow_velocity_normalised, mode: "lines", name: methodInfo(m).label, line: { color: methodInfo(m).colour, width: 1.8 },
   }));
@@ -442,6 +482,7 @@ export function viewerUrl(viewer) {
  * @param {string[]} pair
  */
 function viewerCard(kind, id, data, pair) {
+  /** @param {string} sid @param {string} value */
   const select = (sid, value) => h("select", { id: sid, "aria-label": sid === "method-a" ? "Solid robot" : "Ghost robot" },
     data.planned.map((m) => h("option", { value: m, selected: m === value }, methodInfo(m).label)));
   const a = select("method-a", pair[0]);
@@ -465,7 +506,7 @@ function viewerCard(kind, id, data, pair) {
     ),
   );
   if (data.viewer.enabled) {
-    const url = viewerUrl(data.viewer);
+    const url = viewerUrl({ host: data.viewer.host || "", url: data.viewer.url || "" });
     card.append(
       h("iframe", { class: "viewer-frame", id: "viewer-frame", src: url, title: "3-D comparison viewer", allow: "fullscreen" }),
       h("p", { class: "small muted" }, "Each tab gets its own scene. ", h("a", { href: url, target: "_blank", rel: "noopener" }, "Open the viewer alone ↗")),
@@ -485,6 +526,7 @@ function viewerCard(kind, id, data, pair) {
  */
 export async function download(url, button, status) {
   const label = button.textContent;
+  /** @param {boolean} on */
   const busy = (on) => (button instanceof HTMLButtonElement ? (button.disabled = on) : button.toggleAttribute("aria-disabled", on));
   busy(true);
   button.textContent = "Preparing…";
@@ -537,6 +579,7 @@ function exportCard(kind, id, data, pair) {
     download(url, button, status);
   });
   const fileStatus = h("span", { class: "small muted", id: "report-status", role: "status" });
+  /** @param {string} fmtName @param {string} text */
   const fileButton = (fmtName, text) => {
     const b = h("button", { type: "button", id: `export-${fmtName}` }, text);
     b.addEventListener("click", () => download(data.exports[fmtName], b, fileStatus));
@@ -553,7 +596,11 @@ function exportCard(kind, id, data, pair) {
   );
 }
 
-/** The methods a sweep's cells compared with the quintic (the paper's first). */
+/**
+ * The methods a sweep's cells compared with the quintic (the paper's first).
+ * @param {import("./types").SweepResult} r
+ * @returns {string[]}
+ */
 function sweepMethods(r) {
   const found = new Set();
   for (const c of r.cells) Object.keys(c.methods_change_pct || {}).forEach((m) => found.add(m));
@@ -561,17 +608,25 @@ function sweepMethods(r) {
   return ["paper", ...[...found].filter((m) => m !== "paper")];
 }
 
-/** (durations x payloads) change [%] of `method` in `metric` (null where a cell is not ok). */
+/**
+ * (durations x payloads) change [%] of `method` in `metric` (null where a cell is not ok).
+ * @param {import("./types").SweepResult} r
+ * @param {string} objective
+ * @param {string} metric
+ * @param {string} method
+ * @returns {(number | null)[][]}
+ */
 function sweepGrid(r, objective, metric, method) {
   return r.durations.map((d) => r.payloads.map((p) => {
     const c = r.cells.find((x) => x.duration === d && x.payload === p && x.objective === objective);
     const v = c && c.status === "ok" ? (c.methods_change_pct || {})[method]?.[metric] : null;
-    return v === undefined ? null : v;
+    return typeof v === "number" ? v : null;
   }));
 }
 
+/** @param {import("./types").SweepOut} sweep a succeeded sweep */
 function sweepCard(sweep) {
-  const r = sweep.result;
+  const r = /** @type {import("./types").SweepResult} */ (sweep.result);
   const objectives = r.objectives;
   const metrics = r.metrics;
   const methods = sweepMethods(r);
@@ -588,6 +643,7 @@ function sweepCard(sweep) {
     // The paper's method: the stored table with each cell's checked verdict; the others: their
     // change per cell.
     const z = method === "paper" ? table.change_pct : sweepGrid(r, objective, metric, method);
+    /** @param {number} i @param {number} k */
     const verdict = (i, k) => (method === "paper" ? `<br>${table.classification[i][k]}` : "");
     const text = z.map((row, i) => row.map((v, k) => `${v === null ? "–" : `${v > 0 ? "+" : ""}${v.toFixed(1)} %`}${verdict(i, k)}`));
     const lim = Math.max(5, ...z.flat().filter((v) => v !== null).map((v) => Math.abs(v)));

@@ -7,7 +7,7 @@
 
 import { api, followJob, qs } from "./api.js";
 import { EXPORT_FORMATS, download, methodInfo, viewerUrl } from "./compare.js";
-import { isTerminal, metric } from "./names.js";
+import { isTerminal, metric, names } from "./names.js";
 import { draw, layout } from "./plots.js";
 import { jobProgress } from "./sweep_form.js";
 import { banner, clear, clearFieldErrors, fmt, h, messageOf, showCaps, showFormErrors, when } from "./ui.js";
@@ -18,41 +18,43 @@ import { banner, clear, clearFieldErrors, fmt, h, messageOf, showCaps, showFormE
 /** @typedef {import("./types").FrontReference} FrontReference */
 /** @typedef {import("./types").FrontResult} FrontResult */
 /** @typedef {import("./types").JobInfo} JobInfo */
+/** @typedef {ReturnType<typeof formFields>} FrontFields */
 
-/** The axes a front trades (app/planning/front.py `FRONT_AXES`), in the CLI's order. */
-const FRONT_AXES = ["tau_sq", "abs_work", "pos_work", "electrical_energy", "peak_power", "peak_torque", "jerk", "duration"];
-/** Axes a front measures differently from the shared names (or that they do not name): a
- * front's peak torque is the largest joint's over its limit, one number. */
-const AXIS_TEXT = {
-  peak_torque: { label: "peak torque over its limit (largest joint)", unit: "τ/τ_max" },
-  jerk: { label: "jerk ∫Σ q⃛² dt (smoothness)", unit: "rad²/s⁵" },
-  duration: { label: "duration", unit: "s" },
-};
 /** The methods of a front, their labels from the shared names. */
 const FRONT_METHODS = ["bound", "human_optimal"];
 /** The reference methods drawn on the front's axes (the service's `references`). */
 const REFERENCES = ["quintic", "paper", "jerk_limited"];
-/** The front request's fields in the form's words. */
+/**
+ * The front request's fields in the form's words.
+ * @type {Record<string, string>}
+ */
 const FRONT_WORDS = {
   label: "Label", robot: "Robot", payload_mass: "Payload", objectives: "Objectives", method: "Method", points: "Points",
   duration: "Duration", intervals: "Intervals", tolerance: "Tolerance", allow_reversal: "Allow reversal",
   max_duration: "Longest duration",
 };
+/** @type {Record<string, string>} */
 const SYMBOL = { point: "circle", knee: "star", reference: "diamond" };
 
 /**
  * An axis' label and unit.
- * @param {string} name one of FRONT_AXES
+ * @param {string} name one of the front's axes (`names.front_axes`, from /api/meta)
  * @returns {{ name: string, label: string, unit: string }}
  */
 export function axisInfo(name) {
-  const own = AXIS_TEXT[name];
+  // Axes a front measures differently from the shared names (or that they do not name), in the
+  // server's words (/api/meta `front_axis_text`).
+  const own = names.front_axis_text[name];
   if (own) return { name, ...own };
   const m = metric(name);
   return { name, label: m ? m.label : name, unit: m ? m.unit : "" };
 }
 
-/** "absolute work [J]" */
+/**
+ * "absolute work [J]"
+ * @param {string} name an axis
+ * @returns {string}
+ */
 function axisTitle(name) {
   const a = axisInfo(name);
   return a.unit ? `${a.label} [${a.unit}]` : a.label;
@@ -65,11 +67,15 @@ function axisTitle(name) {
  * @returns {number | null}
  */
 function valueOf(item, axis) {
-  const v = item[axis];
+  const v = /** @type {Record<string, unknown>} */ (/** @type {unknown} */ (item))[axis];
   return typeof v === "number" ? v : null;
 }
 
-/** The list's words for a front: its number, label, robot, axes and when it finished. */
+/**
+ * The list's words for a front: its number, label, robot, axes and when it finished.
+ * @param {any} item a listed front (GET /api/fronts)
+ * @returns {string}
+ */
 function frontTitle(item) {
   const p = (item.job && item.job.params) || {};
   const r = item.result || {};
@@ -81,8 +87,14 @@ function frontTitle(item) {
 
 // ---- the page --------------------------------------------------------------------------------
 
+/**
+ * @param {HTMLElement} main
+ * @param {Array<string | undefined>} match the front's id, if any
+ */
 export async function render(main, [idArg]) {
+  /** @type {(() => void)[]} */
   const stops = [];
+  /** @type {[import("./types").RobotInfo[], { items: FrontOut[], error?: unknown }]} */
   const [robots, fronts] = await Promise.all([
     api("/api/robots"),
     api(`/api/fronts${qs({ limit: 100 })}`).catch((err) => ({ items: [], error: err })),
@@ -96,7 +108,11 @@ export async function render(main, [idArg]) {
   return () => stops.forEach((f) => f());
 }
 
-/** The page's head: its title, the previous fronts to reopen and the way back to Compare. */
+/**
+ * The page's head: its title, the previous fronts to reopen and the way back to Compare.
+ * @param {FrontOut[]} items the listed fronts
+ * @param {string | undefined} idArg the front opened
+ */
 function pageParts(items, idArg) {
   const select = h("select", { id: "front-select", "aria-label": "Previous fronts" },
     h("option", { value: "" }, items.length ? "Open a previous front…" : "No front yet"),
@@ -123,6 +139,7 @@ function frontForm(robots, follow) {
   const f = formFields(robots);
   const error = h("div", { id: "front-form-error" });
   const submit = h("button", { type: "submit", class: "primary", id: "submit-front" }, "Draw the front");
+  /** @param {SubmitEvent} e */
   const onSubmit = async (e) => {
     e.preventDefault();
     clear(error);
@@ -156,14 +173,28 @@ function frontForm(robots, follow) {
     h("div", { class: "row", style: "margin-top:12px" }, submit));
 }
 
-/** A field with its label (and unit or hint). */
+/**
+ * A field with its label (and unit or hint).
+ * @param {string} id the input's id
+ * @param {string} text the label
+ * @param {HTMLElement} input
+ * @param {string} [hint]
+ */
 function field(id, text, input, hint = "") {
   return h("div", {}, h("label", { for: id }, `${text} `, hint ? h("span", { class: "hint" }, hint) : null), input);
 }
 
-/** The form's inputs, and the same by request field (for the server's refusals). */
+/**
+ * The form's inputs, and the same by request field (for the server's refusals).
+ * @param {{ name: string, builtin: boolean }[]} robots
+ */
 function formFields(robots) {
-  const axisOptions = (chosen) => FRONT_AXES.map((a) => h("option", { value: a, selected: a === chosen }, `${a}: ${axisTitle(a)}`));
+  /** @param {string} chosen */
+  const axisOptions = (chosen) => names.front_axes.map((a) => h("option", { value: a, selected: a === chosen }, `${a}: ${axisTitle(a)}`));
+  /**
+   * @param {string} id
+   * @param {Record<string, string>} attrs
+   */
   const number = (id, attrs) => h("input", { id, type: "number", step: "any", ...attrs });
   const f = {
     robot: h("select", { id: "front-robot" }, robots.map((r) => h("option", { value: r.name }, r.builtin ? r.name : `${r.name} (uploaded)`))),
@@ -188,12 +219,15 @@ function formFields(robots) {
 }
 
 /** A and B are never the same axis (each offers every axis but the other's), and the fixed
- * duration is only asked for when duration is not an axis (the longest duration only then). */
+ * duration is only asked for when duration is not an axis (the longest duration only then).
+ * @param {FrontFields} f
+ */
 function bindAxes(f) {
+  /** @param {HTMLSelectElement} changed */
   const sync = (changed) => {
     const other = changed === f.a ? f.b : f.a;
-    if (other.value === changed.value) other.value = FRONT_AXES.find((x) => x !== changed.value) || "";
-    for (const [sel, not] of [[f.a, f.b.value], [f.b, f.a.value]]) {
+    if (other.value === changed.value) other.value = names.front_axes.find((x) => x !== changed.value) || "";
+    for (const [sel, not] of /** @type {[HTMLSelectElement, string][]} */ ([[f.a, f.b.value], [f.b, f.a.value]])) {
       [...sel.options].forEach((o) => (o.disabled = o.value === not));
     }
     const durationAxis = f.a.value === "duration" || f.b.value === "duration";
@@ -205,7 +239,11 @@ function bindAxes(f) {
   sync(f.a);
 }
 
-/** The payload's placeholder says the chosen robot's default. */
+/**
+ * The payload's placeholder says the chosen robot's default.
+ * @param {FrontFields} f
+ * @param {{ name: string, payload: number | null }[]} robots
+ */
 function bindPayload(f, robots) {
   const sync = () => {
     const r = robots.find((x) => x.name === f.robot.value);
@@ -215,8 +253,12 @@ function bindPayload(f, robots) {
   sync();
 }
 
-/** The request from the form: empty numbers are left to the server's defaults. */
+/**
+ * The request from the form: empty numbers are left to the server's defaults.
+ * @param {FrontFields} f
+ */
 function requestOf(f) {
+  /** @param {HTMLInputElement} el */
   const num = (el) => (el.disabled || el.value.trim() === "" ? undefined : Number(el.value));
   const body = {
     robot: f.robot.value, payload_mass: num(f.payload), objectives: [f.a.value, f.b.value], method: f.method.value,
@@ -240,6 +282,7 @@ function frontView(select, stops) {
   const plotCard = h("section", { class: "card", id: "front-card" }, h("h2", {}, "The front"), status, body);
   const pointCard = h("section", { class: "card", id: "front-point-card", hidden: true });
 
+  /** @param {number} id the front's id */
   async function open(id) {
     clear(status);
     let out;
@@ -290,7 +333,12 @@ function frontView(select, stops) {
   return { open, follow, plotCard, pointCard };
 }
 
-/** POST the job's cancel; a refusal is said in `status`. */
+/**
+ * POST the job's cancel; a refusal is said in `status`.
+ * @param {number} id the job's id
+ * @param {HTMLButtonElement} button
+ * @param {HTMLElement} status
+ */
 async function cancelJob(id, button, status) {
   button.disabled = true;
   try {
@@ -304,6 +352,11 @@ async function cancelJob(id, button, status) {
 /** @param {FrontOut} out @param {FrontResult} r */
 function frontFacts(out, r) {
   const [a, b] = r.objectives;
+  /**
+   * @param {string} k
+   * @param {string | Node} v
+   * @param {string} [id]
+   */
   const fact = (k, v, id) => h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v", style: "font-size:14px", id }, v));
   return h("div", {},
     h("div", { class: "facts", id: "front-facts" },
@@ -345,6 +398,7 @@ function referenceNotes(r) {
 async function drawFront(div, r, chosen = null) {
   const [a, b] = r.objectives;
   const pts = r.points;
+  /** @param {string} who */
   const hover = (who) => `${who}<br>${a} %{x}<br>${b} %{y}<extra></extra>`;
   /** @type {Record<string, any>[]} Plotly traces */
   const traces = [{
@@ -384,11 +438,15 @@ function referenceTraces(r, hover) {
   }));
 }
 
-/** The front's points as a table (each row chooses its point, as a click on the plot does). */
+/**
+ * The front's points as a table (each row chooses its point, as a click on the plot does).
+ * @param {FrontResult} r
+ * @param {(pid: string | null) => Promise<void>} choose
+ */
 function pointsTable(r, choose) {
   const [a, b] = r.objectives;
   const rows = r.points.map((p) => h("tr", { class: "click", tabindex: "0", dataset: { point: p.id }, onclick: () => choose(p.id),
-    onkeydown: (e) => (e.key === "Enter" ? choose(p.id) : null) },
+    onkeydown: (/** @type {KeyboardEvent} */ e) => (e.key === "Enter" ? choose(p.id) : null) },
   h("td", { class: "mono" }, p.id), h("td", { class: "num" }, fmt(valueOf(p, a))), h("td", { class: "num" }, fmt(valueOf(p, b))),
   h("td", {}, [p.knee ? "knee" : "", p.end || ""].filter(Boolean).join(", "))));
   return h("details", { class: "table-wrap" }, h("summary", {}, `The ${r.points.length} points`),
@@ -397,7 +455,10 @@ function pointsTable(r, choose) {
       h("tbody", {}, rows)));
 }
 
-/** The front's CSV. */
+/**
+ * The front's CSV.
+ * @param {number} id the front's id
+ */
 function exportsRow(id) {
   const status = h("span", { class: "small muted", id: "front-csv-status", role: "status" });
   const csv = h("a", { class: "button small", id: "front-csv", href: `/api/fronts/${id}/csv` }, "Front as CSV");
@@ -424,6 +485,7 @@ function exportsRow(id) {
 function pointChooser(id, r, body, card, mark) {
   let latest = "";
   const frame = h("iframe", { class: "viewer-frame", id: "front-viewer-frame", title: "3-D viewer: the point beside the quintic", allow: "fullscreen" });
+  /** @param {string | null} pid */
   async function choose(pid) {
     if (!pid) return;
     latest = pid;
@@ -445,6 +507,11 @@ function pointChooser(id, r, body, card, mark) {
   return choose;
 }
 
+/**
+ * @param {HTMLElement} card
+ * @param {string} pid the point's id
+ * @param {unknown} err what was caught
+ */
 function showPointError(card, pid, err) {
   clear(card).append(h("h2", {}, `Point ${pid}`), banner("error", messageOf(err)));
   card.hidden = false;
@@ -457,8 +524,14 @@ function showPointError(card, pid, err) {
  */
 function pointMetrics(r, p) {
   const [a, b] = r.objectives;
+  /**
+   * @param {string} name
+   * @param {string} text
+   * @param {number | null | undefined} value
+   * @param {string} [cls]
+   */
   const row = (name, text, value, cls = "") => h("tr", { class: cls, dataset: { metric: name, value: value ?? "" } }, h("td", {}, text), h("td", { class: "num" }, fmt(value)));
-  const axes = [a, b, ...FRONT_AXES.filter((x) => x !== a && x !== b)];
+  const axes = [a, b, ...names.front_axes.filter((x) => x !== a && x !== b)];
   return h("div", { id: "front-point-metrics", dataset: { point: p.id } },
     h("table", { id: "front-point-table" }, h("tbody", {},
       axes.map((x) => row(x, `${x === a ? "A " : x === b ? "B " : ""}${axisTitle(x)}`, valueOf(p, x), x === a || x === b ? "objective-row" : "")),
@@ -468,7 +541,7 @@ function pointMetrics(r, p) {
     p.violations.length ? banner("error", `Limits broken: ${p.violations.join("; ")}`) : null);
 }
 
-/** @param {Record<string, number>} peaks by joint [Nm] */
+/** @param {Record<string, number | null>} peaks by joint [Nm] */
 function torqueTable(peaks) {
   const joints = Object.keys(peaks);
   return h("div", { class: "table-wrap", style: "margin-top:10px" }, h("table", { id: "front-point-torques" },
@@ -503,7 +576,11 @@ function viewerBox(viewer, frame, pid) {
       h("a", { href: url, target: "_blank", rel: "noopener" }, "Open the viewer alone ↗")));
 }
 
-/** The point's trajectory in every format a plan exports. */
+/**
+ * The point's trajectory in every format a plan exports.
+ * @param {number} id the front's id
+ * @param {string} pid the point's id
+ */
 function pointExports(id, pid) {
   const status = h("span", { class: "small muted", id: "front-point-export-status", role: "status" });
   const rate = h("input", { id: "front-export-rate", type: "number", min: "1", max: "10000", step: "any", placeholder: "format's default", "aria-label": "Sample rate [Hz]", style: "width:140px" });

@@ -15,9 +15,16 @@ const POLL_SECONDS = 5;
 /** Seconds before a refused job stream is tried again (polling meanwhile). */
 const RETRY_STREAM_SECONDS = 60;
 
+/** @type {Record<string, string>} */
 const KIND_WORDS = { analysis: "Analysis", pose: "Video to pose", plan: "Plan", simulation: "Simulation", sweep: "Sweep", profiles: "Profiles", cohort: "Cohort", identify: "Identify robot", front: "Pareto front" };
 
-/** Where a finished job's result is shown in the dashboard (null: nowhere). */
+/** @typedef {import("./types").JobSummary} JobSummary */
+
+/**
+ * Where a finished job's result is shown in the dashboard (null: nowhere).
+ * @param {Pick<JobSummary, "kind" | "id" | "recording_id">} job
+ * @returns {[string, string] | null} the address and the link's words
+ */
 export function resultLink(job) {
   if (job.kind === "plan" || job.kind === "simulation") return [`#/compare/${job.kind}/${job.id}`, "Compare"];
   if ((job.kind === "analysis" || job.kind === "pose") && job.recording_id) return [`#/recordings/${job.recording_id}`, "Recording"];
@@ -43,9 +50,9 @@ function logView(job, log) {
 
 /**
  * One job of the drawer.
- * @param {any} job a JobSummary
- * @param {(job: any, button: HTMLButtonElement) => void} onCancel
- * @param {{open: boolean, log: string[] | string | undefined, toggle: (job: any) => void}} log
+ * @param {JobSummary} job
+ * @param {(job: JobSummary, button: HTMLButtonElement) => void} onCancel
+ * @param {{open: boolean, log: string[] | string | undefined, toggle: (job: JobSummary) => void}} log
  */
 function jobItem(job, onCancel, log) {
   const active = !isTerminal(job.state);
@@ -68,23 +75,30 @@ function jobItem(job, onCancel, log) {
       // A running plan: its progress and convergence curve on the Plan page.
       active && (job.kind === "plan" || job.kind === "simulation") ? h("a", { class: "job-follow", href: `#/plan?job=${job.id}` }, "Progress →") : null,
       job.kind === "analysis" && job.state === "succeeded" ? h("a", { href: `#/plan?analysis=${job.id}` }, "Use template") : null,
-      active ? h("button", { type: "button", class: "danger small job-cancel", style: "margin-left:auto", onclick: (e) => onCancel(job, e.currentTarget) }, "Cancel") : null));
+      active ? h("button", { type: "button", class: "danger small job-cancel", style: "margin-left:auto", onclick: (/** @type {MouseEvent} */ e) => onCancel(job, /** @type {HTMLButtonElement} */ (e.currentTarget)) }, "Cancel") : null));
 }
 
-/** Mount the drawer: the header button toggles it; returns nothing (it lives as long as the page). */
+/**
+ * Mount the drawer: the header button toggles it; returns nothing (it lives as long as the page).
+ * @param {HTMLElement} button the header's button, holding the #jobs-count badge
+ * @param {HTMLElement} drawer
+ */
 export function mountJobDrawer(button, drawer) {
+  /** @type {Map<number, JobSummary>} */
   const jobs = new Map(); // id -> JobSummary
+  /** @type {Set<number>} */
   const openLogs = new Set(); // ids whose log is shown
   /** @type {Map<number, string[] | string>} an ended job's log lines, or why they cannot be read */
   const logs = new Map();
   const list = h("ul", { class: "job-list", id: "job-list" });
   const note = h("div", { id: "job-drawer-note", class: "small muted" });
-  const count = button.querySelector("#jobs-count");
+  const count = /** @type {HTMLElement} */ (button.querySelector("#jobs-count"));
   clear(drawer).append(
     h("div", { class: "row" }, h("h2", { style: "margin:0" }, "Jobs"),
       h("button", { type: "button", class: "small", id: "job-drawer-close", style: "margin-left:auto", onclick: () => setOpen(false) }, "Close")),
     note, list);
 
+  /** @param {boolean} open */
   function setOpen(open) {
     drawer.hidden = !open;
     button.setAttribute("aria-expanded", String(open));
@@ -99,6 +113,10 @@ export function mountJobDrawer(button, drawer) {
   });
   setOpen(localStorage.getItem(OPEN_KEY) === "1");
 
+  /**
+   * @param {JobSummary} job
+   * @param {HTMLButtonElement} btn
+   */
   async function cancel(job, btn) {
     btn.disabled = true;
     try {
@@ -109,9 +127,13 @@ export function mountJobDrawer(button, drawer) {
     }
   }
 
+  /** @type {Set<number>} */
   const reading = new Set(); // ids whose log is being read
 
-  /** Read an ended job's log once (it does not change any more), then show it. */
+  /**
+   * Read an ended job's log once (it does not change any more), then show it.
+   * @param {JobSummary} job
+   */
   async function readLog(job) {
     reading.add(job.id);
     try {
@@ -124,6 +146,7 @@ export function mountJobDrawer(button, drawer) {
     render();
   }
 
+  /** @param {JobSummary} job */
   function toggleLog(job) {
     if (openLogs.has(job.id)) openLogs.delete(job.id);
     else openLogs.add(job.id);
@@ -151,6 +174,7 @@ export function mountJobDrawer(button, drawer) {
     button.title = running.length ? `${running.length} job(s) running` : "No job running";
   }
 
+  /** @param {JobSummary & { params?: Record<string, any> }} job a summary, or a full Job */
   function upsert(job) {
     const { params, ...rest } = job; // a full Job from a cancel: the drawer keeps the summary form
     const old = jobs.get(job.id);
@@ -158,9 +182,11 @@ export function mountJobDrawer(button, drawer) {
     render();
   }
 
+  /** @type {ReturnType<typeof setInterval> | null} */
   let poll = null;
   async function pollOnce() {
     try {
+      /** @type {import("./types").Page<import("./types").JobInfo & { params: Record<string, any> }>} */
       const page = await api(`/api/jobs${qs({ limit: RECENT })}`);
       for (const j of page.items) upsert({ ...j, about: j.params.robot || (j.params.recording_id ? `recording #${j.params.recording_id}` : "") });
     } catch (err) {

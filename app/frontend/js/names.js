@@ -21,19 +21,31 @@ export function loadNames() {
   return loading;
 }
 
-/** "#rrggbb" with an alpha, as "rgba(r,g,b,a)". */
+/**
+ * "#rrggbb" with an alpha, as "rgba(r,g,b,a)".
+ * @param {string} hex
+ * @param {number} alpha 0..1
+ * @returns {string}
+ */
 export function rgba(hex, alpha) {
   const v = hex.replace("#", "");
   const [r, g, b] = [0, 2, 4].map((i) => parseInt(v.slice(i, i + 2), 16));
   return `rgba(${r},${g},${b},${alpha})`;
 }
 
-/** A metric's description ({name, unit, label, formula, per_joint, floor}). */
+/**
+ * A metric's description ({name, unit, label, formula, per_joint, floor}).
+ * @param {string} name
+ */
 export function metric(name) {
   return names.metrics.find((m) => m.name === name);
 }
 
-/** The job states after which a job never changes. */
+/**
+ * The job states after which a job never changes.
+ * @param {string} state
+ * @returns {boolean}
+ */
 export function isTerminal(state) {
   return names.terminal_job_states.includes(state);
 }

@@ -8,7 +8,12 @@ import { robotUploadCard } from "./robot_upload.js";
 import { sweepFormCard } from "./sweep_form.js";
 import { DEG, banner, clear, clearFieldErrors, fmt, h, messageOf, pct, showCaps, showFormErrors, tag } from "./ui.js";
 
-/** The plan form's labels of the request's fields, for the server's messages. */
+/** @typedef {import("./types").RobotInfo} RobotInfo */
+
+/**
+ * The plan form's labels of the request's fields, for the server's messages.
+ * @type {Record<string, string>}
+ */
 const PLAN_WORDS = {
   label: "Label", robot: "Robot", duration: "Duration", payload: "Payload", objective: "Objective",
   seed: "Seed", particles: "Particles", iterations: "Iterations", peak_angle_deg: "Elbow peak angle",
@@ -21,13 +26,16 @@ const PLAN_WORDS = {
  * The optimisers' convergence from a job's structured progress: one curve per stage that
  * reports a best value (PSO iterations; optimal control), point `done` -> the best so far (a
  * running minimum: it never rises, whatever a stage reports between its iterations).
+ * @param {Record<string, { x: number[], y: number[] }>} curves per stage, extended in place
+ * @param {Pick<import("./types").JobInfo, "best" | "stage" | "done">} job an update
+ * @returns {boolean} whether a point was added
  */
 export function addProgressPoint(curves, job) {
   if (job.best === null || job.best === undefined || !job.stage) return false;
   const curve = curves[job.stage] || (curves[job.stage] = { x: [], y: [] });
-  if (curve.x.length && job.done <= curve.x.at(-1)) return false;
+  if (curve.x.length && job.done <= /** @type {number} */ (curve.x.at(-1))) return false;
   curve.x.push(job.done);
-  curve.y.push(curve.y.length ? Math.min(curve.y.at(-1), job.best) : job.best);
+  curve.y.push(curve.y.length ? Math.min(/** @type {number} */ (curve.y.at(-1)), job.best) : job.best);
   return true;
 }
 
@@ -37,6 +45,7 @@ const FORM_KEY = "bioplan.plan.form";
 const ON_REQUEST = new Set(["bound_unrestricted"]);
 const JOB_KEY = "bioplan.plan.job";
 
+/** @param {string} key */
 function readStore(key) {
   try {
     return JSON.parse(sessionStorage.getItem(key) || "null");
@@ -45,6 +54,10 @@ function readStore(key) {
   }
 }
 
+/**
+ * @param {string} key
+ * @param {unknown} value stored as JSON
+ */
 function writeStore(key, value) {
   try {
     sessionStorage.setItem(key, JSON.stringify(value));
@@ -53,23 +66,34 @@ function writeStore(key, value) {
   }
 }
 
-/** A template's line in the list: its recording, angle and how many lifts it rests on. */
+/**
+ * A template's line in the list: its recording, angle and how many lifts it rests on.
+ * @param {any} a a listed analysis (GET /api/analyses)
+ * @param {string} of its recording, in words
+ * @returns {string}
+ */
 function templateText(a, of) {
   const t = a.template || {};
   const summary = a.summary || {};
   const lifts = summary.n_lifts ?? t.n_lifts ?? 0;
   const peak = t.peak_velocity_angle_deg ? `${fmt(t.peak_velocity_angle_deg, 3)}°` : "?";
   const found = `${lifts} lift${lifts === 1 ? "" : "s"} found`;
-  const rate = (summary.files || []).map((f) => f.rate_check).find(Boolean);
+  const rate = (summary.files || []).map((/** @type {any} */ f) => f.rate_check).find(Boolean);
   if (rate) return `analysis #${a.id} of ${of}: run at a wrong-looking EMG rate (${fmt(rate.stored_rate_hz)} Hz stored, ${fmt(rate.suggested_rate_hz)} Hz likely): ${found}, not a template of this person`;
   if (!lifts) return `analysis #${a.id} of ${of}: no lift found, so only the paper's default ${peak}`;
   const source = summary.is_paper_default ? "none with kinematics: the paper's default" : summary.template_source || `${t.n_lifts} with kinematics`;
   return `analysis #${a.id} of ${of}: peak ${peak}, ${found}, ${source}`;
 }
 
+/**
+ * @param {HTMLElement} main
+ * @param {Array<string | undefined>} match the query string, if any
+ */
 export async function render(main, [query]) {
   const params = new URLSearchParams(query || "");
+  /** @type {(() => void)[]} */
   const stops = [];
+  /** @type {[RobotInfo[], import("./types").Page<any>, import("./types").Page<any>]} */
   const [robots, analyses, recordings] = await Promise.all([
     api("/api/robots"),
     api(`/api/analyses${qs({ state: "succeeded", limit: 100 })}`).catch(() => ({ items: [] })),
@@ -82,6 +106,7 @@ export async function render(main, [query]) {
   }));
 
   // ---- form --------------------------------------------------------------------------
+  /** @param {RobotInfo} r */
   const robotOption = (r) => h("option", { value: r.name, selected: params.get("robot") === r.name }, `${r.name}${r.builtin ? "" : r.identified_from ? ` (identified from ${r.identified_from.robot})` : " (uploaded)"}`);
   const robot = h("select", { id: "robot" }, robots.map(robotOption));
   const kind = h("select", { id: "kind" },
@@ -93,10 +118,11 @@ export async function render(main, [query]) {
   const objective = h("select", { id: "objective" }, names.metrics.map((m) => h("option", { value: m.name }, `${m.name}: ${m.label} ${m.formula} [${m.unit}]`)));
   // An analysis that found no lift, or ran at an EMG rate that looked wrong, is no template of
   // this person: not offered, unless a link asks for it (then it says what it is).
+  /** @param {any} a a listed analysis */
   const usable = (a) => {
     const summary = a.summary || {};
     const lifts = summary.n_lifts ?? (a.template || {}).n_lifts ?? 0;
-    return lifts > 0 && !(summary.files || []).some((f) => f.rate_check);
+    return lifts > 0 && !(summary.files || []).some((/** @type {any} */ f) => f.rate_check);
   };
   const offered = analyses.items.filter((a) => usable(a) || params.get("analysis") === String(a.id));
   const hiddenCount = analyses.items.length - offered.length;
@@ -114,9 +140,7 @@ export async function render(main, [query]) {
     h("input", { type: "checkbox", value: m.name, checked: !ON_REQUEST.has(m.name), disabled: m.name === "quintic", dataset: { method: m.name } }),
     h("span", { class: "swatch", style: `background:${m.colour}` }), m.label));
   const humanConstraint = h("select", { id: "human-constraint" },
-    h("option", { value: "peak" }, "peak: the elbow is fastest where it passes the template's angle"),
-    h("option", { value: "phases" }, "phases: A/B/C time shares within the template's spread"),
-    h("option", { value: "none" }, "none (then it equals the physical bound)"));
+    names.human_constraints.map((c) => h("option", { value: c.name }, `${c.name}: ${c.description}`)));
   const peak = h("input", { id: "peak-angle", type: "number", min: "1", max: "179", step: "0.5", placeholder: "from the template" });
   const pso = names.pso_defaults;
   const particles = h("input", { id: "particles", type: "number", min: "2", max: "1000", step: "1", value: String(pso.particles) });
@@ -127,10 +151,11 @@ export async function render(main, [query]) {
   const robotInfo = h("div", { class: "small muted", id: "robot-info" });
 
   function showRobot() {
-    const r = robots.find((x) => x.name === robot.value);
+    const r = /** @type {RobotInfo} */ (robots.find((x) => x.name === robot.value));
     payload.placeholder = r && r.payload !== null ? `default ${r.payload} kg` : "robot default";
     clear(jointsBody);
     r.joint_names.forEach((name, i) => {
+      /** @param {number | null} v [rad] */
       const lim = (v) => (v === null ? "∞" : fmt(v * DEG, 3));
       jointsBody.append(h("tr", {},
         h("td", { class: "mono" }, name),
@@ -146,6 +171,7 @@ export async function render(main, [query]) {
   robot.addEventListener("change", showRobot);
   showRobot();
 
+  /** @param {"start" | "goal"} end */
   function angles(end) {
     const inputs = [.../** @type {NodeListOf<HTMLInputElement>} */ (jointsBody.querySelectorAll(`input[data-end="${end}"]`))];
     if (inputs.every((x) => x.value.trim() === "")) return null;
@@ -154,7 +180,9 @@ export async function render(main, [query]) {
   }
 
   function body() {
+    /** @param {HTMLInputElement} el */
     const num = (el) => (el.value.trim() === "" ? null : Number(el.value));
+    /** @type {Record<string, any>} */
     const b = {
       label: label.value.trim() || null,
       robot: robot.value,
@@ -172,7 +200,7 @@ export async function render(main, [query]) {
       goal_deg: angles("goal"),
     };
     for (const k of ["start_deg", "goal_deg"]) {
-      if (b[k] && b[k].some((v) => v === null)) throw new Error(`${k === "start_deg" ? "Start" : "Goal"} angles: give every joint or none (empty = the default curl task)`);
+      if (b[k] && b[k].some((/** @type {number | null} */ v) => v === null)) throw new Error(`${k === "start_deg" ? "Start" : "Goal"} angles: give every joint or none (empty = the default curl task)`);
     }
     for (const k of Object.keys(b)) if (b[k] === null) delete b[k];
     return b;
@@ -224,7 +252,10 @@ export async function render(main, [query]) {
     h("p", { class: "muted" }, "Submit a plan: its progress, the optimiser's convergence and the result appear here."),
   );
   /** Follow `job` here: its progress, the convergence curve (`curves` kept from before a
-   * reload or a visit elsewhere, then grown from its events) and its result. */
+   * reload or a visit elsewhere, then grown from its events) and its result.
+   * @param {import("./types").JobInfo & { params: Record<string, any> }} job
+   * @param {Record<string, { x: number[], y: number[] }> | null} [kept]
+   */
   function startMonitor(job, kept = null) {
     writeStore(JOB_KEY, { id: job.id, curves: kept || {} });
     const bar = h("div", {});
@@ -238,6 +269,7 @@ export async function render(main, [query]) {
       h("div", { class: "row" }, h("h2", { style: "margin:0" }, `${job.kind === "simulation" ? "Simulation" : "Plan"} #${job.id}`), state, h("span", { style: "margin-left:auto" }, cancel)),
       prog, message, plotDiv, result,
     );
+    /** @type {Record<string, { x: number[], y: number[] }>} */
     let curves = kept || {};
     const objectiveName = job.params.objective;
     const drawCurve = () => {
@@ -273,18 +305,26 @@ export async function render(main, [query]) {
       cancel.hidden = true;
       if (final.state === "succeeded") {
         prog.classList.add("done");
+        /** @type {import("./types").PlanOut} */
         const out = await api(final.result_url);
-        const r = out.result;
+        // A succeeded plan or simulation has its result.
+        const r = /** @type {import("./types").PlanResult} */ (out.result);
         const hist = r.optimizer && r.optimizer.history;
         if (hist && hist.length) {
           curves = { pso: { x: hist.map((_, i) => i + 1), y: hist } };
           drawCurve();
         }
         const imp = r.improvement_pct || {};
+        /** @param {string} k */
+        const change = (k) => (typeof imp[k] === "number" ? /** @type {number} */ (imp[k]) : null);
+        // The energy metrics: those with a physical floor (names.metrics, from /api/meta).
+        const shown = names.metrics.filter((m) => m.floor !== null && !m.per_joint).map((m) => m.name);
         clear(result).append(
           h("div", { class: "facts" },
-            ...["abs_work", "pos_work", "electrical_energy", "peak_power"].map((k) =>
-              h("div", { class: "fact" }, h("div", { class: "k" }, `${k} change`), h("div", { class: `v ${imp[k] > 0 ? "better" : imp[k] < 0 ? "worse" : ""}` }, pct(imp[k])))),
+            ...shown.map((k) => {
+              const c = change(k);
+              return h("div", { class: "fact" }, h("div", { class: "k" }, `${k} change`), h("div", { class: `v ${c === null ? "" : c > 0 ? "better" : c < 0 ? "worse" : ""}` }, pct(c)));
+            }),
           ),
           h("p", { class: "small muted" }, "Change = 100 (standard − optimised) / standard: positive means the bio-inspired plan uses less."),
           h("a", { class: "button primary", id: "open-compare", href: `#/compare/${final.kind}/${final.id}` }, "Open in Compare →"),
@@ -296,6 +336,7 @@ export async function render(main, [query]) {
     });
   }
 
+  /** @param {SubmitEvent} e */
   async function onSubmit(e) {
     e.preventDefault();
     clear(formError);
@@ -339,6 +380,7 @@ export async function render(main, [query]) {
 
   /** The form's values, the methods chosen and the task's angles, for this tab. */
   function saveForm() {
+    /** @type {Record<string, string>} */
     const values = {};
     for (const el of /** @type {NodeListOf<HTMLInputElement | HTMLSelectElement>} */ (form.querySelectorAll("input[id], select[id]"))) values[el.id] = el.value;
     const methods = methodBoxes.map((l) => /** @type {HTMLInputElement} */ (l.querySelector("input"))).filter((x) => x.checked).map((x) => x.value);

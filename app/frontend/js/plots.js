@@ -109,6 +109,13 @@ export function phaseShapes(times, t0, t1, xref = "x", { dashed = null } = {}) {
   return shapes;
 }
 
+/**
+ * The phase letters A, B, C over a plot at its start and the two phase times.
+ * @param {(number | null)[] | null | undefined} times the two phase boundaries [s]
+ * @param {string} [xref] the x axis the letters sit on
+ * @param {number} [t0] where phase A starts [s]
+ * @returns {object[]} Plotly annotations
+ */
 export function phaseLabels(times, xref = "x", t0 = 0) {
   if (!times || times[0] === null || times[1] === null) return [];
   return [
@@ -121,7 +128,13 @@ export function phaseLabels(times, xref = "x", t0 = 0) {
 /** Below this plot width [px] a legend goes under the plot: over it, it hides the curves. */
 const NARROW_PLOT = 560;
 
-/** The layout for a narrow plot: a legend of several entries under the plot, not over it. */
+/**
+ * The layout for a narrow plot: a legend of several entries under the plot, not over it.
+ * @param {HTMLElement} div
+ * @param {any[]} traces Plotly traces
+ * @param {any} lay Plotly layout
+ * @returns {any}
+ */
 function fitNarrow(div, traces, lay) {
   const entries = traces.filter((t) => t.name && t.showlegend !== false).length;
   const width = div.clientWidth; // 0 while not laid out: then nothing is known, nothing changes

@@ -9,6 +9,11 @@ import { IMAGE_SIZE_NOTE, channelsCard, checksCard, framesCard, imageSizeFix, op
 import { banner, bytes, clear, debounce, fmt, h, messageOf, when } from "./ui.js";
 
 /** @typedef {import("./types").RecordingChannel} RecordingChannel */
+/** @typedef {import("./types").JobInfo} JobInfo */
+/**
+ * A recording as GET /api/recordings/{id} answers (no response model yet: read untyped).
+ * @typedef {any} RecordingDetail
+ */
 
 const POINTS = 1600;
 // Channels mapped to a site take the site's colour (app/names.py); the others these.
@@ -18,7 +23,11 @@ const RISING_FILL = "rgba(110,119,129,0.10)";
 // Channels without a site: hues away from the phases' green, orange and blue (as the sites').
 const EXTRA_COLORS = ["#6e7781", "#4d2d8c", "#e85aad", "#3d444d", "#7a6a00"];
 
-/** An onset order in muscle names: channels without a site are counted, not listed. */
+/**
+ * An onset order in muscle names: channels without a site are counted, not listed.
+ * @param {string[] | null | undefined} order channel or muscle names, first onset first
+ * @returns {string}
+ */
 export function orderText(order) {
   const sites = (order || []).filter((name) => name in names.muscle_colours);
   const others = (order || []).length - sites.length;
@@ -26,16 +35,29 @@ export function orderText(order) {
   return sites.length ? `${sites.join(" → ")}${more}` : others ? `no muscle site mapped${more}` : "–";
 }
 
-/** Whether a template is the paper's default rather than this person's lifts. */
+/**
+ * Whether a template is the paper's default rather than this person's lifts.
+ * @param {{ is_paper_default?: boolean | null, source?: string | null }} template
+ * @returns {boolean}
+ */
 function isPaperDefault(template) {
   return template.is_paper_default ?? /^paper default/i.test(template.source || "");
 }
 
+/**
+ * The factor and unit EMG is shown in.
+ * @param {string | null | undefined} unit the reader's unit
+ */
 function emgScale(unit) {
   // Readers deliver EMG in volts; microvolts read better.
   return unit === "V" ? { k: 1e6, unit: "µV" } : { k: 1, unit: unit || "" };
 }
 
+/**
+ * @param {string} name a muscle site or channel name
+ * @param {number} i the channel's place (colours of channels without a site)
+ * @returns {string}
+ */
 function muscleColor(name, i) {
   return names.muscle_colours[name] || EXTRA_COLORS[i % EXTRA_COLORS.length];
 }
@@ -44,9 +66,16 @@ function muscleColor(name, i) {
  * Rectangles [x0, x1] x [y0, y1] as one filled trace (null-separated polygons). A few traces
  * draw far faster than layout shapes: a 10-minute session has over a thousand phase and onset
  * rectangles, which as shapes cost Plotly about half a second per plot.
+ * @param {Iterable<[number, number]>} spans [x0, x1] each [s]
+ * @param {number} y0
+ * @param {number} y1
+ * @param {Record<string, unknown>} style more of the trace (axes, name, fill colour)
+ * @returns {Record<string, any>} a Plotly trace
  */
 function rectTrace(spans, y0, y1, style) {
+  /** @type {(number | null)[]} */
   const x = [];
+  /** @type {(number | null)[]} */
   const y = [];
   for (const [a, b] of spans) {
     x.push(a, b, b, a, a, null);
@@ -55,14 +84,22 @@ function rectTrace(spans, y0, y1, style) {
   return { x, y, type: "scatter", mode: "lines", fill: "toself", line: { width: 0 }, hoverinfo: "skip", showlegend: false, ...style };
 }
 
-/** The A/B/C phases (or the rising part when a lift has none) and lift tops on one subplot. */
+/**
+ * The A/B/C phases (or the rising part when a lift has none) and lift tops on one subplot.
+ * @param {any[]} lifts the analysis's lifts (times [s])
+ * @param {[number, number]} span the subplot's y range
+ * @param {{ xaxis: string, yaxis: string }} axes
+ * @returns {Record<string, any>[]} Plotly traces
+ */
 function liftTraces(lifts, [y0, y1], axes) {
+  /** @type {Map<string, [number, number][]>} */
   const spans = new Map();
-  const add = (key, a, b) => (spans.get(key) || spans.set(key, []).get(key)).push([a, b]);
+  /** @type {(key: string, a: number, b: number) => number} */
+  const add = (key, a, b) => /** @type {[number, number][]} */ (spans.get(key) || spans.set(key, []).get(key)).push([a, b]);
   /** @type {{ x: (number | null)[], y: (number | null)[] }} */
   const tops = { x: [], y: [] };
   for (const lift of lifts) {
-    if (lift.phases.length) lift.phases.forEach((p) => add(p.name, p.start_s, p.end_s));
+    if (lift.phases.length) lift.phases.forEach((/** @type {any} */ p) => add(p.name, p.start_s, p.end_s));
     else add("rising", lift.start_s, lift.top_s);
     tops.x.push(lift.top_s, lift.top_s, null);
     tops.y.push(y0, y1, null);
@@ -84,20 +121,32 @@ function extent(...series) {
   return lo <= hi ? [lo, hi] : null;
 }
 
-/** The channels' ids, file by file: a change that reads the files again replaces them. */
+/**
+ * The channels' ids, file by file: a change that reads the files again replaces them.
+ * @param {RecordingDetail} rec
+ * @returns {string}
+ */
 function channelKey(rec) {
-  return rec.files.map((f) => `${f.id}:${f.channels.map((c) => c.id).join(",")}`).join(";");
+  return rec.files.map((/** @type {any} */ f) => `${f.id}:${f.channels.map((/** @type {any} */ c) => c.id).join(",")}`).join(";");
 }
 
 /**
  * The page. A change that reads the files again (the EMG rate's fix, the channels' mapping, a
  * video's landmarks stored) gives the channels new ids: the page is then drawn again in place
  * from the new recording, following the job that re-analyses it.
+ * @param {HTMLElement} main
+ * @param {Array<string | undefined>} match the recording's id
  */
 export async function render(main, [idText]) {
   const id = Number(idText);
+  /** @type {(() => void)[]} */
   const stops = [];
   let shown = 0;
+  /**
+   * @param {RecordingDetail | null} [rec] the recording as it is now (null: read it)
+   * @param {JobInfo | null} [follow] a job to follow
+   * @param {string | null} [notice] what to say at the top
+   */
   async function show(rec = null, follow = null, notice = null) {
     const mine = ++shown;
     stops.splice(0).forEach((f) => f());
@@ -120,12 +169,16 @@ export async function render(main, [idText]) {
   return () => stops.forEach((f) => f());
 }
 
-/** The recording's condition (a cohort groups by it), changed in place without re-analysing. */
+/**
+ * The recording's condition (a cohort groups by it), changed in place without re-analysing.
+ * @param {RecordingDetail} rec
+ */
 function conditionEditor(rec) {
   const input = h("input", { id: "rec-condition", maxlength: "100", value: rec.condition || "", placeholder: "none (e.g. heavy)", "aria-label": "Condition", style: "max-width:220px" });
   const from = rec.options && rec.options.condition_from;
   // Filled from the file names or a BIDS sidecar at upload: say so, so it can be checked.
   const status = h("span", { class: "small muted", id: "rec-condition-status" }, from ? `from ${from}` : "");
+  /** @param {SubmitEvent} e */
   async function save(e) {
     e.preventDefault();
     try {
@@ -142,11 +195,25 @@ function conditionEditor(rec) {
     h("a", { href: "#/cohort", class: "small" }, "compare conditions →"));
 }
 
+/**
+ * How the page is drawn: its cleanup functions, a job to follow, a notice, the redraw and the
+ * scroll position to restore.
+ * @typedef {{ stops: (() => void)[], follow: JobInfo | null, notice: string | null,
+ *   refresh: (rec?: RecordingDetail | null, follow?: JobInfo | null, notice?: string | null) => Promise<void>,
+ *   restore: number }} PageContext
+ */
+
+/**
+ * @param {HTMLElement} main
+ * @param {RecordingDetail} rec
+ * @param {PageContext} ctx
+ */
 async function recordingPage(main, rec, ctx) {
   const id = rec.id;
   /** @type {{ window: [number | null, number | null], analysis: any, emgChannels: RecordingChannel[], stop: any }} */
   const state = { window: [null, null], analysis: null, emgChannels: [], stop: ctx.stops };
-  const channels = rec.files.flatMap((f) => f.channels.map((c) => ({ ...c, file: f.original_name })));
+  /** @type {RecordingChannel[]} */
+  const channels = rec.files.flatMap((/** @type {any} */ f) => f.channels.map((/** @type {any} */ c) => ({ ...c, file: f.original_name })));
   const allEmg = channels.filter((c) => c.kind === "emg");
   // Shown at first: the channels mapped to the method's four sites (or the first six).
   const mapped = allEmg.filter((c) => c.site);
@@ -183,7 +250,7 @@ async function recordingPage(main, rec, ctx) {
       h("td", {}, c.unit),
     ));
   const filesCard = h("details", { class: "card" },
-    h("summary", {}, `${rec.files.length} file(s), ${channels.length} channel(s): ${rec.files.map((f) => `${f.original_name} (${f.format}, ${bytes(f.size)})`).join(", ")}`),
+    h("summary", {}, `${rec.files.length} file(s), ${channels.length} channel(s): ${rec.files.map((/** @type {any} */ f) => `${f.original_name} (${f.format}, ${bytes(f.size)})`).join(", ")}`),
     h("div", { class: "table-wrap", style: "margin-top:8px" },
       h("table", {}, h("thead", {}, h("tr", {}, ["File", "Channel", "Kind", "Site", "Rate", "Samples", "Duration", "Unit"].map((c, i) => h("th", { class: [4, 5, 6].includes(i) ? "num" : "" }, c)))), h("tbody", {}, fileRows)),
     ),
@@ -191,12 +258,13 @@ async function recordingPage(main, rec, ctx) {
   main.append(filesCard);
   // A change that re-analyses hands its job here: the page follows it and redraws. A change
   // that read the files again (`changed`: the recording as it is now) redraws the whole page.
+  /** @type {(job: JobInfo, changed?: RecordingDetail | null, notice?: string | null) => unknown} */
   const onJob = (job, changed = null, notice = null) =>
     changed && channelKey(changed) !== channelKey(rec) ? ctx.refresh(changed, job, notice) : runAnalysis(job);
-  main.append(...[
+  main.append(.../** @type {HTMLElement[]} */ ([
     checksCard(rec, onJob), framesCard(rec), channelsCard(rec, onJob),
     optionsCard(rec, { phase_bounds_deg: names.phase_bounds_deg }, onJob),
-  ].filter(Boolean));
+  ].filter(Boolean)));
 
   // ---- plot cards --------------------------------------------------------------------
   const emgDiv = h("div", { class: "plot tall", id: "emg-plot" });
@@ -216,8 +284,8 @@ async function recordingPage(main, rec, ctx) {
     h("summary", {}, `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`),
     h("div", { class: "row", style: "margin-top:6px" }, allEmg.map((c) =>
       h("label", { class: "nowrap", style: "font-weight:400; margin:0 10px 0 0" },
-        h("input", { type: "checkbox", checked: state.emgChannels.includes(c), dataset: { channel: String(c.id) }, onchange: (e) => {
-          state.emgChannels = allEmg.filter((x) => x === c ? e.target.checked : state.emgChannels.includes(x));
+        h("input", { type: "checkbox", checked: state.emgChannels.includes(c), dataset: { channel: String(c.id) }, onchange: (/** @type {Event} */ e) => {
+          state.emgChannels = allEmg.filter((x) => x === c ? /** @type {HTMLInputElement} */ (e.target).checked : state.emgChannels.includes(x));
           /** @type {HTMLElement} */ (picker.querySelector("summary")).textContent = `EMG channels shown: ${state.emgChannels.length} of ${allEmg.length}`;
           reload();
         } }),
@@ -250,47 +318,64 @@ async function recordingPage(main, rec, ctx) {
   }
 
   /** The lifts to shade on a file's panel: separate trials have their own clocks, so a
-   * file's panels show its own lifts only (recorded together, every lift is on the one clock). */
+   * file's panels show its own lifts only (recorded together, every lift is on the one clock).
+   * @param {any} analysis the analysis overlays
+   * @param {string | undefined} file
+   * @returns {any[]}
+   */
   function liftsOf(analysis, file) {
     if (rec.session !== "separate" || !file) return analysis.lifts;
-    return analysis.lifts.filter((l) => !l.file || l.file === file);
+    return analysis.lifts.filter((/** @type {any} */ l) => !l.file || l.file === file);
   }
 
+  /**
+   * @param {any} raw GET /api/recordings/{id}/signals: the shown channels' samples
+   * @param {any} analysis the analysis overlays, or null
+   */
   async function drawEmg(raw, analysis) {
     if (!raw) {
       if (allEmg.length && window.Plotly) window.Plotly.purge(emgDiv);
       return;
     }
     const n = raw.channels.length;
+    /** @type {Record<string, any>[]} */
     const under = [];
+    /** @type {Record<string, any>[]} */
     const traces = [];
+    /** @type {Record<string, any>} */
     const lay = layout({ height: Math.max(260, 150 * n + 60), showlegend: true, uirevision: "emg", hovermode: "x", margin: { l: 78, r: 12, t: 30, b: 40 } });
     const gap = 0.04;
     // Separate trials keep their own clocks: a file's panels share a time axis with each other
     // only, and the last of them says whose clock it is.
+    /** @param {{ channel_id: number }} ch */
     const fileOf = (ch) => state.emgChannels.find((c) => c.id === ch.channel_id)?.file;
     const files = raw.channels.map(fileOf);
     const ownClocks = rec.session === "separate" && new Set(files).size > 1;
+    /** @param {number} i */
     const firstOf = (i) => (ownClocks ? files.indexOf(files[i]) : 0);
+    /** @param {number} i */
     const lastOf = (i) => (ownClocks ? files.lastIndexOf(files[i]) : n - 1);
     // Vertical room: a small gap between panels, more where one file's clock ends (its ticks).
+    /** @param {number} i */
     const sepAfter = (i) => (i === n - 1 ? 0 : ownClocks && i === lastOf(i) ? 0.45 : gap);
-    const total = raw.channels.reduce((sum, _, i) => sum + 1 + sepAfter(i), 0);
+    const total = raw.channels.reduce((/** @type {number} */ sum, /** @type {unknown} */ _, /** @type {number} */ i) => sum + 1 + sepAfter(i), 0);
+    /** @type {[number, number][]} */
     const domains = [];
-    raw.channels.reduce((top, _, i) => {
+    raw.channels.reduce((/** @type {number} */ top, /** @type {unknown} */ _, /** @type {number} */ i) => {
       domains.push([Math.max(0, top - 1 / total), top]);
       return top - (1 + sepAfter(i)) / total;
     }, 1);
     lay.height += 60 * (new Set(files).size - 1) * (ownClocks ? 1 : 0);
     const envs = analysis ? analysis.emg : [];
     // Files of one session often share channel names: a panel takes its own file's envelope.
+    /** @param {{ name: string, file?: string }} ch */
     const envOf = (ch) => {
-      const named = envs.filter((e) => e.channel === ch.name);
-      const mine = named.find((e) => e.file === ch.file);
+      const named = envs.filter((/** @type {any} */ e) => e.channel === ch.name);
+      const mine = named.find((/** @type {any} */ e) => e.file === ch.file);
       // Analyses that name files otherwise (or not at all): a name that is unique still fits.
-      return mine || (named.length === 1 && !envs.some((e) => e.file === ch.file) ? named[0] : undefined);
+      return mine || (named.length === 1 && !envs.some((/** @type {any} */ e) => e.file === ch.file) ? named[0] : undefined);
     };
-    raw.channels.forEach((ch, i) => {
+    raw.channels.forEach((/** @type {any} */ ch, /** @type {number} */ i) => {
       const axis = i === 0 ? "" : String(i + 1);
       const axes = { xaxis: `x${axis}`, yaxis: `y${axis}` };
       /** @type {Partial<RecordingChannel>} */
@@ -300,10 +385,10 @@ async function recordingPage(main, rec, ctx) {
       const env = envOf(ch);
       const label = info.site || (env ? env.muscle : ch.name);
       const color = muscleColor(label, i);
-      const rawY = s.y.map((v) => (v === null ? null : v * scale.k));
+      const rawY = s.y.map((/** @type {number | null} */ v) => (v === null ? null : v * scale.k));
       traces.push({ x: s.t, y: rawY, type: "scatter", mode: "lines", name: `${ch.name} raw`, line: { color: "#b6bcc6", width: 1 }, ...axes, showlegend: false, hoverinfo: "skip" });
       const es = env ? emgScale(env.unit) : null;
-      const envY = env && es ? env.envelope.y.map((v) => (v === null ? null : v * es.k)) : [];
+      const envY = env && es ? env.envelope.y.map((/** @type {number | null} */ v) => (v === null ? null : v * es.k)) : [];
       if (env) traces.push({ x: env.envelope.t, y: envY, type: "scatter", mode: "lines", name: `${ch.name} envelope${label !== ch.name ? ` (${label})` : ""}`, line: { color, width: 2 }, ...axes });
       const span = extent(rawY, envY);
       if (analysis && span) {
@@ -325,6 +410,7 @@ async function recordingPage(main, rec, ctx) {
     hook(emgDiv);
   }
 
+  /** @param {any} analysis the analysis overlays, or null */
   async function drawAngles(analysis) {
     if (!analysis || !analysis.angles) {
       angleDiv.style.minHeight = "0";
@@ -332,6 +418,13 @@ async function recordingPage(main, rec, ctx) {
       return;
     }
     const a = analysis.angles;
+    /**
+     * @param {{ t: number[], y: (number | null)[] }} s
+     * @param {string} name
+     * @param {string} color
+     * @param {string} axis
+     * @param {string} [dash]
+     */
     const line = (s, name, color, axis, dash) => ({ x: s.t, y: s.y, type: "scatter", mode: "lines", name, line: { color, width: 2, dash }, xaxis: "x", yaxis: axis });
     const traces = [
       line(a.elbow_deg, "elbow flexion", "#cf222e", "y"),
@@ -355,6 +448,10 @@ async function recordingPage(main, rec, ctx) {
     hook(angleDiv);
   }
 
+  /**
+   * @param {any} template the analysis's human template
+   * @param {any[]} lifts
+   */
   async function drawTemplate(template, lifts) {
     const T = template;
     const paperDefault = isPaperDefault(T);
@@ -373,7 +470,14 @@ async function recordingPage(main, rec, ctx) {
       clear(templateDiv).append(h("p", { class: "muted small" }, `${T.source}: no kinematic profile; the planner uses the paper's defaults (velocity peak at 62°).`));
       return;
     }
-    const x = T.normalized_time.map((v) => 100 * v);
+    const x = T.normalized_time.map((/** @type {number} */ v) => 100 * v);
+    /**
+     * @param {number[]} mean
+     * @param {number[]} sd
+     * @param {string} color "rgba(r,g,b,1)"
+     * @param {string} name
+     * @param {string} axis
+     */
     const band = (mean, sd, color, name, axis) => [
       { x, y: mean.map((m, i) => m + sd[i]), mode: "lines", line: { width: 0 }, showlegend: false, hoverinfo: "skip", yaxis: axis },
       { x, y: mean.map((m, i) => m - sd[i]), mode: "lines", line: { width: 0 }, fill: "tonexty", fillcolor: color.replace("1)", "0.18)"), name: `${name} ± SD`, hoverinfo: "skip", yaxis: axis },
@@ -383,6 +487,7 @@ async function recordingPage(main, rec, ctx) {
       ...band(T.velocity_mean, T.velocity_sd, "rgba(207,34,46,1)", "elbow velocity", "y"),
       ...band(T.acceleration_mean, T.acceleration_sd, "rgba(37,99,235,1)", "elbow acceleration", "y2"),
     ];
+    /** @type {Record<string, any>} */
     const lay = layout({ height: 400, hovermode: "x", legend: { orientation: "h", y: -0.22, x: 0 }, margin: { l: 56, r: 12, t: 10, b: 40 } });
     lay.xaxis = { title: { text: "lift [% of the concentric part]", standoff: 4 }, anchor: "y2", gridcolor: "#eceff3" };
     lay.yaxis = { domain: [0.54, 1], title: { text: "velocity / peak" }, gridcolor: "#eceff3" };
@@ -399,10 +504,15 @@ async function recordingPage(main, rec, ctx) {
     /** @type {PlotlyElement} */ (div).on("plotly_relayout", onRelayout);
   }
 
+  /**
+   * @param {string} k
+   * @param {string} v
+   */
   function fact(k, v) {
     return h("div", { class: "fact" }, h("div", { class: "k" }, k), h("div", { class: "v" }, v));
   }
 
+  /** @param {any} analysis the analysis overlays */
   function drawLifts(analysis) {
     clear(liftsBox);
     liftsBox.dataset.analysis = String(analysis.analysis_id);
@@ -410,7 +520,8 @@ async function recordingPage(main, rec, ctx) {
     // The rate's own warning is said once, with its fix, in the data checks above.
     const rc = rec.rate_check;
     const rateNote = rc ? `The EMG rate of ${rc.file} looks wrong: see “Data checks” above for its one-click fix.` : null;
-    const notes = [...new Set(analysis.warnings.map((w) => (rc && w.includes(rc.reason) ? rateNote : w)))];
+    /** @type {string[]} */
+    const notes = [...new Set(analysis.warnings.map((/** @type {string} */ w) => (rc && w.includes(rc.reason) ? rateNote : w)))];
     if (notes.length) {
       liftsBox.append(h("div", { class: "banner warn", id: "analysis-warnings", role: "status" },
         h("strong", {}, `${notes.length} note(s) from the analysis`),
@@ -420,19 +531,23 @@ async function recordingPage(main, rec, ctx) {
       liftsBox.append(h("p", { class: "muted", id: "no-lifts" }, "No lift found."));
       return;
     }
+    /**
+     * @param {any} lift
+     * @param {string} name a phase
+     */
     const dur = (lift, name) => {
-      const p = lift.phases.find((x) => x.name === name && x.part !== "eccentric");
+      const p = lift.phases.find((/** @type {any} */ x) => x.name === name && x.part !== "eccentric");
       return p ? fmt(p.end_s - p.start_s, 3) : "–";
     };
     // A session of several files: one running number, and the file (with its own lift number).
-    const files = new Set(analysis.lifts.map((l) => l.file).filter(Boolean));
+    const files = new Set(analysis.lifts.map((/** @type {any} */ l) => l.file).filter(Boolean));
     const many = files.size > 1;
     const head = ["#", ...(many ? ["file"] : []), "start [s]", "top [s]", "end [s]", "A [s]", "B [s]", "C [s]", "v-peak [deg]", "onset order"];
     liftsBox.append(
       h("div", { class: "table-wrap" },
         h("table", { id: "lifts-table" },
           h("thead", {}, h("tr", {}, head.map((c) => h("th", { class: c.includes("[") ? "num" : "" }, c)))),
-          h("tbody", {}, analysis.lifts.map((l, k) =>
+          h("tbody", {}, analysis.lifts.map((/** @type {any} */ l, /** @type {number} */ k) =>
             h("tr", { dataset: { file: l.file || "" } },
               h("td", {}, `${many ? k + 1 : l.index}`, h("div", { class: "small muted" }, l.source)),
               many ? h("td", { class: "mono small" }, l.file, h("div", { class: "small muted" }, `lift ${l.index} of this file`)) : null,
@@ -478,6 +593,7 @@ async function recordingPage(main, rec, ctx) {
   }
 
   /** No overlays yet (409): follow the running job, report the failed one, or start one. */
+  /** @param {any} err what loading the overlays threw */
   function noAnalysis(err) {
     const job = err instanceof ApiError && err.status === 409 ? err.problem.job : undefined;
     if (job === undefined) {
@@ -501,6 +617,7 @@ async function recordingPage(main, rec, ctx) {
   }
 
   const reload = debounce(() => load().catch((err) => clear(analysisNote).append(banner("error", messageOf(err)))), 200);
+  /** @param {Record<string, unknown>} ev Plotly's relayout: the changed layout keys */
   function onRelayout(ev) {
     const keys = Object.keys(ev);
     if (keys.some((k) => /^xaxis\d*\.autorange$/.test(k))) {
@@ -519,6 +636,7 @@ async function recordingPage(main, rec, ctx) {
   }
 
   /** Submit an analysis job (or follow `existing`), with its progress; then load its overlays. */
+  /** @type {number | null} */
   let following = null;
   /** @param {{ id: number, state: string } | null} [existing] a job already running */
   async function runAnalysis(existing = null) {
@@ -560,7 +678,7 @@ async function recordingPage(main, rec, ctx) {
   }
 
   // Analyses already run on this recording.
-  api(`/api/analyses${qs({ state: "succeeded", recording_id: id, limit: 50 })}`).then((page) => {
+  api(`/api/analyses${qs({ state: "succeeded", recording_id: id, limit: 50 })}`).then((/** @type {import("./types").Page<any>} */ page) => {
     const mine = page.items;
     if (mine.length) {
       analysisStatus.append(h("p", { class: "small muted" }, "Finished analyses: ", mine.map((a, i) => [i ? ", " : "", h("a", { href: `#/plan?analysis=${a.id}` }, `#${a.id}`), (a.summary || {}).n_lifts === 0 ? h("span", { class: "muted" }, " (no lift found)") : null]), " (use as planning template)"));

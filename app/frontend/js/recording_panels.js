@@ -9,19 +9,34 @@ import { banner, fmt, h, messageOf } from "./ui.js";
 
 const SITES = ["deltoid", "triceps", "biceps", "forearm"];
 
-/** A small status line that says what happened, or the server's message. */
+/**
+ * A recording as GET /api/recordings/{id} answers (no response model yet: read untyped).
+ * @typedef {any} RecordingDetail
+ */
+/**
+ * Called with an analysis job a change started, the PATCH's answer and what to say of it.
+ * @typedef {(job: import("./types").JobInfo, out?: any, said?: string) => void} OnJob
+ */
+
+/**
+ * A small status line that says what happened, or the server's message.
+ * @param {string} id the line's element id
+ */
 function statusLine(id) {
   const el = h("div", { id, class: "small", role: "status" });
   return {
     el,
+    /** @param {string} text */
     busy(text) {
       el.className = "small muted";
       el.textContent = text;
     },
+    /** @param {string} text */
     ok(text) {
       el.className = "small better";
       el.textContent = text;
     },
+    /** @param {unknown} err what was caught */
     fail(err) {
       el.className = "small worse";
       el.setAttribute("role", "alert");
@@ -33,20 +48,31 @@ function statusLine(id) {
 /**
  * The rate check in the page's words (the reader's own sentence names the CLI's option): what
  * was measured, what it would be at the suggested rate. The button next to it applies it.
+ * @param {{ median_frequency_hz: number, suggested_rate_hz: number, stored_rate_hz: number }} rc the rate check [Hz]
+ * @returns {string}
  */
 export function rateCheckText(rc) {
   const at = rc.median_frequency_hz * rc.suggested_rate_hz / rc.stored_rate_hz;
   return `Its EMG's spectral median is ${fmt(rc.median_frequency_hz, 3)} Hz, while surface EMG is typically 50–150 Hz; at ${fmt(rc.suggested_rate_hz)} Hz it would be ${fmt(at, 3)} Hz. `;
 }
 
-/** The readers' warnings without the rate check's (shown once, with its fix). */
+/**
+ * The readers' warnings without the rate check's (shown once, with its fix).
+ * @param {RecordingDetail} rec
+ * @returns {string[]}
+ */
 export function otherWarnings(rec) {
   const rc = rec.rate_check;
-  return (rec.warnings || []).filter((w) => !(rc && w.includes(rc.reason)));
+  return (rec.warnings || []).filter((/** @type {string} */ w) => !(rc && w.includes(rc.reason)));
 }
 
-/** The rate warning with its fix, and every reader warning (shown, not folded away). */
+/**
+ * The rate warning with its fix, and every reader warning (shown, not folded away).
+ * @param {RecordingDetail} rec
+ * @param {OnJob} onJob
+ */
 export function checksCard(rec, onJob) {
+  /** @type {HTMLElement[]} */
   const parts = [];
   const rc = rec.rate_check;
   if (rc) {
@@ -81,18 +107,27 @@ export function checksCard(rec, onJob) {
 export const IMAGE_SIZE_NOTE = /video size unknown/;
 
 /** Common video sizes: the angles depend on the aspect ratio only (x is scaled by W/H). */
+/** @type {[number, number, string][]} */
 const VIDEO_SIZES = [[1280, 720, "16:9 landscape"], [720, 1280, "9:16 portrait (phone)"], [640, 480, "4:3"]];
 
 /**
  * The image-size note with its one-click fix: each button sets the recording's image size,
  * reads the landmarks again and re-analyses; or the width and height typed in.
+ * @param {RecordingDetail} rec
+ * @param {string} note the analysis's note ("<source>: video size unknown ...")
+ * @param {OnJob} onJob
  */
 export function imageSizeFix(rec, note, onJob) {
   const source = note.split(":")[0];
   const status = statusLine("image-size-status");
   const width = h("input", { id: "image-width", type: "number", min: "1", max: "100000", step: "1", placeholder: "width", "aria-label": "Image width [px]", style: "width:90px" });
   const height = h("input", { id: "image-height", type: "number", min: "1", max: "100000", step: "1", placeholder: "height", "aria-label": "Image height [px]", style: "width:90px" });
+  /** @type {HTMLButtonElement[]} */
   const buttons = [];
+  /**
+   * @param {number} w [px]
+   * @param {number} hh [px]
+   */
   async function apply(w, hh) {
     width.value = String(w);
     height.value = String(hh);
@@ -127,9 +162,14 @@ export function imageSizeFix(rec, note, onJob) {
     status.el);
 }
 
-/** Muscle mapping and exclusions per channel; saving reads the files again and re-analyses. */
+/**
+ * Muscle mapping and exclusions per channel; saving reads the files again and re-analyses.
+ * @param {RecordingDetail} rec
+ * @param {OnJob} onJob
+ */
 export function channelsCard(rec, onJob) {
-  const emg = rec.files.flatMap((f) => f.channels.filter((c) => c.kind === "emg").map((c) => ({ ...c, file: f.original_name })));
+  /** @type {import("./types").RecordingChannel[]} */
+  const emg = rec.files.flatMap((/** @type {any} */ f) => f.channels.filter((/** @type {any} */ c) => c.kind === "emg").map((/** @type {any} */ c) => ({ ...c, file: f.original_name })));
   if (!emg.length) return null;
   const status = statusLine("channels-status");
   const rows = emg.map((c) => {
@@ -144,9 +184,11 @@ export function channelsCard(rec, onJob) {
   });
   const save = h("button", { type: "button", class: "primary", id: "channels-save" }, "Save and re-analyse");
   save.addEventListener("click", async () => {
+    /** @type {Record<string, string>} */
     const map = {};
     for (const r of rows) if ((r.c.site || "none") !== r.site.value) map[r.c.name] = r.site.value;
     const exclude = rows.filter((r) => r.exclude.checked).map((r) => r.c.name);
+    /** @type {{ exclude_channels: string[], analyse: boolean, muscle_map?: Record<string, string> }} */
     const body = { exclude_channels: exclude, analyse: true };
     if (Object.keys(map).length) body.muscle_map = { ...(rec.options.muscle_map || {}), ...map };
     save.disabled = true;
@@ -170,8 +212,18 @@ export function channelsCard(rec, onJob) {
     h("p", { class: "small muted" }, "No upload again: the stored files are read with the new mapping and the analysis is run anew."));
 }
 
-/** Every option of POST /api/analyses, with its default; "Run" starts a job with them. */
+/**
+ * Every option of POST /api/analyses, with its default; "Run" starts a job with them.
+ * @param {RecordingDetail} rec
+ * @param {{ phase_bounds_deg: number[] }} defaults the analysis's defaults [deg]
+ * @param {OnJob} onJob
+ */
 export function optionsCard(rec, defaults, onJob) {
+  /**
+   * @param {string} id
+   * @param {number | null | undefined} value
+   * @param {Record<string, string>} [attrs]
+   */
   const num = (id, value, attrs = {}) => h("input", { id, type: "number", step: "any", value: value ?? "", ...attrs });
   const f = {
     emg_rate: num("opt-emg-rate", rec.options.emg_rate, { placeholder: "from the file" }),
@@ -189,7 +241,9 @@ export function optionsCard(rec, defaults, onJob) {
   const status = statusLine("options-status");
   const run = h("button", { type: "button", class: "primary", id: "options-run" }, "Run the analysis with these options");
   run.addEventListener("click", async () => {
+    /** @param {HTMLInputElement} el */
     const value = (el) => (el.value.trim() === "" ? null : Number(el.value));
+    /** @type {Record<string, unknown>} */
     const body = {
       recording_id: rec.id,
       phase_bounds_deg: [value(f.ab), value(f.bc)],
@@ -214,6 +268,11 @@ export function optionsCard(rec, defaults, onJob) {
       run.disabled = false;
     }
   });
+  /**
+   * @param {string} label
+   * @param {HTMLElement} el
+   * @param {string} [hint]
+   */
   const field = (label, el, hint) => h("div", {}, h("label", { for: el.id }, label, hint ? h("span", { class: "hint" }, ` ${hint}`) : null), el);
   return h("details", { class: "card", id: "options-card" },
     h("summary", {}, h("strong", {}, "Analysis options"), h("span", { class: "small muted" }, " EMG rate, phase bounds, body, load, sessions, offset, side")),
@@ -224,9 +283,13 @@ export function optionsCard(rec, defaults, onJob) {
     h("div", { class: "row", style: "margin-top:10px" }, run, status.el));
 }
 
-/** A strip of video frames with the detected skeleton, for the user to check the fit. */
+/**
+ * A strip of video frames with the detected skeleton, for the user to check the fit.
+ * @param {RecordingDetail} rec
+ */
 export function framesCard(rec) {
-  const videos = rec.files.filter((f) => f.role === "video");
+  /** @type {any[]} */
+  const videos = rec.files.filter((/** @type {any} */ f) => f.role === "video");
   if (!videos.length) return null;
   const strip = h("div", { class: "frames", id: "skeleton-frames" });
   const note = h("div", { class: "small muted", id: "pose-note" });
@@ -239,9 +302,9 @@ export function framesCard(rec) {
   }).join(" · ");
   note.textContent = describe();
   if (rec.frames_url) {
-    api(rec.frames_url).then((out) => {
+    api(rec.frames_url).then((/** @type {{ frames: SkeletonFrame[] }} */ out) => {
       if (!out.frames.length) strip.append(banner("info", "No frame with a detected person to show."));
-      out.frames.forEach((fr) => strip.append(h("figure", { class: personClass(fr.person) },
+      out.frames.forEach((fr) => strip.append(h("figure", { class: personClass(/** @type {number} */ (fr.person)) },
         h("img", { src: fr.url, alt: `frame ${fr.frame} of ${fr.video} with the detected skeleton`, loading: "lazy" }),
         h("figcaption", { class: "small muted" }, `${fr.video}, frame ${fr.frame} (${fmt(fr.time_s, 3)} s)`),
         personLabel(fr))));
@@ -250,7 +313,16 @@ export function framesCard(rec) {
   return card;
 }
 
-/** Whom a skeleton frame shows, as the pose extraction decided (null: not recorded). */
+/**
+ * A video frame with the detected skeleton (GET the recording's `frames_url`).
+ * @typedef {{ url: string, frame: number, video: string, time_s: number, person?: number | null,
+ *   note?: string | null, quality?: number | null }} SkeletonFrame
+ */
+
+/**
+ * Whom a skeleton frame shows, as the pose extraction decided (null: not recorded).
+ * @param {SkeletonFrame} fr
+ */
 function personLabel(fr) {
   if (fr.person === null || fr.person === undefined) return null;
   const who = fr.note || (fr.person === 0 ? "the tracked person" : fr.person > 0 ? `not the tracked person (#${fr.person})` : "person unknown");
@@ -258,6 +330,7 @@ function personLabel(fr) {
   return h("figcaption", { class: "small person-label", "data-person": String(fr.person) }, `${who}${score}`);
 }
 
+/** @param {number} person the frame's person (null/undefined give "" as well) */
 function personClass(person) {
   return person === 0 ? "person-tracked" : person > 0 ? "person-other" : "";
 }

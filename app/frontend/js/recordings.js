@@ -38,8 +38,16 @@ function homeGuide() {
   return card;
 }
 
+/**
+ * A file chosen for the upload, with its list item and the line of its status.
+ * @typedef {{ file: File, li: HTMLElement, status: HTMLElement }} ChosenFile
+ */
+
+/** @param {HTMLElement} main */
 export function render(main) {
+  /** @type {ChosenFile[]} */
   const files = []; // {file, li, status}
+  /** @type {(() => void)[]} */
   const stops = []; // job followers to stop when the page is left
   let busy = false;
 
@@ -87,11 +95,13 @@ export function render(main) {
   /** The request's fields and their inputs: a refusal is shown beside each, caps as hints. */
   const inputs = { subject, task, load_kg: load, notes, label, condition, rate, emg_rate: emgRate, frame_rate: frameRate, image_size: imageSize };
 
+  /** @param {boolean} value */
   function setBusy(value) {
     busy = value;
     submit.disabled = value || files.length === 0;
   }
 
+  /** @param {FileList | File[]} fileList */
   function addFiles(fileList) {
     if (busy) return;
     for (const file of fileList) {
@@ -119,7 +129,7 @@ export function render(main) {
   }
 
   input.addEventListener("change", () => {
-    addFiles(input.files);
+    addFiles(/** @type {FileList} */ (input.files));
     input.value = "";
   });
   drop.addEventListener("click", () => input.click());
@@ -141,6 +151,7 @@ export function render(main) {
   });
 
   function muscleMap() {
+    /** @type {Record<string, string>} */
     const out = {};
     for (const row of maps.querySelectorAll(".map-row")) {
       const [labelInput, siteSelect] = /** @type {NodeListOf<HTMLInputElement | HTMLSelectElement>} */ (row.querySelectorAll("input, select"));
@@ -158,7 +169,10 @@ export function render(main) {
   }
 
   /** What the server says of a stored session: the rate check with its one-click fix, the
-   * readers' warnings, the pose jobs of videos (then the analysis), or the analysis job. */
+   * readers' warnings, the pose jobs of videos (then the analysis), or the analysis job.
+   * @param {any} rec the stored recording (POST /api/recordings; no response model yet)
+   * @param {string} landmarks the analysis's landmark map or preset, or ""
+   */
   function showStored(rec, landmarks) {
     const note = banner("info", `Stored as recording #${rec.id}. `);
     note.id = "upload-stored";
@@ -167,10 +181,10 @@ export function render(main) {
     if (rec.rate_check) topError.append(rateCheck(rec));
     const warnings = otherWarnings(rec); // the rate check's is said once, with its fix
     if (warnings.length) {
-      topError.append(h("div", { class: "banner warn", id: "upload-warnings" }, h("strong", {}, "The readers noted:"), h("ul", { class: "small" }, warnings.map((w) => h("li", {}, w)))));
+      topError.append(h("div", { class: "banner warn", id: "upload-warnings" }, h("strong", {}, "The readers noted:"), h("ul", { class: "small" }, warnings.map((/** @type {string} */ w) => h("li", {}, w)))));
     }
     if (rec.pose_jobs && rec.pose_jobs.length) {
-      rec.pose_jobs.forEach((job) => topError.append(poseProgress(rec, job)));
+      rec.pose_jobs.forEach((/** @type {import("./types").JobInfo} */ job) => topError.append(poseProgress(rec, job)));
       return; // the server analyses the recording once the landmarks are stored
     }
     api("/api/analyses", { method: "POST", body: landmarks ? { recording_id: rec.id, landmarks } : { recording_id: rec.id } })
@@ -178,6 +192,7 @@ export function render(main) {
       .catch((err) => topError.append(banner("warn", `The analysis could not be started: ${messageOf(err)}`)));
   }
 
+  /** @param {any} rec the stored recording, with its `rate_check` */
   function rateCheck(rec) {
     const rc = rec.rate_check;
     const status = h("span", { class: "small", id: "upload-rate-status" });
@@ -197,7 +212,11 @@ export function render(main) {
       rateCheckText(rc), `Suggested: ${fmt(rc.suggested_rate_hz)} Hz. `, fix, status);
   }
 
-  /** A video's pose extraction: frames done of total, then a link to check the skeletons. */
+  /**
+   * A video's pose extraction: frames done of total, then a link to check the skeletons.
+   * @param {{ id: number }} rec
+   * @param {import("./types").JobInfo} job
+   */
   function poseProgress(rec, job) {
     const bar = h("div", {});
     const text = h("span", { class: "small" }, "pose: queued");
@@ -216,6 +235,7 @@ export function render(main) {
     return box;
   }
 
+  /** @param {SubmitEvent} e */
   async function onSubmit(e) {
     e.preventDefault();
     if (!files.length || busy) return;
@@ -250,10 +270,11 @@ export function render(main) {
     } catch (err) {
       progress.classList.add("failed");
       bar.style.width = "100%";
+      /** @type {import("./types").Problem} */
       const problem = err.problem || {};
       // The server names every file it could not read (or the one, for other refusals).
       const named = problem.files || (problem.file ? [{ file: problem.file, detail: messageOf(err) }] : []);
-      const culprits = named.map((n) => [files.find((f) => f.file.name === n.file), n.detail]).filter(([f]) => f);
+      const culprits = /** @type {[ChosenFile, string][]} */ (named.map((n) => [files.find((f) => f.file.name === n.file), n.detail]).filter(([f]) => f));
       if (culprits.length) {
         // Each message next to its file; the others were not stored either.
         culprits.forEach(([f, detail]) => f.status.append(h("div", { class: "file-error", role: "alert" }, namesInFormWords(detail, FIELD_WORDS))));
@@ -324,6 +345,7 @@ export function render(main) {
     ),
   );
 
+  /** @param {any} rec a listed recording (GET /api/recordings) */
   async function remove(rec) {
     if (!confirm(`Delete recording #${rec.id} (${rec.file_names.join(", ")})? Its files are removed too.`)) return;
     try {

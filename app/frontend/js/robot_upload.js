@@ -7,14 +7,20 @@
 import { upload } from "./api.js";
 import { h, messageOf } from "./ui.js";
 
-/** The API's field names in the words of the form. */
+/**
+ * The API's field names in the words of the form.
+ * @type {Record<string, string>}
+ */
 const FIELD_WORDS = {
   name: "Name", urdf: "Model file (URDF)", mjcf: "Model file (MJCF)", package: "Model file (zip)",
   sidecar: "Motor sidecar", payload: "Payload", shoulder_joint: "Shoulder joint",
   elbow_joint: "Elbow joint", lock: "Locked joints", base_link: "Arm base link",
 };
 
-/** The movable joints of a URDF or MJCF text: [{name, kind: "revolute"|"prismatic"}]. */
+/**
+ * The movable joints of a URDF or MJCF text: [{name, kind: "revolute"|"prismatic"}].
+ * @param {string} text
+ */
 export function movableJoints(text) {
   const doc = new DOMParser().parseFromString(text, "application/xml");
   if (doc.querySelector("parsererror")) return [];
@@ -28,12 +34,18 @@ export function movableJoints(text) {
     .map((j) => ({ name: j.getAttribute("name"), kind: j.getAttribute("type") === "slide" ? "prismatic" : "revolute" }));
 }
 
+/**
+ * The upload field a model file goes in, by its extension; null for none.
+ * @param {File} file
+ * @returns {string | null}
+ */
 function modelField(file) {
   const ext = file.name.toLowerCase().split(".").pop();
-  return { urdf: "urdf", xml: "mjcf", mjcf: "mjcf", zip: "package" }[ext] || null;
+  return /** @type {Record<string, string>} */ ({ urdf: "urdf", xml: "mjcf", mjcf: "mjcf", zip: "package" })[ext || ""] || null;
 }
 
 /** Millimetres or centimetres of a depth [m], in words. */
+/** @param {number} depth [m] */
 function depthWords(depth) {
   return depth >= 0.1 ? `${(100 * depth).toFixed(0)} cm` : `${(1000 * depth).toFixed(0)} mm`;
 }
@@ -65,7 +77,11 @@ export function defaultTaskWarning(check) {
   };
 }
 
-/** The card; ``onAdded(robot)`` is called with the stored robot (``RobotInfo``). */
+/**
+ * The card; ``onAdded(robot)`` is called with the stored robot (``RobotInfo``).
+ * @param {(robot: any) => void} onAdded
+ * @returns {HTMLDetailsElement}
+ */
 export function robotUploadCard(onAdded) {
   const name = h("input", { id: "robot-name", type: "text", required: true, pattern: "[A-Za-z0-9_.\\-]{1,100}", title: "letters, digits, _, . and - (no spaces)", placeholder: "e.g. my_ur5", "aria-label": "Robot name" });
   const model = h("input", { id: "robot-model", type: "file", accept: ".urdf,.xml,.mjcf,.zip", "aria-label": "Model file" });
@@ -141,7 +157,7 @@ export function robotUploadCard(onAdded) {
     if (!file || !modelField(file)) return fail(`${FIELD_WORDS.urdf}: choose a .urdf, an MJCF .xml or a .zip of the robot's folder.`);
     const body = new FormData();
     body.append("name", name.value.trim());
-    body.append(modelField(file), file);
+    body.append(/** @type {string} */ (modelField(file)), file);
     const [mjcfFile] = /** @type {FileList} */ (mjcf.files);
     if (mjcfFile) body.append("mjcf", mjcfFile);
     const [sidecarFile] = /** @type {FileList} */ (sidecar.files);
@@ -184,6 +200,7 @@ export function robotUploadCard(onAdded) {
     }
   });
 
+  /** @param {string} text */
   function fail(text) {
     status.className = "small worse";
     status.setAttribute("role", "alert");

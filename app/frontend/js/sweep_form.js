@@ -6,13 +6,20 @@
 import { api, followJob } from "./api.js";
 import { banner, clear, h, inFormWords, tag } from "./ui.js";
 
+/** @typedef {import("./types").JobInfo} JobInfo */
+
 /** The sweep request's fields in the words of the forms they come from. */
 const SWEEP_WORDS = {
   durations: "Durations", payloads: "Payloads", objectives: "Objective", methods: "Methods",
   robot: "Robot", particles: "Particles", iterations: "Iterations", seed: "Seed",
 };
 
-/** Numbers from "0.5, 1, 1.5" (commas or blanks); throws naming the field when one is not. */
+/**
+ * Numbers from "0.5, 1, 1.5" (commas or blanks); throws naming the field when one is not.
+ * @param {string} text
+ * @param {string} what the field's label
+ * @returns {number[]}
+ */
 export function numberList(text, what) {
   const parts = text.split(/[\s,;]+/).filter(Boolean);
   const values = parts.map(Number);
@@ -28,8 +35,8 @@ export function numberList(text, what) {
  * @param {{ state: string, message: string }} job the job as submitted
  * @param {string} title e.g. "Sweep #3"
  * @param {{ progress: string, state: string, detail: string }} ids of the bar, the state tag and the line
- * @param {(job: any) => string} detail an update's line
- * @returns {{ element: HTMLElement, update: (job: any) => void, finish: (job: any) => HTMLElement | null }}
+ * @param {(job: JobInfo) => string} detail an update's line
+ * @returns {{ element: HTMLElement, update: (job: JobInfo) => void, finish: (job: JobInfo) => HTMLElement | null }}
  *   `update` shows a job update; `finish` marks the bar done or failed and returns, for a job
  *   that did not succeed, the banner saying so
  */
@@ -38,6 +45,7 @@ export function jobProgress(job, title, ids, detail) {
   const prog = h("div", { class: "progress", id: ids.progress, role: "progressbar", "aria-valuemin": "0", "aria-valuemax": "100", "aria-valuenow": "0" }, bar);
   const state = h("span", { id: ids.state }, tag(job.state));
   const line = h("div", { class: "small muted", id: ids.detail }, job.message);
+  /** @param {JobInfo} j */
   const update = (j) => {
     const p = Math.round(100 * j.progress);
     bar.style.width = `${p}%`;
@@ -45,6 +53,7 @@ export function jobProgress(job, title, ids, detail) {
     clear(state).append(tag(j.state));
     line.textContent = detail(j);
   };
+  /** @param {JobInfo} final */
   const finish = (final) => {
     const ok = final.state === "succeeded";
     prog.classList.add(ok ? "done" : "failed");
@@ -58,6 +67,9 @@ export function jobProgress(job, title, ids, detail) {
 /**
  * The card. `form` reads the plan form's shared choices: () => ({robot, objective, methods,
  * particles, iterations, seed}). `stops` collects the page's cleanup functions.
+ * @param {() => Record<string, unknown>} form
+ * @param {(() => void)[]} stops
+ * @returns {HTMLFormElement}
  */
 export function sweepFormCard(form, stops) {
   const durations = h("input", { id: "sweep-durations", value: "0.5, 1, 1.5", "aria-describedby": "sweep-hint" });
@@ -65,6 +77,7 @@ export function sweepFormCard(form, stops) {
   const status = h("div", { id: "sweep-status" });
   const submit = h("button", { type: "submit", class: "primary", id: "submit-sweep" }, "Run the sweep");
 
+  /** @param {JobInfo} job the submitted sweep */
   function follow(job) {
     const box = jobProgress(job, `Sweep #${job.id}`, { progress: "sweep-progress", state: "sweep-state", detail: "sweep-cells" },
       (j) => (j.stage === "sweep" ? `cell ${j.done} of ${j.of} done · ${j.message}` : j.error || j.message));
@@ -82,6 +95,7 @@ export function sweepFormCard(form, stops) {
     });
   }
 
+  /** @param {SubmitEvent} e */
   async function onSubmit(e) {
     e.preventDefault();
     clear(status);

@@ -27,12 +27,23 @@ export function h(tag, attrs = {}, ...children) {
   return el;
 }
 
+/**
+ * Remove every child of `el`.
+ * @template {Node} E
+ * @param {E} el
+ * @returns {E}
+ */
 export function clear(el) {
   while (el.firstChild) el.removeChild(el.firstChild);
   return el;
 }
 
-/** A number with about 4 significant digits; null as an en dash. */
+/**
+ * A number with about 4 significant digits; null as an en dash.
+ * @param {unknown} value
+ * @param {number} [digits]
+ * @returns {string}
+ */
 export function fmt(value, digits = 4) {
   if (value === null || value === undefined || Number.isNaN(value)) return "–";
   if (typeof value !== "number") return String(value);
@@ -42,33 +53,59 @@ export function fmt(value, digits = 4) {
   return Number(value.toPrecision(digits)).toLocaleString("en-US", { maximumFractionDigits: 6 });
 }
 
+/**
+ * A signed percentage with one decimal ("+12.3 %"); null as an en dash.
+ * @param {number | null | undefined} value [%]
+ * @returns {string}
+ */
 export function pct(value) {
   if (value === null || value === undefined || Number.isNaN(value)) return "–";
   const s = value > 0 ? "+" : "";
   return `${s}${value.toFixed(1)} %`;
 }
 
+/**
+ * @param {number} n a size [B]
+ * @returns {string}
+ */
 export function bytes(n) {
   if (n < 1024) return `${n} B`;
   if (n < 1024 * 1024) return `${(n / 1024).toFixed(1)} KB`;
   return `${(n / 1024 / 1024).toFixed(1)} MB`;
 }
 
+/**
+ * @param {string | null | undefined} iso an ISO 8601 time
+ * @returns {string}
+ */
 export function when(iso) {
   if (!iso) return "–";
   const d = new Date(iso);
   return d.toLocaleString(undefined, { dateStyle: "medium", timeStyle: "short" });
 }
 
+/**
+ * @param {string} kind "error", "info", "ok", ...
+ * @param {string | Node} text
+ * @returns {HTMLDivElement}
+ */
 export function banner(kind, text) {
   return h("div", { class: `banner ${kind}`, role: kind === "error" ? "alert" : "status" }, text);
 }
 
+/**
+ * @param {string} state
+ * @returns {HTMLSpanElement}
+ */
 export function tag(state) {
   return h("span", { class: `tag ${state}` }, state);
 }
 
-/** Message of an error for the user: the server's detail when there is one. */
+/**
+ * Message of an error for the user: the server's detail when there is one.
+ * @param {any} err what was caught
+ * @returns {string}
+ */
 export function messageOf(err) {
   if (err && err.problem) {
     const p = err.problem;
@@ -77,7 +114,10 @@ export function messageOf(err) {
   return err && err.message ? err.message : String(err);
 }
 
-/** `text` as a literal pattern for a RegExp. */
+/**
+ * `text` as a literal pattern for a RegExp.
+ * @param {string} text
+ */
 function literal(text) {
   return String(text).replace(/[.*+?^${}()|[\]\\]/g, "\\$&");
 }
@@ -87,10 +127,15 @@ function literal(text) {
  * request the schema refuses lists them all (`problem.errors`, first message per field), any
  * other refusal names one. `words` maps request field names (the part before any ".index") to
  * the form's labels; field names inside a message are put in the form's words too.
+ * @param {any} err what was caught
+ * @param {Record<string, string>} words
+ * @returns {{ field: string | null, label: string | null, text: string }[]}
  */
 export function errorsInFormWords(err, words) {
+  /** @type {import("./types").Problem} */
   const p = (err && err.problem) || {};
   const listed = Array.isArray(p.errors) && p.errors.length ? p.errors : [{ field: p.field, message: null }];
+  /** @type {Map<string, import("./types").ProblemError>} */
   const seen = new Map();
   for (const e of listed) {
     const key = e.field ? String(e.field).split(".")[0] : "";
@@ -107,8 +152,13 @@ export function errorsInFormWords(err, words) {
   });
 }
 
-/** An API error in a form's words: "Duration: must be > 0" rather than "duration: ...";
- * several errors of one request together, separated by "; ". */
+/**
+ * An API error in a form's words: "Duration: must be > 0" rather than "duration: ...";
+ * several errors of one request together, separated by "; ".
+ * @param {any} err what was caught
+ * @param {Record<string, string>} words
+ * @returns {string}
+ */
 export function inFormWords(err, words) {
   return errorsInFormWords(err, words).map((e) => e.text).join("; ");
 }
@@ -117,6 +167,10 @@ export function inFormWords(err, words) {
  * An API refusal shown on a form: every error at once in the form's words, in `box` (brought
  * into view below the sticky top bar), and each beside its field when `fields` maps the request
  * field to its input (marked aria-invalid until the next try).
+ * @param {HTMLElement} box
+ * @param {any} err what was caught
+ * @param {Record<string, string>} words
+ * @param {Record<string, HTMLInputElement | HTMLSelectElement | HTMLTextAreaElement | null | undefined>} [fields]
  */
 export function showFormErrors(box, err, words, fields = {}) {
   clearFieldErrors(fields);
@@ -139,7 +193,10 @@ export function showFormErrors(box, err, words, fields = {}) {
   if (first && !inView(first)) first.scrollIntoView({ block: "center" });
 }
 
-/** The marks of `showFormErrors` taken off the fields. */
+/**
+ * The marks of `showFormErrors` taken off the fields.
+ * @param {Record<string, HTMLElement | null | undefined>} fields
+ */
 export function clearFieldErrors(fields) {
   for (const input of Object.values(fields)) {
     if (!input) continue;
@@ -149,11 +206,13 @@ export function clearFieldErrors(fields) {
   }
 }
 
+/** @param {Element} el */
 function inView(el) {
   const r = el.getBoundingClientRect();
   return r.top >= 60 && r.bottom <= window.innerHeight;
 }
 
+/** @type {Promise<Record<string, Record<string, { maximum?: number, minimum?: number, exclusiveMaximum?: number, exclusiveMinimum?: number }>>> | null} */
 let capsLoading = null;
 
 /** The server's bounds of the fields the pages fill (GET /api/caps), fetched once. */
@@ -170,6 +229,8 @@ export function loadCaps() {
  * Each capped field shows its cap, as this server enforces it: the input's min/max, and a hint
  * ("max 400") added to its label. `form` names the request (plan, simulation, sweep, upload,
  * analysis, recording_patch); `fields` maps request fields to inputs.
+ * @param {string} form
+ * @param {Record<string, HTMLInputElement | null | undefined>} fields
  */
 export async function showCaps(form, fields) {
   const caps = (await loadCaps())[form] || {};
@@ -187,7 +248,12 @@ export async function showCaps(form, fields) {
   }
 }
 
-/** A message that names request fields (`frame_rate`) in a form's words (“Frame rate”). */
+/**
+ * A message that names request fields (`frame_rate`) in a form's words (“Frame rate”).
+ * @param {unknown} text
+ * @param {Record<string, string>} words
+ * @returns {string}
+ */
 export function namesInFormWords(text, words) {
   let out = String(text);
   for (const [field, label] of Object.entries(words)) {
@@ -196,8 +262,16 @@ export function namesInFormWords(text, words) {
   return out;
 }
 
+/**
+ * `fn` called once calls stop for `ms`, with the last call's arguments.
+ * @template {unknown[]} A
+ * @param {(...args: A) => void} fn
+ * @param {number} ms [ms]
+ * @returns {(...args: A) => void}
+ */
 export function debounce(fn, ms) {
-  let t = null;
+  /** @type {ReturnType<typeof setTimeout> | undefined} */
+  let t = undefined;
   return (...args) => {
     clearTimeout(t);
     t = setTimeout(() => fn(...args), ms);

@@ -7,18 +7,29 @@ import { api, followJob, qs, upload } from "./api.js";
 import { draw, layout } from "./plots.js";
 import { banner, clear, fmt, h, inFormWords, messageOf, pct, when } from "./ui.js";
 
+/** @typedef {import("./types").RobotInfo} RobotInfo */
+/**
+ * A stored robot log (GET /api/robot-logs, the fields this page reads).
+ * @typedef {{ id: number, robot: string, file: string, label: string | null, format: string, samples: number,
+ *   duration_s: number, rate_hz: number, created_at: string, joint_names: string[], notes: string[] }} RobotLog
+ */
+
+/** @type {Record<string, string>} */
 const FIELD_WORDS = { robot: "Robot", file: "Log file", topic: "Topic", label: "Label", log_ids: "Logs", version: "Version name", plan: "Plan" };
 
 /** @param {HTMLElement} main @param {Array<string|undefined>} match */
 export async function render(main, match) {
   const id = match && match[0] ? Number(match[0]) : null;
+  /** @type {(() => void)[]} */
   const stops = [];
   if (id) await renderLog(main, id, stops);
   else await renderUpload(main);
   return () => stops.forEach((stop) => stop());
 }
 
+/** @param {HTMLElement} main */
 async function renderUpload(main) {
+  /** @type {RobotInfo[]} */
   const robots = await api("/api/robots");
   const robot = h("select", { id: "log-robot" }, robots.map((r) => h("option", { value: r.name }, robotLabel(r))));
   const file = h("input", { type: "file", id: "log-file", accept: ".csv,.txt,.tsv,.zip" });
@@ -29,14 +40,16 @@ async function renderUpload(main) {
   const list = h("div", { id: "log-list" });
 
   async function showLogs() {
+    /** @type {RobotLog[]} */
     const logs = await api(`/api/robot-logs${qs({ robot: robot.value })}`);
     clear(list).append(logs.length
-      ? h("ul", {}, logs.map((l) => h("li", { dataset: { id: l.id } },
+      ? h("ul", {}, logs.map((l) => h("li", { dataset: { id: String(l.id) } },
         h("a", { href: `#/validate/${l.id}` }, `${l.file}`), l.label ? ` “${l.label}”` : "",
         h("span", { class: "small muted" }, ` ${fmt(l.duration_s)} s at ${fmt(l.rate_hz)} Hz, ${when(l.created_at)}`))))
       : h("p", { class: "muted" }, "No logs of this robot yet."));
   }
 
+  /** @param {SubmitEvent} e */
   async function onSubmit(e) {
     e.preventDefault();
     clear(error);
@@ -77,12 +90,19 @@ async function renderUpload(main) {
   await showLogs();
 }
 
+/** @param {RobotInfo} r */
 function robotLabel(r) {
   if (r.builtin) return r.name;
   return r.identified_from ? `${r.name} (identified from ${r.identified_from.robot})` : `${r.name} (uploaded)`;
 }
 
+/**
+ * @param {HTMLElement} main
+ * @param {number} id the log's id
+ * @param {(() => void)[]} stops the page's cleanup functions
+ */
 async function renderLog(main, id, stops) {
+  /** @type {[RobotLog, RobotInfo[], import("./types").Page<import("./types").PlanOut>]} */
   const [log, robots, plans] = await Promise.all([
     api(`/api/robot-logs/${id}`),
     api("/api/robots"),
@@ -129,10 +149,18 @@ async function renderLog(main, id, stops) {
   await show();
 }
 
+/**
+ * @param {RobotInfo} r
+ * @param {string[]} names
+ */
 function sameJoints(r, names) {
   return names.every((n) => r.joint_names.includes(n));
 }
 
+/**
+ * @param {HTMLElement} box
+ * @param {any} out GET /api/robot-logs/{id}/validation (no response model yet)
+ */
 async function showValidation(box, out) {
   const names = Object.keys(out.joints);
   const work = out.abs_work;
@@ -155,7 +183,7 @@ async function showValidation(box, out) {
     await draw(div, [
       { x: s.t, y: s.measured[j], name: "measured", mode: "lines", line: { color: "#374151" } },
       { x: s.t, y: s.predicted[j], name: "predicted", mode: "lines", line: { color: "#2563eb" } },
-      { x: s.t, y: s.measured[j].map((m, k) => m - s.predicted[j][k]), name: "residual", mode: "lines", line: { color: "#dc2626", width: 1 } },
+      { x: s.t, y: s.measured[j].map((/** @type {number} */ m, /** @type {number} */ k) => m - s.predicted[j][k]), name: "residual", mode: "lines", line: { color: "#dc2626", width: 1 } },
     ], layout({ title: { text: `${s.joints[j]} torque [Nm]`, font: { size: 13 } }, xaxis: { title: { text: "t [s]" } }, height: 280 }));
   }
   const power = h("div", { class: "plot", id: "validate-power" });
@@ -166,6 +194,7 @@ async function showValidation(box, out) {
   ], layout({ title: { text: "Σ|τ·q̇| [W]", font: { size: 13 } }, xaxis: { title: { text: "t [s]" } }, height: 280 }));
 }
 
+/** @param {any} p the validation's `plan` part (tracking of a plan) */
 function trackingCard(p) {
   const joints = Object.keys(p.tracking_error_rms_rad);
   const saving = p.saving_pct;
@@ -177,16 +206,23 @@ function trackingCard(p) {
       h("tbody", {}, joints.map((n) => h("tr", {}, h("td", {}, n), h("td", {}, fmt(p.tracking_error_rms_rad[n])), h("td", {}, fmt(p.tracking_error_max_rad[n])))))));
 }
 
+/**
+ * @param {RobotLog} log
+ * @param {(() => void)[]} stops the page's cleanup functions
+ * @param {(version: string) => Promise<void>} onVersion called with the stored robot version
+ */
 function identifyCard(log, stops, onVersion) {
   const version = h("input", { id: "identify-version", maxlength: "100", placeholder: `${log.robot}-identified` });
   const fraction = h("input", { id: "identify-fraction", type: "number", min: "0", max: "0.89", step: "0.05", value: "0.2" });
   const button = h("button", { type: "submit", class: "primary", id: "identify-submit" }, "Identify the robot from this log");
   const progress = h("div", { id: "identify-progress" });
+  /** @param {SubmitEvent} e */
   async function onSubmit(e) {
     e.preventDefault();
     clear(progress);
     button.disabled = true;
     try {
+      /** @type {{ log_ids: number[], validate_fraction: number, version?: string }} */
       const body = { log_ids: [log.id], validate_fraction: Number(fraction.value) };
       if (version.value.trim()) body.version = version.value.trim();
       const job = await api("/api/identifications", { method: "POST", body });

@@ -19,6 +19,7 @@ import math
 
 from app.planning.energy import MotorModel
 from app.planning.robots._chain import ChainLink, ChainSpec, Visual
+from app.planning.robots._table import parameter_row as _row
 
 __all__ = ["curtain_wall_chain", "curtain_wall_motors", "curtain_wall_parameters"]
 
@@ -226,152 +227,94 @@ def curtain_wall_chain(*, comment: str = "") -> ChainSpec:
     )
 
 
-def curtain_wall_parameters() -> tuple[dict[str, object], ...]:
-    """The parameter table (name, value, unit, source).
-
-    Longer than 80 lines on purpose: it is the table itself, one row per parameter with its
-    source, written out so that a reader checks each number against its source in one place.
-    """
-    rows: list[dict[str, object]] = [
-        {
-            "name": "pedestal.height",
-            "value": 0.9,
-            "unit": "m",
-            "source": "assumed: column putting the shoulder 1.3 m above the floor",
-        },
-        {
-            "name": "turret.shoulder_offset",
-            "value": [0.15, 0.0, 0.4],
-            "unit": "m",
-            "source": "assumed: J2 axis 0.15 m in front of the J1 axis, 0.4 m above the column",
-        },
-    ]
+def _link_rows() -> list[dict[str, object]]:
+    """Per link: lengths, joint origin, mass, centre of mass, inertia and the joint's limits."""
+    rows: list[dict[str, object]] = []
     for link, joint, origin, _axis, mass, com, cyl, lim, velocity, effort in _LINKS:
         ixx, iyy, izz = _cylinder_inertia(mass, *cyl)
         length_source = PAPER if link in ("upper_arm", "forearm") else "assumed"
         if link in ("upper_arm", "forearm"):
-            rows.append(
-                {"name": f"{link}.length", "value": cyl[1], "unit": "m", "source": length_source}
-            )
+            rows.append(_row(f"{link}.length", cyl[1], "m", length_source))
+        origin_source = length_source if link in ("forearm", "wrist_1") else "assumed"
+        velocity_note = (
+            "; J3 allows the default 150 deg curl in 1.0 s (quintic peak 4.9 rad/s)"
+            if joint == "j3_elbow_pitch"
+            else ""
+        )
         rows += [
-            {
-                "name": f"{joint}.origin",
-                "value": list(origin),
-                "unit": "m",
-                "source": length_source if link in ("forearm", "wrist_1") else "assumed",
-            },
-            {"name": f"{link}.mass", "value": mass, "unit": "kg", "source": ASSUMED_LINK},
-            {"name": f"{link}.com", "value": list(com), "unit": "m", "source": ASSUMED_LINK},
-            {"name": f"{link}.inertia_xx", "value": ixx, "unit": "kg m^2", "source": ASSUMED_LINK},
-            {"name": f"{link}.inertia_yy", "value": iyy, "unit": "kg m^2", "source": ASSUMED_LINK},
-            {"name": f"{link}.inertia_zz", "value": izz, "unit": "kg m^2", "source": ASSUMED_LINK},
-            {
-                "name": f"{joint}.lower",
-                "value": round(math.radians(lim[0]), 6),
-                "unit": "rad",
-                "source": ASSUMED_LIMIT,
-            },
-            {
-                "name": f"{joint}.upper",
-                "value": round(math.radians(lim[1]), 6),
-                "unit": "rad",
-                "source": ASSUMED_LIMIT,
-            },
-            {
-                "name": f"{joint}.velocity",
-                "value": velocity,
-                "unit": "rad/s",
-                "source": ASSUMED_LIMIT
-                + (
-                    "; J3 allows the default 150 deg curl in 1.0 s (quintic peak 4.9 rad/s)"
-                    if joint == "j3_elbow_pitch"
-                    else ""
-                ),
-            },
-            {
-                "name": f"{joint}.effort",
-                "value": effort,
-                "unit": "Nm",
-                "source": "assumed: margin over the default curl with 4 kg in 1.0 s, "
-                "short of it in 0.3 s",
-            },
+            _row(f"{joint}.origin", list(origin), "m", origin_source),
+            _row(f"{link}.mass", mass, "kg", ASSUMED_LINK),
+            _row(f"{link}.com", list(com), "m", ASSUMED_LINK),
+            _row(f"{link}.inertia_xx", ixx, "kg m^2", ASSUMED_LINK),
+            _row(f"{link}.inertia_yy", iyy, "kg m^2", ASSUMED_LINK),
+            _row(f"{link}.inertia_zz", izz, "kg m^2", ASSUMED_LINK),
+            _row(f"{joint}.lower", round(math.radians(lim[0]), 6), "rad", ASSUMED_LIMIT),
+            _row(f"{joint}.upper", round(math.radians(lim[1]), 6), "rad", ASSUMED_LIMIT),
+            _row(f"{joint}.velocity", velocity, "rad/s", ASSUMED_LIMIT + velocity_note),
+            _row(
+                f"{joint}.effort",
+                effort,
+                "Nm",
+                "assumed: margin over the default curl with 4 kg in 1.0 s, short of it in 0.3 s",
+            ),
         ]
+    return rows
+
+
+def _motor_rows() -> list[dict[str, object]]:
+    """Per joint: the motor, gearbox and friction of :func:`curtain_wall_motors`."""
+    rows: list[dict[str, object]] = []
     for (gear, k_t, resistance, rotor, viscous, coulomb, cls), (_, joint, *_rest) in zip(
         _MOTORS, _LINKS, strict=True
     ):
         source = ASSUMED_MOTOR.format(cls=cls)
+        motor = f"{joint}.motor"
         rows += [
-            {"name": f"{joint}.motor.gear_ratio", "value": gear, "unit": "1", "source": source},
-            {
-                "name": f"{joint}.motor.torque_constant",
-                "value": k_t,
-                "unit": "Nm/A",
-                "source": source,
-            },
-            {
-                "name": f"{joint}.motor.winding_resistance",
-                "value": resistance,
-                "unit": "ohm",
-                "source": source,
-            },
-            {
-                "name": f"{joint}.motor.rotor_inertia",
-                "value": rotor,
-                "unit": "kg m^2",
-                "source": source + " (rotor + wave generator)",
-            },
-            {
-                "name": f"{joint}.motor.viscous_friction",
-                "value": viscous,
-                "unit": "Nm s/rad",
-                "source": source + " (joint side)",
-            },
-            {
-                "name": f"{joint}.motor.coulomb_friction",
-                "value": coulomb,
-                "unit": "Nm",
-                "source": source + " (joint side)",
-            },
-            {
-                "name": f"{joint}.motor.regen_efficiency",
-                "value": REGEN_EFFICIENCY,
-                "unit": "1",
-                "source": ASSUMED_REGEN,
-            },
+            _row(f"{motor}.gear_ratio", gear, "1", source),
+            _row(f"{motor}.torque_constant", k_t, "Nm/A", source),
+            _row(f"{motor}.winding_resistance", resistance, "ohm", source),
+            _row(f"{motor}.rotor_inertia", rotor, "kg m^2", source + " (rotor + wave generator)"),
+            _row(f"{motor}.viscous_friction", viscous, "Nm s/rad", source + " (joint side)"),
+            _row(f"{motor}.coulomb_friction", coulomb, "Nm", source + " (joint side)"),
+            _row(f"{motor}.regen_efficiency", REGEN_EFFICIENCY, "1", ASSUMED_REGEN),
         ]
+    return rows
+
+
+def curtain_wall_parameters() -> tuple[dict[str, object], ...]:
+    """The parameter table: one ``{name, value, unit, source}`` row per number of the robot
+    (pedestal, links, joint limits, motors, controller limits, payload)."""
+    rows = [
+        _row(
+            "pedestal.height",
+            0.9,
+            "m",
+            "assumed: column putting the shoulder 1.3 m above the floor",
+        ),
+        _row(
+            "turret.shoulder_offset",
+            [0.15, 0.0, 0.4],
+            "m",
+            "assumed: J2 axis 0.15 m in front of the J1 axis, 0.4 m above the column",
+        ),
+        *_link_rows(),
+        *_motor_rows(),
+    ]
     for (_, joint, *_rest), (acceleration, jerk) in zip(_LINKS, _CONTROLLER_LIMITS, strict=True):
         rows += [
-            {
-                "name": f"{joint}.acceleration",
-                "value": acceleration,
-                "unit": "rad/s^2",
-                "source": ASSUMED_CONTROLLER,
-            },
-            {
-                "name": f"{joint}.jerk",
-                "value": jerk,
-                "unit": "rad/s^3",
-                "source": ASSUMED_CONTROLLER,
-            },
+            _row(f"{joint}.acceleration", acceleration, "rad/s^2", ASSUMED_CONTROLLER),
+            _row(f"{joint}.jerk", jerk, "rad/s^3", ASSUMED_CONTROLLER),
         ]
     rows += [
-        {
-            "name": "payload.mass",
-            "value": PAYLOAD_MASS,
-            "unit": "kg",
-            "source": PAPER + " (default; configurable)",
-        },
-        {
-            "name": "payload.size",
-            "value": list(PAYLOAD_SIZE),
-            "unit": "m",
-            "source": "assumed: thin curtain-wall panel, uniform box",
-        },
-        {
-            "name": "payload.com",
-            "value": list(PAYLOAD_COM),
-            "unit": "m",
-            "source": "assumed: panel held against the vacuum gripper, flange frame",
-        },
+        _row("payload.mass", PAYLOAD_MASS, "kg", PAPER + " (default; configurable)"),
+        _row(
+            "payload.size", list(PAYLOAD_SIZE), "m", "assumed: thin curtain-wall panel, uniform box"
+        ),
+        _row(
+            "payload.com",
+            list(PAYLOAD_COM),
+            "m",
+            "assumed: panel held against the vacuum gripper, flange frame",
+        ),
     ]
     return tuple(rows)

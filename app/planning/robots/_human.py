@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 from app.planning.robots._chain import ChainLink, ChainSpec, Visual
+from app.planning.robots._table import parameter_row as _row
 from app.planning.robots._types import RobotError
 
 __all__ = [
@@ -268,119 +269,84 @@ def human_arm_chain(seg: HumanArmSegments, *, comment: str = "") -> ChainSpec:
     )
 
 
-def human_arm_parameters(
-    seg: HumanArmSegments, *, body_mass: float, body_height: float, sex: str
-) -> tuple[dict[str, object], ...]:
-    """The parameter table (name, value, unit, source) of a subject's arm.
-
-    Longer than 80 lines on purpose: it is the table itself, row by row with sources.
-    """
-    rows: list[dict[str, object]] = [
-        {"name": "subject.body_mass", "value": body_mass, "unit": "kg", "source": "input"},
-        {"name": "subject.body_height", "value": body_height, "unit": "m", "source": "input"},
-        {"name": "subject.sex", "value": sex, "unit": "", "source": "input"},
-        {
-            "name": "de_leva.reference_stature",
-            "value": _STATURE[sex],
-            "unit": "m",
-            "source": _TABLE4,
-        },
-    ]
+def _de_leva_rows(sex: str) -> list[dict[str, object]]:
+    """de Leva's (1996) Table 4 values of the arm's segments for ``sex``."""
+    rows = [_row("de_leva.reference_stature", _STATURE[sex], "m", _TABLE4)]
     for segment, values in _ARM[sex].items():
         fraction, length, cm, r_sag, r_trans, r_long = values
-        for key, value, unit, table in (
-            ("mass_fraction", fraction, "1", _TABLE4),
-            ("length", length, "m", _TABLE4),
-            ("cm_fraction_from_proximal", cm, "1", _TABLE4),
-            ("radius_sagittal", r_sag, "1", _TABLE4),
-            ("radius_transverse", r_trans, "1", _TABLE4),
-            ("radius_longitudinal", r_long, "1", _TABLE4),
+        for key, value, unit in (
+            ("mass_fraction", fraction, "1"),
+            ("length", length, "m"),
+            ("cm_fraction_from_proximal", cm, "1"),
+            ("radius_sagittal", r_sag, "1"),
+            ("radius_transverse", r_trans, "1"),
+            ("radius_longitudinal", r_long, "1"),
         ):
-            rows.append(
-                {
-                    "name": f"de_leva.{sex}.{segment}.{key}",
-                    "value": value,
-                    "unit": unit,
-                    "source": table,
-                }
-            )
+            rows.append(_row(f"de_leva.{sex}.{segment}.{key}", value, unit, _TABLE4))
+    return rows
+
+
+def _segment_rows(seg: HumanArmSegments) -> list[dict[str, object]]:
+    """The subject's two links: mass [kg], length and CM distance [m], inertia [kg m^2]."""
     scaled = "de Leva (1996) scaled: mass x body mass, length x body height / reference stature"
     lumped = scaled + "; forearm and hand combined by the parallel-axis theorem"
+    rows: list[dict[str, object]] = []
     for link, mass, length, com, inertia, source in (
         ("upper_arm", seg.m1, seg.l1, seg.lc1, seg.i1, scaled),
         ("forearm_hand", seg.m2, seg.l2, seg.lc2, seg.i2, lumped),
     ):
+        grip = "" if link == "upper_arm" else "; elbow to grip, grip at the hand's CM (assumed)"
         rows += [
-            {"name": f"{link}.mass", "value": mass, "unit": "kg", "source": source},
-            {
-                "name": f"{link}.length",
-                "value": length,
-                "unit": "m",
-                "source": source
-                + (
-                    ""
-                    if link == "upper_arm"
-                    else "; elbow to grip, grip at the hand's CM (assumed)"
-                ),
-            },
-            {"name": f"{link}.com_distance", "value": com, "unit": "m", "source": source},
-            {"name": f"{link}.inertia_xx", "value": inertia[0], "unit": "kg m^2", "source": source},
-            {"name": f"{link}.inertia_yy", "value": inertia[1], "unit": "kg m^2", "source": source},
-            {"name": f"{link}.inertia_zz", "value": inertia[2], "unit": "kg m^2", "source": source},
+            _row(f"{link}.mass", mass, "kg", source),
+            _row(f"{link}.length", length, "m", source + grip),
+            _row(f"{link}.com_distance", com, "m", source),
+            _row(f"{link}.inertia_xx", inertia[0], "kg m^2", source),
+            _row(f"{link}.inertia_yy", inertia[1], "kg m^2", source),
+            _row(f"{link}.inertia_zz", inertia[2], "kg m^2", source),
         ]
+    return rows
+
+
+def _limit_rows() -> list[dict[str, object]]:
+    """Per joint: range [rad], peak velocity [rad/s] and torque [Nm], controller limits."""
+    rows: list[dict[str, object]] = []
     for joint, (lower, upper, velocity, effort) in _LIMITS.items():
+        acceleration, jerk = _CONTROLLER_LIMITS[joint][0], _CONTROLLER_LIMITS[joint][1]
         rows += [
-            {
-                "name": f"{joint}.lower",
-                "value": round(lower, 6),
-                "unit": "rad",
-                "source": _LIMIT_SOURCE,
-            },
-            {
-                "name": f"{joint}.upper",
-                "value": round(upper, 6),
-                "unit": "rad",
-                "source": _LIMIT_SOURCE,
-            },
-            {
-                "name": f"{joint}.velocity",
-                "value": velocity,
-                "unit": "rad/s",
-                "source": _LIMIT_SOURCE,
-            },
-            {"name": f"{joint}.effort", "value": effort, "unit": "Nm", "source": _LIMIT_SOURCE},
-            {
-                "name": f"{joint}.acceleration",
-                "value": _CONTROLLER_LIMITS[joint][0],
-                "unit": "rad/s^2",
-                "source": _CONTROLLER_SOURCE,
-            },
-            {
-                "name": f"{joint}.jerk",
-                "value": _CONTROLLER_LIMITS[joint][1],
-                "unit": "rad/s^3",
-                "source": _CONTROLLER_SOURCE,
-            },
+            _row(f"{joint}.lower", round(lower, 6), "rad", _LIMIT_SOURCE),
+            _row(f"{joint}.upper", round(upper, 6), "rad", _LIMIT_SOURCE),
+            _row(f"{joint}.velocity", velocity, "rad/s", _LIMIT_SOURCE),
+            _row(f"{joint}.effort", effort, "Nm", _LIMIT_SOURCE),
+            _row(f"{joint}.acceleration", acceleration, "rad/s^2", _CONTROLLER_SOURCE),
+            _row(f"{joint}.jerk", jerk, "rad/s^3", _CONTROLLER_SOURCE),
         ]
-    rows += [
-        {
-            "name": "payload.mass",
-            "value": 12.0,
-            "unit": "kg",
-            "source": "paper: 12 kg dumbbell (default; configurable)",
-        },
-        {
-            "name": "payload.position",
-            "value": "grip (0, 0, -forearm_hand.length)",
-            "unit": "m",
-            "source": "point mass at the grip (assumed)",
-        },
-        {
-            "name": "motors",
-            "value": "ideal actuator",
-            "unit": "",
-            "source": "muscles are not motors: gear 1, no resistance, friction, rotor inertia or "
+    return rows
+
+
+def human_arm_parameters(
+    seg: HumanArmSegments, *, body_mass: float, body_height: float, sex: str
+) -> tuple[dict[str, object], ...]:
+    """The parameter table of a subject's arm: one ``{name, value, unit, source}`` row per
+    number (the subject, de Leva's table, the scaled links, joint limits, payload, motors)."""
+    return (
+        _row("subject.body_mass", body_mass, "kg", "input"),
+        _row("subject.body_height", body_height, "m", "input"),
+        _row("subject.sex", sex, "", "input"),
+        *_de_leva_rows(sex),
+        *_segment_rows(seg),
+        *_limit_rows(),
+        _row("payload.mass", 12.0, "kg", "paper: 12 kg dumbbell (default; configurable)"),
+        _row(
+            "payload.position",
+            "grip (0, 0, -forearm_hand.length)",
+            "m",
+            "point mass at the grip (assumed)",
+        ),
+        _row(
+            "motors",
+            "ideal actuator",
+            "",
+            "muscles are not motors: gear 1, no resistance, friction, rotor inertia or "
             "regeneration, so electrical energy equals mechanical work",
-        },
-    ]
-    return tuple(rows)
+        ),
+    )

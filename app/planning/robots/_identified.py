@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from app.planning.robots._cache import write_cached
 from app.planning.robots._types import RobotError
 
 if TYPE_CHECKING:
@@ -192,7 +193,6 @@ def identified_urdf(urdf: Path, car: Sidecar | None) -> Path:
     if not links:
         return urdf
     assert car is not None
-    from app.planning.robots._loader import write_cached
     from app.planning.robots._urdf import read_xml
 
     root = read_xml(urdf, "URDF")

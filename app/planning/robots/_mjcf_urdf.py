@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from app.planning.robots._cache import write_cached
 from app.planning.robots._types import RobotError
 
 __all__ = ["urdf_from_mjcf"]
@@ -164,8 +165,6 @@ def urdf_from_mjcf(mjcf: Path) -> Path:
         RobotError: unreadable MJCF, or a model outside what the module docstring supports.
     """
     import mujoco
-
-    from app.planning.robots._loader import write_cached
 
     file = mjcf.name
     if not mjcf.is_file():

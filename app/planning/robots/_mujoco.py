@@ -10,12 +10,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.planning.energy import MotorModel
-from app.planning.robots._types import Payload, RobotError
+from app.planning.payload import Payload, RobotError
 
 if TYPE_CHECKING:
     import mujoco
 
-__all__ = ["build_mujoco_model", "combine_inertia", "compile_error"]
+    from app.planning.robots._types import Robot
+
+__all__ = ["build_mujoco_model", "combine_inertia", "compile_error", "robot_mujoco_model"]
 
 
 def combine_inertia(
@@ -103,36 +105,60 @@ def build_mujoco_model(
         joints.append(joint)
 
     if payload.mass > 0.0:
-        body = spec.body(payload_body)
-        if body is None:
-            raise RobotError(f"{name}: no body '{payload_body}': expected the payload body")
-        # Read the body's inertial as compiled (whatever form the file used: diaginertia + quat,
-        # fullinertia or inertia from geoms), then write the combined one back explicitly.
-        body_id = mujoco.mj_name2id(base_model, mujoco.mjtObj.mjOBJ_BODY, payload_body)
-        rot = np.zeros(9)
-        mujoco.mju_quat2Mat(rot, base_model.body_iquat[body_id])
-        rot_m = rot.reshape(3, 3)
-        inertia_body = rot_m @ np.diag(base_model.body_inertia[body_id]) @ rot_m.T
-        mass, com, inertia = combine_inertia(
-            float(base_model.body_mass[body_id]),
-            np.array(base_model.body_ipos[body_id]),
-            inertia_body,
-            payload.mass,
-            payload.com,
-            payload.inertia,
-        )
-        principal, axes = np.linalg.eigh((inertia + inertia.T) / 2)
-        if np.linalg.det(axes) < 0.0:
-            axes[:, 0] *= -1.0
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, axes.flatten())
-        body.mass = mass
-        body.ipos = com
-        body.iquat = quat
-        body.inertia = principal
-        body.fullinertia = [np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]
-        body.explicitinertial = True
+        _merge_payload(spec, base_model, payload, payload_body, name)
+    _set_joint_dynamics(joints, armature, motors)
 
+    try:
+        return spec.compile()
+    except Exception as exc:
+        raise RobotError(compile_error(name, exc)) from exc
+
+
+def _merge_payload(
+    spec: mujoco.MjSpec, base_model: mujoco.MjModel, payload: Payload, payload_body: str, name: str
+) -> None:
+    """Merge ``payload`` into ``payload_body``'s inertial in ``spec`` (parallel-axis theorem);
+    ``base_model`` is ``spec`` compiled without it, ``name`` the file named in errors."""
+    import mujoco
+
+    body = spec.body(payload_body)
+    if body is None:
+        raise RobotError(f"{name}: no body '{payload_body}': expected the payload body")
+    # Read the body's inertial as compiled (whatever form the file used: diaginertia + quat,
+    # fullinertia or inertia from geoms), then write the combined one back explicitly.
+    body_id = mujoco.mj_name2id(base_model, mujoco.mjtObj.mjOBJ_BODY, payload_body)
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, base_model.body_iquat[body_id])
+    rot_m = rot.reshape(3, 3)
+    inertia_body = rot_m @ np.diag(base_model.body_inertia[body_id]) @ rot_m.T
+    mass, com, inertia = combine_inertia(
+        float(base_model.body_mass[body_id]),
+        np.array(base_model.body_ipos[body_id]),
+        inertia_body,
+        payload.mass,
+        payload.com,
+        payload.inertia,
+    )
+    principal, axes = np.linalg.eigh((inertia + inertia.T) / 2)
+    if np.linalg.det(axes) < 0.0:
+        axes[:, 0] *= -1.0
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, axes.flatten())
+    body.mass = mass
+    body.ipos = com
+    body.iquat = quat
+    body.inertia = principal
+    body.fullinertia = [np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]
+    body.explicitinertial = True
+
+
+def _set_joint_dynamics(
+    joints: Sequence[Any],
+    armature: NDArray[np.float64] | None,
+    motors: Sequence[MotorModel] | None,
+) -> None:
+    """Write the armature (n,) [kg m^2] and the motors' viscous [N m s/rad] and Coulomb [N m]
+    friction into the spec's joints (n,); None leaves the file's values."""
     if armature is not None:
         for joint, value in zip(joints, armature, strict=True):
             joint.armature = float(value)
@@ -144,11 +170,6 @@ def build_mujoco_model(
                 # MuJoCo 4 holds polynomial damping coefficients; the first is the linear one.
                 joint.damping = [float(motor.viscous_friction), 0.0, 0.0]
             joint.frictionloss = float(motor.coulomb_friction)
-
-    try:
-        return spec.compile()
-    except Exception as exc:
-        raise RobotError(compile_error(name, exc)) from exc
 
 
 def compile_error(name: str, exc: BaseException) -> str:
@@ -211,3 +232,49 @@ def _lock_joints(spec: Any, model: Any, locks: Mapping[str, float], file: str) -
             if joint_name in (equality.name1, equality.name2):
                 spec.delete(equality)
         spec.delete(joint)
+
+
+def robot_mujoco_model(
+    robot: Robot, *, armature: bool = True, friction: bool = False
+) -> mujoco.MjModel:
+    """A robot's MJCF compiled with its payload and armature applied exactly as in its
+    dynamics (``Robot.mujoco_model()`` calls this).
+
+    Args:
+        robot: the robot (its MJCF, joints, payload, motors and locks).
+        armature: set each joint's ``armature`` to the motor's N^2 J_m [kg m^2].
+        friction: also set joint ``damping`` to the motor's viscous friction [Nm s/rad] and
+            ``frictionloss`` to its Coulomb friction [Nm] (off by default so that the model
+            matches the dynamics, which are frictionless; friction is accounted for in the
+            energy model).
+
+    Returns:
+        A fresh ``mujoco.MjModel`` (callers may modify it).
+
+    Raises:
+        RobotError: the robot has no MJCF, or the MJCF lacks the payload body or a joint.
+    """
+    if robot.mjcf_path is None:
+        raise RobotError(
+            f"robot '{robot.name}' ({robot.urdf_path.name}) has no MJCF: "
+            "expected load_robot(..., mjcf=path) for a MuJoCo model"
+        )
+    return build_mujoco_model(
+        robot.mjcf_path,
+        joint_names=robot.joint_names,
+        payload=robot.payload,
+        payload_body=robot.payload_body,
+        armature=robot.armature if armature else None,
+        motors=robot.motors if friction else None,
+        locks=robot.locks,
+        source=_model_source(robot),
+    )
+
+
+def _model_source(robot: Robot) -> str | None:
+    """The user's URDF when the MuJoCo model is its cached copy (no MJCF of their own)."""
+    spec = robot.spec
+    source = spec.get("source") if spec else None
+    if not isinstance(source, str) or spec.get("mjcf") or not source.endswith(".urdf"):
+        return None
+    return f"{Path(source).name} (MuJoCo's copy {Path(str(robot.mjcf_path)).name})"

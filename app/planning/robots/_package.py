@@ -403,7 +403,9 @@ def _extract_member(
         ) from None
 
 
-def _package_dirs(root: Path) -> tuple[Path, ...]:
+def package_dirs(root: Path) -> tuple[Path, ...]:
+    """Folders ``package://name/...`` mesh paths of a robot folder resolve against: the
+    folder itself and the parent of every ROS package (``package.xml``) inside it."""
     found = [root]
     for marker in sorted(root.rglob("package.xml")):
         found.append(marker.parent.parent)
@@ -444,7 +446,7 @@ def open_robot_package(
         urdfs=tuple(p for p in files if p.suffix.lower() == ".urdf"),
         mjcfs=tuple(p for p in files if p.suffix.lower() in _MODEL_SUFFIXES[1:]),
         sidecars=tuple(p for p in files if p.suffix.lower() in (".yaml", ".yml")),
-        package_dirs=_package_dirs(root),
+        package_dirs=package_dirs(root),
     )
 
 

@@ -24,6 +24,18 @@ from app.errors import one_line
 from app.planning.energy import MotorModel
 from app.planning.robots._types import RobotError
 
+#: Sidecar fields of one joint's actuator: name -> (unit, required) (checked further, with the
+#: joint's motor, by ``app.planning.actuators.envelope_from_fields``).
+ACTUATOR_FIELDS: dict[str, tuple[str, bool]] = {
+    "peak_torque": ("Nm", True),
+    "rated_speed": ("rad/s", True),
+    "max_speed": ("rad/s", False),
+    "corner_speed": ("rad/s", False),
+    "bus_voltage": ("V", False),
+    "rms_torque": ("Nm", True),
+    "duty_cycle": ("s", True),
+}
+
 __all__ = [
     "MAX_ALIASES",
     "MAX_DEPTH",
@@ -124,7 +136,7 @@ class Sidecar:
     obstacles: tuple[Any, ...] = ()
     mount_plane: Any = None
     srdf: Path | None = None
-    # Actuator limits: joint -> {field: value} (``app.planning.actuators.ACTUATOR_FIELDS``).
+    # Actuator limits: joint -> {field: value} (:data:`ACTUATOR_FIELDS`).
     actuators: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
 
@@ -298,8 +310,6 @@ def read_sidecar(path: str | Path) -> Sidecar:
 def _actuators(fields: _Fields, data: Any) -> dict[str, dict[str, float]]:
     """The ``actuators`` block: per joint, numbers > 0 of known fields (checked further, with
     the joint's motor, by ``app.planning.actuators.envelope_from_fields``)."""
-    from app.planning.actuators import ACTUATOR_FIELDS
-
     out: dict[str, dict[str, float]] = {}
     for joint, block in fields.mapping("actuators", data).items():
         where = f"actuators.{joint}"
@@ -405,6 +415,18 @@ def _expanded(node: Any) -> int:
         return size(node)
     except RecursionError:
         raise _TooLarge("aliases nested inside aliases too deep: expected fewer") from None
+
+
+def sidecar_yaml(path: str | Path) -> dict[str, Any]:
+    """The YAML mapping of a sidecar file as written (checked with :func:`read_sidecar`
+    first), e.g. to keep its motors, locks and roles in a sidecar written from it.
+
+    Raises:
+        RobotError: the file is not a valid sidecar (names the file and the field).
+    """
+    read_sidecar(path)
+    data = _load_yaml(Path(path)) or {}
+    return dict(data)
 
 
 def _load_yaml(path: Path) -> Any:

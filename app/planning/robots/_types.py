@@ -1,4 +1,6 @@
-"""Robot, Payload and RobotError: what the planner and the simulator know about an arm."""
+"""Robot: what the planner and the simulator know about an arm (a data type: its dynamics and
+MuJoCo model are built by ``app.planning.dynamics.robot_dynamics`` and
+``_mujoco.robot_mujoco_model``; ``Payload`` and ``RobotError`` live in ``app.planning.payload``)."""
 
 from __future__ import annotations
 
@@ -11,107 +13,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from app.errors import BioPlanError
-from app.planning.energy import MotorModel, motors_modelled
+from app.planning.dynamics import Dynamics, robot_dynamics
+from app.planning.energy import IDEAL_ACTUATOR, MotorModel, motors_modelled
+from app.planning.payload import Payload, RobotError
+from app.planning.robots._mujoco import robot_mujoco_model
 
 if TYPE_CHECKING:
     import mujoco
 
-    from app.planning.dynamics import Dynamics
-
 __all__ = ["IDEAL_ACTUATOR", "Payload", "Robot", "RobotError"]
-
-# "Ideal actuator": the joint torque is produced without loss, reflected inertia or recovery.
-# Used for the human arm (muscles are not motors) and as the default for user URDFs.
-IDEAL_ACTUATOR = MotorModel(
-    gear_ratio=1.0,
-    torque_constant=1.0,
-    winding_resistance=0.0,
-    rotor_inertia=0.0,
-    viscous_friction=0.0,
-    coulomb_friction=0.0,
-    regen_efficiency=0.0,
-)
-
 
 #: Default acceleration limit of user robots: full speed reached in this time [s].
 DEFAULT_RAMP_TIME = 0.25
 #: Default jerk limit of user robots: full acceleration reached in this time [s].
 DEFAULT_JERK_TIME = 0.05
-
-
-class RobotError(BioPlanError):
-    """A robot cannot be loaded or used; one-line message: what, which file, what was expected."""
-
-
-def _frozen(values: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
-    array = np.array(values, dtype=np.float64)
-    if array.shape != shape:
-        raise RobotError(f"{what} has shape {array.shape}: expected {shape}")
-    if not np.all(np.isfinite(array)):
-        raise RobotError(f"{what} contains NaN or inf: expected finite values")
-    array.setflags(write=False)
-    return array
-
-
-@dataclass(frozen=True, eq=False)
-class Payload:
-    """A rigid payload fixed to the payload body (a dumbbell in the hand, a panel at the flange).
-
-    Attributes:
-        mass: payload mass [kg] (>= 0).
-        com: (3,) centre of mass in the payload body's frame [m].
-        inertia: (3, 3) inertia about the centre of mass, payload body's axes [kg m^2]
-            (zeros for a point mass).
-        size: (3,) box extents for display [m] (zeros for a point mass).
-    """
-
-    mass: float
-    com: NDArray[np.float64]
-    inertia: NDArray[np.float64]
-    size: NDArray[np.float64]
-
-    def __post_init__(self) -> None:
-        mass = float(self.mass)
-        if not np.isfinite(mass) or mass < 0.0:
-            raise RobotError(f"payload mass is {self.mass}: expected a finite mass >= 0 kg")
-        object.__setattr__(self, "mass", mass)
-        object.__setattr__(self, "com", _frozen(self.com, (3,), "payload com"))
-        inertia = _frozen(self.inertia, (3, 3), "payload inertia")
-        if not np.allclose(
-            inertia, inertia.T, rtol=0.0, atol=1e-12 * (1.0 + np.abs(inertia).max())
-        ):
-            raise RobotError("payload inertia is not symmetric: expected a symmetric 3x3 tensor")
-        if np.linalg.eigvalsh(inertia).min() < -1e-12 * (1.0 + np.abs(inertia).max()):
-            raise RobotError("payload inertia is not positive semi-definite: expected I >= 0")
-        object.__setattr__(self, "inertia", inertia)
-        size = _frozen(self.size, (3,), "payload size")
-        if np.any(size < 0.0):
-            raise RobotError(f"payload size is {size.tolist()}: expected extents >= 0 m")
-        object.__setattr__(self, "size", size)
-
-    @classmethod
-    def point(cls, mass: float, com: ArrayLike = (0.0, 0.0, 0.0)) -> Payload:
-        """A point mass at ``com`` (body frame) [kg, m]."""
-        return cls(
-            mass=mass, com=np.asarray(com, float), inertia=np.zeros((3, 3)), size=np.zeros(3)
-        )
-
-    @classmethod
-    def box(cls, mass: float, size: ArrayLike, com: ArrayLike = (0.0, 0.0, 0.0)) -> Payload:
-        """A uniform box of extents ``size`` (x, y, z) [m] along the body's axes, centred at com."""
-        a, b, c = np.asarray(size, dtype=np.float64)
-        inertia = float(mass) / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
-        return cls(mass=mass, com=np.asarray(com, float), inertia=inertia, size=np.array([a, b, c]))
-
-    def with_mass(self, mass: float) -> Payload:
-        """The same payload shape with another mass; the inertia scales with the mass."""
-        if not np.isfinite(mass) or mass < 0.0:
-            raise RobotError(f"payload mass is {mass}: expected a finite mass >= 0 kg")
-        if np.all(self.size > 0.0):
-            return Payload.box(mass, self.size, self.com)
-        inertia = self.inertia * (float(mass) / self.mass) if self.mass > 0.0 else np.zeros((3, 3))
-        return Payload(mass=mass, com=self.com, inertia=inertia, size=self.size)
 
 
 @dataclass(frozen=True, eq=False)
@@ -316,29 +231,9 @@ class Robot:
         raise RobotError(f"robot '{self.name}' has no parameter '{name}'")
 
     def dynamics(self, *, armature: bool = True, threads: int = 1) -> Dynamics:
-        """Rigid-body dynamics with the payload (and the motors' armature), cached per instance.
-
-        Args:
-            armature: add each motor's reflected rotor inertia N^2 J_m to the joint's diagonal.
-            threads: threads for batched inverse dynamics (1 = one core).
-
-        Returns:
-            A ``PinocchioDynamics`` built from ``urdf_path``.
-        """
-        key = ("dynamics", bool(armature), int(threads))
-        if key not in self._cache:
-            from app.planning.dynamics import PinocchioDynamics
-
-            self._cache[key] = PinocchioDynamics(
-                self.urdf_path,
-                payload=self.payload,
-                payload_body=self.payload_body,
-                armature=self.armature if armature else None,
-                num_threads=threads,
-                locks=self.locks,
-            )
-        result: Dynamics = self._cache[key]
-        return result
+        """Rigid-body dynamics with the payload (and the motors' armature), cached per instance:
+        ``app.planning.dynamics.robot_dynamics(self, ...)``, kept as a method for its callers."""
+        return robot_dynamics(self, armature=armature, threads=threads)
 
     def with_payload(self, mass: float) -> Robot:
         """The same robot carrying a payload of the same shape with ``mass`` [kg]."""
@@ -346,42 +241,7 @@ class Robot:
         return dataclasses.replace(self, payload=self.payload.with_mass(mass), spec=spec)
 
     def mujoco_model(self, *, armature: bool = True, friction: bool = False) -> mujoco.MjModel:
-        """The MJCF compiled with the payload and armature applied exactly as in ``dynamics()``.
-
-        Args:
-            armature: set each joint's ``armature`` to the motor's N^2 J_m [kg m^2].
-            friction: also set joint ``damping`` to the motor's viscous friction [Nm s/rad] and
-                ``frictionloss`` to its Coulomb friction [Nm] (off by default so that the model
-                matches ``dynamics()``, which is frictionless; friction is accounted for in the
-                energy model).
-
-        Returns:
-            A fresh ``mujoco.MjModel`` (callers may modify it).
-
-        Raises:
-            RobotError: the robot has no MJCF, or the MJCF lacks the payload body or a joint.
-        """
-        if self.mjcf_path is None:
-            raise RobotError(
-                f"robot '{self.name}' ({self.urdf_path.name}) has no MJCF: "
-                "expected load_robot(..., mjcf=path) for a MuJoCo model"
-            )
-        from app.planning.robots._mujoco import build_mujoco_model
-
-        return build_mujoco_model(
-            self.mjcf_path,
-            joint_names=self.joint_names,
-            payload=self.payload,
-            payload_body=self.payload_body,
-            armature=self.armature if armature else None,
-            motors=self.motors if friction else None,
-            locks=self.locks,
-            source=self._model_source(),
-        )
-
-    def _model_source(self) -> str | None:
-        """The user's URDF when the MuJoCo model is its cached copy (no MJCF of their own)."""
-        source = self.spec.get("source") if self.spec else None
-        if not isinstance(source, str) or self.spec.get("mjcf") or not source.endswith(".urdf"):
-            return None
-        return f"{Path(source).name} (MuJoCo's copy {Path(str(self.mjcf_path)).name})"
+        """The MJCF compiled with the payload and armature applied exactly as in ``dynamics()``:
+        ``app.planning.robots._mujoco.robot_mujoco_model(self, ...)``, kept as a method for
+        its callers."""
+        return robot_mujoco_model(self, armature=armature, friction=friction)

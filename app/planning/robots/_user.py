@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.planning.energy import NOT_MODELLED, MotorModel
+from app.planning.robots._cache import write_cached
 from app.planning.robots._identified import identified_urdf, with_friction
 from app.planning.robots._sidecar import Sidecar, read_sidecar
 from app.planning.robots._types import (
@@ -61,13 +62,7 @@ def locks_from_display(file: str | Path, values: Mapping[str, float]) -> dict[st
     model = parse_urdf(Path(file))
     out: dict[str, float] = {}
     for name, value in values.items():
-        try:
-            joint = model.joint(name)
-        except KeyError:
-            raise RobotError(
-                f"{Path(file).name}: cannot lock '{name}': no such movable joint "
-                f"(expected one of {_listing(model.joint_names)})"
-            ) from None
+        joint = _lockable_joint(model, Path(file).name, name)
         out[name] = float(value) if joint.kind == "prismatic" else math.radians(float(value))
     return out
 
@@ -97,18 +92,23 @@ def missing_meshes(robot: Robot) -> list[str]:
     return out
 
 
+def _lockable_joint(model: UrdfModel, file: str, name: str) -> UrdfJoint:
+    """The movable joint ``name`` of ``model`` (from ``file``), which a lock may hold."""
+    try:
+        return model.joint(name)
+    except KeyError:
+        raise RobotError(
+            f"{file}: cannot lock '{name}': no such movable joint "
+            f"(expected one of {_listing(model.joint_names)})"
+        ) from None
+
+
 def _checked_locks(model: UrdfModel, file: str, locks: Mapping[str, float]) -> dict[str, float]:
     """Locks (SI) of known joints within their limits (any finite value for a joint without
     limits: a caster, a wheel, a continuous joint), with mimic joints of locked leaders added."""
     out: dict[str, float] = {}
     for name, value in locks.items():
-        try:
-            joint = model.joint(name)
-        except KeyError:
-            raise RobotError(
-                f"{file}: cannot lock '{name}': no such movable joint "
-                f"(expected one of {_listing(model.joint_names)})"
-            ) from None
+        joint = _lockable_joint(model, file, name)
         if not (math.isfinite(value) and joint.lower - 1e-12 <= value <= joint.upper + 1e-12):
             shown = value if joint.kind == "prismatic" else math.degrees(value)
             lo, hi = (
@@ -424,7 +424,6 @@ def _repaired_inertia(link: ET.Element) -> str | None:
 
 def mujoco_ready(urdf: Path) -> tuple[Path, tuple[str, ...]]:
     """:func:`mujoco_ready_urdf` and the inertia repairs it made (one line per link)."""
-    from app.planning.robots._loader import write_cached
 
     root = read_xml(urdf, "URDF")
     repairs = []
@@ -571,7 +570,6 @@ def unique_frame_names(
     nothing else. The copy is cached; its mesh references are made absolute (resolved from the
     original file's folder), so the viewer and the safety check still find the meshes.
     """
-    from app.planning.robots._loader import write_cached
     from app.planning.robots._package import resolve_mesh
 
     root = read_xml(urdf, "URDF")
@@ -649,33 +647,19 @@ def user_robot(
     """A robot from a user URDF; see :func:`app.planning.robots.load_robot` for the arguments."""
     model = parse_urdf(urdf)
     car = _sidecar_of(urdf, model, sidecar)
-    base_link = base_link or (car.base_link if car else None)
-    tip_link = tip_link or (car.tip_link if car else None)
-    if tip_link is not None and base_link is None:
-        raise RobotError(
-            f"{urdf.name}: tip_link '{tip_link}' without base_link: expected both "
-            "(--base-link and --tip-link)"
-        )
+    base_link, tip_link = _chain_ends(urdf, car, base_link, tip_link)
     all_locks, order, free, auto = _free_joints(urdf, model, car, locks, (base_link, tip_link))
     joints = [model.joint(name) for name in free]
-    shoulder, elbow, how = _roles(
-        urdf,
-        free,
-        all_locks,
-        shoulder_joint or (car.shoulder_joint if car else None),
-        elbow_joint or (car.elbow_joint if car else None),
-    )
+    shoulder_joint = shoulder_joint or (car.shoulder_joint if car else None)
+    elbow_joint = elbow_joint or (car.elbow_joint if car else None)
+    shoulder, elbow, how = _roles(urdf, free, all_locks, shoulder_joint, elbow_joint)
     q_min = np.array([j.lower for j in joints])
     q_max = np.array([j.upper for j in joints])
     motors, motor_source = _motors(urdf.name, free, car)
     motors = with_friction(motors, free, car)
-    model_urdf = identified_urdf(urdf, car)  # the sidecar's identified link inertias applied
-    model_urdf, renamed = unique_frame_names(model_urdf, package_dirs)
-    if model_urdf != urdf and mjcf is not None and not mjcf_only:
-        raise RobotError(
-            f"{car.path.name if car else urdf.name}: identified links with MJCF {mjcf.name}: "
-            "expected the URDF alone (MuJoCo then compiles the identified URDF)"
-        )
+    model_urdf, renamed = _model_urdf(urdf, car, mjcf, mjcf_only, package_dirs)
+    # The user's MJCF is simulated only when it describes the URDF as given.
+    own_mjcf = mjcf if mjcf is not None and model_urdf == urdf else None
     body_payload, body, payload_kind = _payload(
         car, payload, joints[-1].child, model.links, urdf.name
     )
@@ -685,11 +669,7 @@ def user_robot(
         name=model.name,
         joint_names=tuple(free),
         urdf_path=model_urdf.resolve(),
-        mjcf_path=(
-            mjcf.resolve()
-            if mjcf is not None and model_urdf == urdf
-            else mujoco_ready(model_urdf)[0]
-        ),
+        mjcf_path=own_mjcf.resolve() if own_mjcf else mujoco_ready(model_urdf)[0],
         q_min=q_min,
         q_max=q_max,
         qd_max=qd_max,
@@ -705,7 +685,7 @@ def user_robot(
         parameters=_parameters(
             urdf, mjcf, mjcf_only, motor_source, body, payload_kind, how, all_locks, auto
         )
-        + _repair_rows(None if mjcf is not None and model_urdf == urdf else model_urdf)
+        + _repair_rows(None if own_mjcf else model_urdf)
         + _rename_rows(renamed),
         locks=all_locks,
         all_joint_names=tuple(order),
@@ -719,9 +699,7 @@ def user_robot(
             "locks": dict(all_locks),
             "sidecar": None if car is None else str(car.path),
             "package_dirs": [str(Path(p).resolve()) for p in package_dirs],
-            **({"mjcf_only": True} if mjcf_only else {}),
-            **({"base_link": base_link} if base_link is not None else {}),
-            **({"tip_link": tip_link} if tip_link is not None else {}),
+            **_optional_spec(mjcf_only=mjcf_only, base_link=base_link, tip_link=tip_link),
         },
     )
     if mjcf is not None:
@@ -729,6 +707,53 @@ def user_robot(
 
         check_same_robot(robot)
     return robot
+
+
+def _model_urdf(
+    urdf: Path,
+    car: Sidecar | None,
+    mjcf: Path | None,
+    mjcf_only: bool,
+    package_dirs: Sequence[Path],
+) -> tuple[Path, tuple[str, ...]]:
+    """The URDF the models are built from: the sidecar's identified link inertias applied and
+    frame names made unique (a cached copy when either changes anything, else ``urdf``), with
+    the renames. A user MJCF beside an identified URDF is refused."""
+    model_urdf = identified_urdf(urdf, car)
+    model_urdf, renamed = unique_frame_names(model_urdf, package_dirs)
+    if model_urdf != urdf and mjcf is not None and not mjcf_only:
+        raise RobotError(
+            f"{car.path.name if car else urdf.name}: identified links with MJCF {mjcf.name}: "
+            "expected the URDF alone (MuJoCo then compiles the identified URDF)"
+        )
+    return model_urdf, renamed
+
+
+def _chain_ends(
+    urdf: Path, car: Sidecar | None, base_link: str | None, tip_link: str | None
+) -> tuple[str | None, str | None]:
+    """(base link, tip link) of the arm on a branching robot: the arguments, else the
+    sidecar's; a tip without a base is refused."""
+    base_link = base_link or (car.base_link if car else None)
+    tip_link = tip_link or (car.tip_link if car else None)
+    if tip_link is not None and base_link is None:
+        raise RobotError(
+            f"{urdf.name}: tip_link '{tip_link}' without base_link: expected both "
+            "(--base-link and --tip-link)"
+        )
+    return base_link, tip_link
+
+
+def _optional_spec(
+    *, mjcf_only: bool, base_link: str | None, tip_link: str | None
+) -> dict[str, object]:
+    """The entries of ``Robot.spec`` written only when they differ from their defaults (so
+    that specs saved before these options existed read back unchanged)."""
+    return {
+        **({"mjcf_only": True} if mjcf_only else {}),
+        **({"base_link": base_link} if base_link is not None else {}),
+        **({"tip_link": tip_link} if tip_link is not None else {}),
+    }
 
 
 def _repair_rows(urdf: Path | None) -> tuple[dict[str, object], ...]:

@@ -1,5 +1,5 @@
 """The ``front`` job: a Pareto front (``bioplan front``) with its reference methods, as plain
-data (kept out of ``tasks.py``, which holds the other job functions).
+data.
 
 Besides ``Front.to_dict()`` the result holds the quintic's, the paper's and the jerk-limited
 points on the same task (``references``), the ids a page can view or export (``methods``), the
@@ -12,14 +12,26 @@ own time grid: ``<id>_t`` (T,) [s], ``<id>_q``/``_qd``/``_qdd``/``_tau`` (T, n) 
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from app.errors import BioPlanError, one_line
+from app.jobs.tasks.planning import task_from_degrees, template_of
+from app.jobs.tasks.robots import robot_from_spec
+from app.jobs.tasks.types import JobResult, Payload
 from app.jsonsafe import json_safe
-from app.names import PSO_DEFAULTS
+from app.names import DEFAULT_OBJECTIVE, OBJECTIVES
 from app.progress import ProgressFn, no_progress, report, within
+
+if TYPE_CHECKING:
+    from app.planning.evaluation import EvaluatedTrajectory
+    from app.planning.front import Front
+    from app.planning.human_template import HumanTemplate
+    from app.planning.planner import PlanTask
+    from app.planning.profiles import Trajectory
+    from app.planning.robots import Robot
 
 #: The methods drawn beside a front, each planned at the front's duration.
 REFERENCES = ("quintic", "paper", "jerk_limited")
@@ -29,7 +41,7 @@ FRONT_SHARE = 0.85
 DEFAULT_REFERENCE_DURATION = 1.0
 
 
-def front(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[str, Any]:
+def front(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
     """The Pareto front of a task with its reference methods (``POST /api/fronts``).
 
     Payload: ``robot`` (spec), ``payload_mass`` [kg] or None, ``objectives`` [A, B],
@@ -43,13 +55,12 @@ def front(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
         ``{"result": Front.to_dict() + references, methods, conditions, safety, motions,
         "arrays": the trajectories}`` (module docstring).
     """
-    # Here, not at the top: ``tasks`` imports this module for its table of job functions.
-    from app.jobs.tasks import _task, _template, robot_from_spec
+    from app.planning.planner import PlanTask
 
     with robot_from_spec(payload["robot"], payload.get("payload_mass")) as robot:
-        task = _task(robot, payload.get("start_deg"), payload.get("goal_deg"))
-        task = task or _entry("app.planning.planner", "PlanTask").default(robot)
-        template = _template(payload)
+        task = task_from_degrees(robot, payload.get("start_deg"), payload.get("goal_deg"))
+        task = task or PlanTask.default(robot)
+        template = template_of(payload)
         found = _pareto_front(robot, task, template, payload, progress)
         out, arrays = _with_references(robot, task, template, found, progress)
     report(progress, "done", 1, 1, message="front done")
@@ -57,10 +68,15 @@ def front(payload: dict[str, Any], progress: ProgressFn = no_progress) -> dict[s
 
 
 def _pareto_front(
-    robot: Any, task: Any, template: Any, payload: dict[str, Any], progress: ProgressFn
-) -> Any:
+    robot: Robot,
+    task: PlanTask,
+    template: HumanTemplate | None,
+    payload: Payload,
+    progress: ProgressFn,
+) -> Front:
     """``pareto_front`` with the payload's options (progress: its first ``FRONT_SHARE``)."""
-    pareto_front = _entry("app.planning.front", "pareto_front")
+    from app.planning.front import pareto_front
+
     # The request's names -> the library's; a field left out keeps the library's default (the
     # defaults live there once, not here again).
     names = {"intervals": "n_intervals"} | {
@@ -80,11 +96,11 @@ def _pareto_front(
 
 
 def _with_references(
-    robot: Any, task: Any, template: Any, found: Any, progress: ProgressFn
-) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    robot: Robot, task: PlanTask, template: HumanTemplate | None, found: Front, progress: ProgressFn
+) -> tuple[dict[str, object], dict[str, np.ndarray]]:
     """The front's JSON with its references, viewable ids, conditions, collision check and
     motions (module docstring), and every trajectory's arrays."""
-    out: dict[str, Any] = found.to_dict()
+    out: dict[str, object] = found.to_dict()
     at = reference_duration(out)
     report(progress, "references", 0, 1, fraction=FRONT_SHARE,
            message=f"references at {at:.4g} s")  # fmt: skip
@@ -101,11 +117,12 @@ def _with_references(
     if "quintic" in evaluated:
         shown = {"quintic": evaluated["quintic"], **shown}
     out["methods"] = list(shown)
-    out["conditions"] = _conditions(robot, task, found, at)
+    conditions = _conditions(robot, task, found, at)
+    out["conditions"] = conditions
     report(progress, "safety", 0, 1, fraction=0.95, message="collision check")
     out["safety"] = _safety(robot, {k: ev.trajectory for k, ev in shown.items()})
     out["motions"] = {
-        name: _motion(robot, task, name, ev, out["conditions"]) for name, ev in shown.items()
+        name: _motion(robot, task, name, ev, conditions) for name, ev in shown.items()
     }
     every = {**evaluated, **shown}
     arrays = {k: v for name, ev in every.items() for k, v in trajectory_arrays(name, ev).items()}
@@ -114,30 +131,27 @@ def _with_references(
     return out, arrays
 
 
-def _entry(module: str, name: str) -> Any:
-    import importlib
-
-    return getattr(importlib.import_module(module), name)
-
-
-def reference_duration(front: dict[str, Any]) -> float:
+def reference_duration(front: Mapping[str, object]) -> float:
     """The duration [s] the references are planned at: the front's, or with duration as an
     axis the knee point's (1 s without a knee)."""
-    if front.get("duration") is not None:
-        return float(front["duration"])
+    duration = front.get("duration")
+    if isinstance(duration, int | float):
+        return float(duration)
     knee = front.get("knee")
-    for point in front.get("points") or ():
+    points = front.get("points")
+    for point in points if isinstance(points, list) else ():
         if point["id"] == knee:
             return float(point["duration"])
     return DEFAULT_REFERENCE_DURATION
 
 
-def _values(robot: Any, ev: Any) -> dict[str, Any]:
+def _values(robot: Robot, ev: EvaluatedTrajectory) -> dict[str, object]:
     """Every front axis of one trajectory and its peak torques [Nm], as a point has them."""
-    axes = _entry("app.planning.front", "FRONT_AXES")
-    jerk_integral = _entry("app.planning.front", "jerk_integral")
-    objective_value = _entry("app.planning.methods", "objective_value")
-    values: dict[str, Any] = {}
+    from app.planning.front import FRONT_AXES as axes
+    from app.planning.front import jerk_integral
+    from app.planning.methods import objective_value
+
+    values: dict[str, object] = {}
     for name in axes:
         if name == "duration":
             values[name] = ev.trajectory.duration
@@ -152,22 +166,19 @@ def _values(robot: Any, ev: Any) -> dict[str, Any]:
 
 
 def _references(
-    robot: Any, task: Any, duration: float, a: str, template: Any
-) -> tuple[dict[str, Any], dict[str, str], dict[str, float]]:
+    robot: Robot, task: PlanTask, duration: float, a: str, template: HumanTemplate | None
+) -> tuple[dict[str, EvaluatedTrajectory], dict[str, str], dict[str, float]]:
     """The reference methods planned at ``duration`` (the paper's PSO minimising A when A is
     a planner objective, else ``abs_work``): evaluated trajectories, errors, human-likeness."""
-    run_plan = _entry("app.planning", "plan")
-    objectives = _entry("app.names", "OBJECTIVES")
+    from app.planning.planner import plan as run_plan
+
     try:
         planned = run_plan(
             robot,
             task=task,
             duration=duration,
-            objective=a if a in objectives else "abs_work",
+            objective=a if a in OBJECTIVES else DEFAULT_OBJECTIVE,
             template=template,
-            seed=PSO_DEFAULTS.seed,
-            particles=PSO_DEFAULTS.particles,
-            iterations=PSO_DEFAULTS.iterations,
             methods=list(REFERENCES),
             safety=False,  # checked below with the points
         )
@@ -181,7 +192,7 @@ def _references(
     return evaluated, errors, dict(planned.human_likeness)
 
 
-def _conditions(robot: Any, task: Any, found: Any, at: float) -> dict[str, Any]:
+def _conditions(robot: Robot, task: PlanTask, found: Front, at: float) -> dict[str, object]:
     """The task and what the front was made of, as a plan's ``conditions`` (the viewer reads
     the task and the title from them)."""
     return {
@@ -196,22 +207,23 @@ def _conditions(robot: Any, task: Any, found: Any, at: float) -> dict[str, Any]:
     }
 
 
-def _safety(robot: Any, trajectories: dict[str, Any]) -> dict[str, Any]:
+def _safety(robot: Robot, trajectories: Mapping[str, Trajectory]) -> dict[str, object]:
     """The collision check of every viewable trajectory (findings name the point's id)."""
-    check_safety = _entry("app.planning.safety", "check_safety")
-    not_checked = _entry("app.planning.safety", "not_checked")
+    from app.planning.safety import check_safety, not_checked
+
     try:
-        report_: dict[str, Any] = check_safety(robot, trajectories).to_dict()
+        report_: dict[str, object] = check_safety(robot, trajectories).to_dict()
     except BioPlanError as exc:
         report_ = not_checked(f"not checked: {exc}").to_dict()
     return report_
 
 
-def trajectory_arrays(name: str, ev: Any) -> dict[str, np.ndarray]:
+def trajectory_arrays(name: str, ev: EvaluatedTrajectory) -> dict[str, np.ndarray]:
     """One trajectory's arrays under ``<name>_``: ``t``, ``q``, ``qd``, ``qdd``, ``tau``,
     ``power`` (Σ|τ·q̇| [W]) and ``energy`` (its running integral [J]), as a plan stores them."""
-    energy = _entry("app.planning.energy", "cumulative_energy")
-    power_curve = _entry("app.planning.energy", "power_curve")
+    from app.planning.energy import cumulative_energy as energy
+    from app.planning.energy import power_curve
+
     tr = ev.trajectory
     power = np.asarray(power_curve(tr.qd, ev.tau), dtype=np.float64)
     out = {
@@ -227,8 +239,12 @@ def trajectory_arrays(name: str, ev: Any) -> dict[str, np.ndarray]:
 
 
 def _motion(
-    robot: Any, task: Any, name: str, ev: Any, conditions: dict[str, Any]
-) -> dict[str, Any]:
+    robot: Robot,
+    task: PlanTask,
+    name: str,
+    ev: EvaluatedTrajectory,
+    conditions: Mapping[str, object],
+) -> dict[str, object]:
     """A ``PlanMotion`` block holding one trajectory as method ``name``: its exact knots (an
     optimum's constant-jerk mesh, a quintic's polynomial) or else its samples."""
     from app.planning.export import PlanMotion, method_motion
@@ -247,5 +263,5 @@ def _motion(
         default_method=name,
         conditions={k: conditions[k] for k in ("objective", "payload", "method")},
     )
-    out: dict[str, Any] = motion.to_dict()
+    out: dict[str, object] = motion.to_dict()
     return out
