@@ -22,7 +22,15 @@ FORBIDDEN = {
     },
     "viewer": ("app.api", "app.main", "app.services", "app.db", "app.jobs", "fastapi"),
     "jobs": ("app.db", "app.api", "app.services", "app.viewer", "app.main", "sqlalchemy"),
-    "db": ("app.api", "app.services", "app.jobs", "app.viewer", "app.main"),
+    # Storage keeps plain rows: no science (results arrive as JSON and arrays).
+    "db": (
+        "app.api",
+        "app.services",
+        "app.jobs",
+        "app.viewer",
+        "app.main",
+        *(f"app.{name}" for name in SCIENCE),
+    ),
     "services": ("app.api", "app.main", "fastapi", "starlette"),
     # Services are the only door to storage, jobs and the viewer.
     "api": ("app.db", "app.jobs", "app.viewer", "app.main", "app.cli"),
@@ -58,7 +66,15 @@ ROUTE_IMPORTS = (
     "app.progress",
     "app.kinds",
 )
-KERNEL = ("app.errors", "app.names", "app.config", "app.jsonsafe", "app.progress", "app.kinds")
+KERNEL = (
+    "app.errors",
+    "app.names",
+    "app.config",
+    "app.jsonsafe",
+    "app.progress",
+    "app.kinds",
+    "app.options",
+)
 
 
 def imports(path: Path) -> set[str]:

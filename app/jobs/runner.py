@@ -55,12 +55,15 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from types import ModuleType
-from typing import Any, Literal, Protocol, Required, TypedDict
+from typing import TYPE_CHECKING, Any, Literal, Protocol, Required, TypedDict
 
 from app.errors import BioPlanError
 from app.jobs._lifeline import die_with_parent, reap_group_on_exit
 from app.logs import LogTail, capture
 from app.progress import Progress, ProgressFn
+
+if TYPE_CHECKING:  # not at run time: app.jobs.tasks imports the science packages
+    from app.jobs.tasks.types import JobResult, Payload
 
 logger = logging.getLogger(__name__)
 
@@ -88,7 +91,7 @@ class _TaskMessage(TypedDict, total=False):
     log: list[str]
 
 
-Target = Callable[[str, dict[str, object], ProgressFn], dict[str, object]]
+Target = Callable[[str, "Payload", ProgressFn], "JobResult"]
 
 
 class JobCancelled(Exception):
@@ -119,7 +122,7 @@ class JobEvent:
     type: EventType
     progress: float | None = None
     message: str = ""
-    result: dict[str, object] | None = None
+    result: JobResult | None = None
     error: str | None = None
     detail: ProgressDetail | None = None
     log: list[str] | None = None
@@ -173,7 +176,7 @@ class JobRunner(ABC):
         """Start reporting events to ``sink`` (called once, before ``submit``)."""
 
     @abstractmethod
-    def submit(self, job_id: int, kind: str, payload: dict[str, object]) -> None:
+    def submit(self, job_id: int, kind: str, payload: Payload) -> None:
         """Queue a job; returns at once."""
 
     @abstractmethod
@@ -236,7 +239,7 @@ def _child_main(
     target: Target,
     job_id: int,
     kind: str,
-    payload: dict[str, object],
+    payload: Payload,
     conn: Connection,
     server_pid: int,
     memory_mb: float | None = None,
@@ -343,7 +346,7 @@ class _Running:
     job_id: int
     process: BaseProcess
     conn: Connection
-    result: dict[str, object] | None = None
+    result: JobResult | None = None
     error: str | None = None
     has_outcome: bool = False
     cancel_requested: bool = False
@@ -357,7 +360,7 @@ class _Running:
 class _Pending:
     job_id: int
     kind: str
-    payload: dict[str, object] = field(repr=False)
+    payload: Payload = field(repr=False)
 
 
 class LocalRunner(JobRunner):
@@ -413,7 +416,7 @@ class LocalRunner(JobRunner):
         self._thread = threading.Thread(target=self._monitor, name="bioplan-jobs", daemon=True)
         self._thread.start()
 
-    def submit(self, job_id: int, kind: str, payload: dict[str, object]) -> None:
+    def submit(self, job_id: int, kind: str, payload: Payload) -> None:
         if kind == "sweep" and payload.get("workers") is None:
             # A sweep fans its cells out over as many processes as the runner runs jobs.
             payload = {**payload, "workers": self.max_workers}
@@ -641,7 +644,7 @@ class LocalRunner(JobRunner):
 class _TaskOutcome(TypedDict):
     """What a Dask task returns: the job function's output and the job's log lines."""
 
-    output: dict[str, object]
+    output: JobResult
     log: list[str]
 
 
@@ -684,7 +687,7 @@ def _dask_entry(
     target: Target,
     job_id: int,
     kind: str,
-    payload: dict[str, object],
+    payload: Payload,
     topic: str,
     cancel_name: str,
 ) -> _TaskOutcome:
@@ -764,7 +767,7 @@ class DaskRunner(JobRunner):
         )
         self._client.subscribe_topic(self._topic, self._on_event)
 
-    def submit(self, job_id: int, kind: str, payload: dict[str, object]) -> None:
+    def submit(self, job_id: int, kind: str, payload: Payload) -> None:
         key = f"bioplan-job-{job_id}-{uuid.uuid4().hex[:8]}"
         if kind == "sweep":
             # Child tasks: the sweep job submits one task per cell to this cluster (Dask worker

@@ -406,7 +406,7 @@ class JobService:
             inline_result_bytes=self.inline_result_bytes,
         )
 
-    def build_payload(self, session: Session, job: JobRecord) -> dict[str, object]:
+    def build_payload(self, session: Session, job: JobRecord) -> Mapping[str, object]:
         """The job function's input, from the request stored with the job (its kind's
         ``payload`` builder)."""
         return KINDS[job.kind].payload(session, self.context(), job.params)
@@ -474,13 +474,14 @@ class JobService:
 
     def _store(self, ev: JobEvent) -> None:
         """Keep a finished job's output (its kind's ``store``), then start what follows it."""
-        out = ev.result or {}
         try:
             with self.sessions() as session:
                 job = crud.get_job(session=session, job_id=ev.job_id)
                 if job is None:
                     return
-                stored = KINDS[job.kind].store(session, self.context(), job, out)
+                if ev.result is None:  # a succeeded event always carries the output
+                    raise ValueError("the job returned no output")
+                stored = KINDS[job.kind].store(session, self.context(), job, ev.result)
         except Exception as exc:
             logger.exception("cannot store the result of job %d", ev.job_id)
             self._set_state(ev.job_id, "failed", error=f"cannot store the result: {exc}")

@@ -167,7 +167,7 @@ def _store_result(session: Session, ctx: KindContext, job: JobRecord, out: JobRe
 
 def _store_pose(session: Session, ctx: KindContext, job: JobRecord, out: JobResult) -> Stored:
     """The landmarks as a recording file of the video's session, then its analysis."""
-    if recordings.store_pose(session, ctx.blobs, job.id, out):
+    if recordings.store_pose(session, ctx.blobs, job.id, dict(out)):
         return Stored(analyse_recording=int(job.params["recording_id"]))
     # cancelled meanwhile (left as it is) or its video deleted
     return Stored(error="its video was deleted before the landmarks were stored")
@@ -178,7 +178,7 @@ def _store_identification(
 ) -> Stored:
     """The identification and the robot version carrying its sidecar."""
     why = robot_logs.store_identification(
-        session, ctx.blobs, ctx.robots, job.id, out, inline_bytes=ctx.inline_result_bytes
+        session, ctx.blobs, ctx.robots, job.id, dict(out), inline_bytes=ctx.inline_result_bytes
     )
     return Stored() if why is None else Stored(error=f"not stored: {why}")
 

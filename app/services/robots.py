@@ -22,7 +22,7 @@ from app.db.blobs import BlobStore
 from app.db.models import RobotRecord
 from app.errors import BioPlanError
 from app.jobs import tasks
-from app.jobs.tasks import RobotSpec
+from app.jobs.tasks import RobotSpec, robot_options
 from app.services.errors import (
     ConflictError,
     NotFoundError,
@@ -345,7 +345,7 @@ class RobotCatalog:
             "package": blob(row.package_sha256),
             "sidecar": blob(row.sidecar_sha256),
             "payload": row.payload,
-            **{k: options.get(k) for k in _OPTION_KEYS},
+            **robot_options(options),
         }
 
     def folder(self, spec: RobotSpec) -> Path | None:
@@ -360,8 +360,9 @@ class RobotCatalog:
         if all(spec.get(k) is None for k in ("urdf", "mjcf", "package")):
             return None
         digest = hashlib.sha256()
-        for key in ("urdf", "mjcf", "package", "sidecar"):
-            digest.update(key.encode() + hashlib.sha256(spec.get(key) or b"").digest())
+        files = (spec.get("urdf"), spec.get("mjcf"), spec.get("package"), spec.get("sidecar"))
+        for key, data in zip(("urdf", "mjcf", "package", "sidecar"), files, strict=True):
+            digest.update(key.encode() + hashlib.sha256(data or b"").digest())
         options = {k: spec.get(k) for k in _OPTION_KEYS}
         digest.update(json.dumps(options, sort_keys=True).encode())
         self.files_dir.mkdir(parents=True, exist_ok=True)
@@ -407,14 +408,16 @@ class RobotCatalog:
             opts = self._package_members(package, opts, urdf is None, mjcf is None)
         elif urdf is None and mjcf is None:
             raise ServiceError("give a urdf, an mjcf or a package (zip)", field="urdf")
-        spec = {
+        spec: RobotSpec = {
             "name": name,
             "urdf": None if urdf is None else urdf[1],
+            "urdf_name": None if urdf is None else urdf[0],
             "mjcf": None if mjcf is None else mjcf[1],
+            "mjcf_name": None if mjcf is None else mjcf[0],
             "package": None if package is None else package[1],
             "sidecar": None if sidecar is None else sidecar[1],
             "payload": payload,
-            **{k: opts.get(k) for k in _OPTION_KEYS},
+            **robot_options(opts),
         }
         main = next(f for f in (urdf, mjcf, package) if f is not None)[0]
         limits = limits if limits is not None else UploadLimits()

@@ -6,13 +6,17 @@ One module per domain: ``recordings`` (parse an upload, analyse a session, video
 the only places where the service layer calls the science packages, and they import the heavy
 ones inside the functions, so the API process starts without loading them and a Dask worker
 only needs ``app`` on its path. Every job function has the signature
-``fn(payload, progress) -> JobResult`` (``types.TaskFn``); ``progress`` takes a structured
+``fn(payload, progress) -> JobResult``, its payload its kind's ``TypedDict`` (``types``; the
+registry holds them as ``types.TaskFn``); ``progress`` takes a structured
 ``app.progress.Progress`` and may raise to stop the job (cancellation on Dask).
 
 :data:`TASKS` is the jobs' part of the job-kind registry (``app.kinds``): kind -> function.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import TypeVar, cast
 
 from app.jobs.tasks.cohorts import cohort
 from app.jobs.tasks.fronts import front
@@ -27,7 +31,7 @@ from app.jobs.tasks.robots import (
     package_members,
     robot_from_spec,
 )
-from app.jobs.tasks.types import JobResult, Payload, RobotSpec, TaskFn
+from app.jobs.tasks.types import JobResult, Payload, RobotSpec, TaskFn, robot_options
 from app.progress import ProgressFn
 
 __all__ = [
@@ -51,23 +55,34 @@ __all__ = [
     "preload",
     "profiles",
     "robot_from_spec",
+    "robot_options",
     "run_task",
     "simulate",
     "sweep",
     "validate_log",
 ]
 
+_P = TypeVar("_P", bound=Mapping[str, object])
+
+
+def _task(fn: Callable[[_P, ProgressFn], JobResult]) -> TaskFn:
+    """A job function under the registry's common type. Each function takes its kind's
+    ``*Payload``; the registry holds them as taking any payload (a cast: the service builds the
+    payload of the job's kind, ``app.services.kinds``, so kind and payload type agree)."""
+    return cast("TaskFn", fn)
+
+
 #: Job kind -> its function (every kind of ``app.kinds.JOB_KINDS``; a test checks both ways).
 TASKS: dict[str, TaskFn] = {
-    "analysis": analyse,
-    "pose": extract_pose_job,
-    "plan": plan,
-    "simulation": simulate,
-    "sweep": sweep,
-    "profiles": profiles,
-    "cohort": cohort,
-    "identify": identify_robot,
-    "front": front,
+    "analysis": _task(analyse),
+    "pose": _task(extract_pose_job),
+    "plan": _task(plan),
+    "simulation": _task(simulate),
+    "sweep": _task(sweep),
+    "profiles": _task(profiles),
+    "cohort": _task(cohort),
+    "identify": _task(identify_robot),
+    "front": _task(front),
 }
 
 

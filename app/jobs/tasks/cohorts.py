@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any, overload
+from typing import TYPE_CHECKING, overload
 
 from app.jobs.tasks.recordings import read_upload
-from app.jobs.tasks.types import JobResult, Payload
+from app.jobs.tasks.types import CohortPayload, JobResult, UploadedFile
 from app.jsonsafe import json_safe
 from app.progress import ProgressFn, no_progress, report
 
@@ -16,11 +16,18 @@ if TYPE_CHECKING:
     from app.recordings import Recording
 
 
+class _CohortFile(UploadedFile, total=False):
+    """A recording file of a cohort group, with its recording's id and excluded channels."""
+
+    recording_id: int
+    exclude_channels: list[str]
+
+
 class _GroupFiles(Sequence["Recording"]):
     """One group's recording files, read when the comparison reaches each (one recording's
     arrays held at a time), reporting progress per recording file."""
 
-    def __init__(self, files: list[dict[str, Any]], counter: list[int], total: int,
+    def __init__(self, files: list[_CohortFile], counter: list[int], total: int,
                  progress: ProgressFn, emg_rate: float | None) -> None:  # fmt: skip
         self.files, self.counter, self.total = files, counter, total
         self.progress, self.emg_rate = progress, emg_rate
@@ -43,14 +50,15 @@ class _GroupFiles(Sequence["Recording"]):
         read_options = dict(f["read_options"])
         if self.emg_rate is not None:  # as ``bioplan cohort --emg-rate``: every file reads so
             read_options["emg_rate"] = self.emg_rate
-        rec = read_upload({**f, "read_options": read_options}, {})
+        with_options: _CohortFile = {**f, "read_options": read_options}
+        rec = read_upload(with_options, {})
         excluded = {str(n).strip().lower() for n in f.get("exclude_channels", ())}
         for name in [n for n in rec.channels if n.strip().lower() in excluded]:
             del rec.channels[name]
         return rec
 
 
-def cohort(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def cohort(payload: CohortPayload, progress: ProgressFn = no_progress) -> JobResult:
     """Compare groups of stored recordings (``bioplan cohort``).
 
     Payload: ``groups`` {name: [{"recording_id", "subject" (stored, or None), "exclude_channels",
@@ -67,7 +75,7 @@ def cohort(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
     from app.analysis.cohort import CohortOptions, cohort_statistics
 
     options = CohortOptions(**payload["options"])
-    files: dict[str, list[dict[str, Any]]] = {}
+    files: dict[str, list[_CohortFile]] = {}
     for name, recs in payload["groups"].items():
         files[name] = [
             {**f, "recording_id": r["recording_id"], "exclude_channels": r["exclude_channels"]}
@@ -91,7 +99,7 @@ def cohort(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
 
 
 def _with_stored_subjects(
-    result: CohortResult, payload: Payload, options: CohortOptions
+    result: CohortResult, payload: CohortPayload, options: CohortOptions
 ) -> CohortResult:
     """The comparison again with each recording's stored subject (no analysis rerun)."""
     from app.analysis.cohort import compare_groups

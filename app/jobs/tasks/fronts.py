@@ -13,14 +13,14 @@ own time grid: ``<id>_t`` (T,) [s], ``<id>_q``/``_qd``/``_qdd``/``_tau`` (T, n) 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from app.errors import BioPlanError, one_line
 from app.jobs.tasks.planning import task_from_degrees, template_of
 from app.jobs.tasks.robots import robot_from_spec
-from app.jobs.tasks.types import JobResult, Payload
+from app.jobs.tasks.types import FrontPayload, JobResult
 from app.jsonsafe import json_safe
 from app.names import DEFAULT_OBJECTIVE, OBJECTIVES
 from app.progress import ProgressFn, no_progress, report, within
@@ -41,7 +41,7 @@ FRONT_SHARE = 0.85
 DEFAULT_REFERENCE_DURATION = 1.0
 
 
-def front(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def front(payload: FrontPayload, progress: ProgressFn = no_progress) -> JobResult:
     """The Pareto front of a task with its reference methods (``POST /api/fronts``).
 
     Payload: ``robot`` (spec), ``payload_mass`` [kg] or None, ``objectives`` [A, B],
@@ -71,7 +71,7 @@ def _pareto_front(
     robot: Robot,
     task: PlanTask,
     template: HumanTemplate | None,
-    payload: Payload,
+    payload: FrontPayload,
     progress: ProgressFn,
 ) -> Front:
     """``pareto_front`` with the payload's options (progress: its first ``FRONT_SHARE``)."""
@@ -82,7 +82,11 @@ def _pareto_front(
     names = {"intervals": "n_intervals"} | {
         k: k for k in ("method", "points", "max_duration", "tolerance", "duration")
     }
-    options = {arg: payload[key] for key, arg in names.items() if payload.get(key) is not None}
+    fields: Mapping[str, object] = payload
+    # keyword arguments of pareto_front by name (its signature types them)
+    options: dict[str, Any] = {
+        arg: fields[key] for key, arg in names.items() if fields.get(key) is not None
+    }
     if "allow_reversal" in payload:
         options["no_reversal"] = not bool(payload["allow_reversal"])
     return pareto_front(

@@ -16,7 +16,14 @@ from numpy.typing import NDArray
 
 from app.errors import BioPlanError
 from app.jobs.tasks.robots import robot_from_spec
-from app.jobs.tasks.types import JobResult, Payload
+from app.jobs.tasks.types import (
+    FrontPayload,
+    JobResult,
+    PlanPayload,
+    ProfilesPayload,
+    SimulationPayload,
+    SweepPayload,
+)
 from app.jsonsafe import json_safe
 from app.progress import ProgressFn, no_progress, report, within
 
@@ -47,7 +54,9 @@ def task_from_degrees(
     return PlanTask(start, goal)
 
 
-def template_of(payload: Payload) -> HumanTemplate | None:
+def template_of(
+    payload: PlanPayload | SimulationPayload | ProfilesPayload | FrontPayload,
+) -> HumanTemplate | None:
     """The payload's human template (a ``HumanTemplate`` dict), or None."""
     from app.planning.human_template import HumanTemplate
 
@@ -63,7 +72,7 @@ def _arrays_of(result: object) -> dict[str, NDArray[np.float64]] | None:
     return {k: np.asarray(v, dtype=np.float64) for k, v in arrays().items()}
 
 
-def plan(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def plan(payload: PlanPayload, progress: ProgressFn = no_progress) -> JobResult:
     """Plan standard and bio-inspired trajectories (``bioplan plan``).
 
     Payload: ``robot`` (spec), ``payload`` [kg] or None, ``start_deg``/``goal_deg`` [deg],
@@ -92,7 +101,7 @@ def plan(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
     return {"result": out, "arrays": _arrays_of(result)}
 
 
-def simulate(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def simulate(payload: SimulationPayload, progress: ProgressFn = no_progress) -> JobResult:
     """Simulate standard and optimised trajectories (``bioplan simulate``).
 
     Payload: as for :func:`plan`, with the fields of
@@ -119,7 +128,7 @@ def simulate(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
     return {"result": out, "arrays": _arrays_of(result)}
 
 
-def sweep(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def sweep(payload: SweepPayload, progress: ProgressFn = no_progress) -> JobResult:
     """Savings over a grid of durations, payloads and objectives (``bioplan sweep``).
 
     Payload: ``robot`` (spec), the fields of :class:`app.simulation.options.SweepGrid`,
@@ -141,7 +150,7 @@ def sweep(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
 
 
 @contextmanager
-def _cell_executor(payload: Payload) -> Iterator[object]:
+def _cell_executor(payload: SweepPayload) -> Iterator[object]:
     """Where a sweep job's cells run: ``"local"``, or (on a Dask worker) a client that submits
     them to the same cluster while this task steps out of the worker's thread pool."""
     if payload.get("cell_executor") != "dask":
@@ -153,7 +162,7 @@ def _cell_executor(payload: Payload) -> Iterator[object]:
         yield client
 
 
-def profiles(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def profiles(payload: ProfilesPayload, progress: ProgressFn = no_progress) -> JobResult:
     """Classical profiles and the minimum-torque-change baseline on one task, with the planning
     methods beside them (``bioplan profiles --json``).
 

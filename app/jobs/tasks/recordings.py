@@ -7,7 +7,7 @@ uploads through :func:`parse_recording`, starts without them.
 from __future__ import annotations
 
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from types import FrameType
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
-from app.jobs.tasks.types import JobResult, Payload
+from app.jobs.tasks.types import AnalysisPayload, JobResult, PosePayload, UploadedFile
 from app.jsonsafe import json_safe
 from app.progress import ProgressFn, no_progress, report
 
@@ -78,7 +78,7 @@ def parse_recording(
     return {"format": rec.format, "metadata": json_safe(rec.metadata), "channels": channels}
 
 
-def read_upload(f: dict[str, Any], read_options: dict[str, Any]) -> Recording:
+def read_upload(f: UploadedFile, read_options: Mapping[str, Any]) -> Recording:
     """One file of an analysis payload as a Recording, with the warnings stored beside it
     (e.g. what the pose extraction of its video said) in front of the reader's."""
     from app.recordings import read_bytes
@@ -93,7 +93,7 @@ def read_upload(f: dict[str, Any], read_options: dict[str, Any]) -> Recording:
     return rec
 
 
-def _analysis_options(payload: Payload) -> dict[str, Any]:
+def _analysis_options(payload: AnalysisPayload) -> dict[str, Any]:
     """Keyword options of ``analyze_recordings`` from an analysis payload."""
     options = {k: v for k, v in payload.get("options", {}).items() if v is not None}
     if "phase_bounds_deg" in options:
@@ -107,7 +107,7 @@ def _analysis_options(payload: Payload) -> dict[str, Any]:
     return options
 
 
-def analyse(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def analyse(payload: AnalysisPayload, progress: ProgressFn = no_progress) -> JobResult:
     """Analyse the files of one recording session.
 
     Payload: ``files`` [{"name", "data": bytes, "sidecars" {name: bytes}, "read_options"
@@ -201,7 +201,7 @@ def _scratch(scratch_dir: str | None) -> str | None:
     return str(folder)
 
 
-def extract_pose_job(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def extract_pose_job(payload: PosePayload, progress: ProgressFn = no_progress) -> JobResult:
     """Pose landmarks of an uploaded video (``app.recordings.extract_pose``), read back as a
     MediaPipe file.
 

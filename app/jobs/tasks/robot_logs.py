@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from app.jobs.tasks.robots import describe_robot, robot_from_spec
-from app.jobs.tasks.types import JobResult, Payload
+from app.jobs.tasks.types import IdentifyPayload, JobResult, LogFile, RobotSpec, ValidatePayload
 from app.jsonsafe import json_safe
 from app.progress import ProgressFn, no_progress, report
 
@@ -57,7 +57,7 @@ def _bag_from_zip(data: bytes, folder: Path, name: str) -> Path:
     return folder
 
 
-def _read_log(log: dict[str, Any], folder: Path, topic: str | None) -> RobotLog:
+def _read_log(log: LogFile, folder: Path, topic: str | None) -> RobotLog:
     """The ``RobotLog`` of an uploaded log ``{"name", "data"}`` (written into ``folder``)."""
     from app.recordings.robot_logs import read_robot_log
 
@@ -103,7 +103,7 @@ def _series(validation: Validation) -> dict[str, object]:
     }
 
 
-def validate_log(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def validate_log(payload: ValidatePayload, progress: ProgressFn = no_progress) -> JobResult:
     """Measured against predicted joint torque of an uploaded robot log (``bioplan validate``).
 
     Payload: ``robot`` (spec), ``payload`` [kg] or None, ``log`` (``{"name", "data"}``),
@@ -136,7 +136,7 @@ def validate_log(payload: Payload, progress: ProgressFn = no_progress) -> JobRes
     return {"result": json_safe(out)}
 
 
-def identify_robot(payload: Payload, progress: ProgressFn = no_progress) -> JobResult:
+def identify_robot(payload: IdentifyPayload, progress: ProgressFn = no_progress) -> JobResult:
     """Identify a robot's link inertias and friction from uploaded logs (``bioplan identify``)
     and describe the robot version that carries the identified sidecar.
 
@@ -168,8 +168,9 @@ def identify_robot(payload: Payload, progress: ProgressFn = no_progress) -> JobR
         report(progress, "identify", 1, 3, fraction=0.2, message="identifying the parameters")
         result = identify(robot, logs, options)
         base: dict[str, object] = {}
-        if spec.get("sidecar") is not None:
-            loaded = yaml.safe_load(spec["sidecar"].decode("utf-8")) or {}
+        given = spec.get("sidecar")
+        if given is not None:
+            loaded = yaml.safe_load(given.decode("utf-8")) or {}
             base = {k: v for k, v in loaded.items() if k not in ("links", "friction")}
         held = result.held_back
         names = ", ".join(str(log["name"]) for log in payload["logs"])
@@ -181,7 +182,12 @@ def identify_robot(payload: Payload, progress: ProgressFn = no_progress) -> JobR
         write_sidecar(sidecar_path, robot, result, base=base, comment=comment)
         sidecar = sidecar_path.read_bytes()
     report(progress, "describe", 2, 3, fraction=0.9, message="loading the identified robot")
-    version = {**spec, "name": payload["version"], "sidecar": sidecar, "sidecar_member": None}
+    version: RobotSpec = {
+        **spec,
+        "name": payload["version"],
+        "sidecar": sidecar,
+        "sidecar_member": None,
+    }
     description = describe_robot(version)
     out = json_safe(result.to_dict())
     out["version"] = payload["version"]
