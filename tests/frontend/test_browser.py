@@ -33,6 +33,35 @@ def wait_for(predicate: Any, timeout: float = 120.0, what: str = "condition") ->
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
+def wait_for_jobs(
+    server: Server, predicate: Any, what: str, quiet: float = 180.0, cap: float = 1200.0
+) -> Any:
+    """Wait for something a job brings, however long the jobs queued before it take.
+
+    A session's live server runs at most two jobs at once, and other tests on the same worker
+    may have queued long ones (a video's pose, a sweep) before this test's job. So the deadline
+    is ``quiet`` seconds after the server's jobs last moved (one started, ended or reported
+    progress), never more than ``cap`` in all; a timeout names the jobs still active.
+    """
+    start = last_move = time.monotonic()
+    activity = server.job_activity()
+    while time.monotonic() - start < cap:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.5)
+        now = server.job_activity()
+        if now != activity:
+            activity, last_move = now, time.monotonic()
+        elif time.monotonic() - last_move > quiet:
+            break
+    active = [(j["id"], j["kind"], j["state"], j.get("progress")) for j in server.active_jobs()]
+    raise AssertionError(
+        f"timed out after {time.monotonic() - start:.0f} s waiting for {what} "
+        f"(the jobs last moved {time.monotonic() - last_move:.0f} s ago; active: {active})"
+    )
+
+
 def signal_names(page: Any, plot: str) -> list[str]:
     """Names of a plot's signal traces (leaving out the phase, lift-top and onset overlays)."""
     names: list[str] = page.evaluate(f"document.getElementById('{plot}').data.map(d => d.name)")

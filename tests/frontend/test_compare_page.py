@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from tests.frontend.test_browser import demo_ids, wait_for
+from tests.frontend.test_browser import demo_ids, wait_for, wait_for_jobs
 from tests.utils.browser import screenshot
 from tests.utils.server import Server
 
@@ -238,7 +238,9 @@ def test_the_card_says_where_the_template_came_from(live_server: Server, page: A
     # The recording's page says what its number is, and where a plan puts the peak.
     analysis = live_server.get(f"/api/analyses/{analysis_id}")
     page.goto(f"{live_server.url}/#/recordings/{analysis['recording_id']}")
-    wait_for(lambda: "template from" in page.inner_text("#template-facts"), 180, "the template")
+    wait_for_jobs(
+        live_server, lambda: "template from" in page.inner_text("#template-facts"), "the template"
+    )
     facts = page.inner_text("#template-facts")
     assert "mean ± SD of each lift's own peak angle" in facts, facts
     assert f"{round(100 * template['peak_velocity_range_fraction'])} % of the elbow stroke" in facts

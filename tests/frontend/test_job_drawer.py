@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from tests.frontend.test_browser import wait_for
+from tests.frontend.test_browser import wait_for, wait_for_jobs
 from tests.utils.browser import screenshot
 from tests.utils.server import Server
 
@@ -66,7 +66,7 @@ def test_a_finished_job_links_to_its_result(live_server: Server, page: Any) -> N
     if page.locator("#job-drawer[hidden]").count():
         page.click("#jobs-button")
     job = live_server.post("/api/plans", json=TINY).json()
-    wait_for(lambda: _state(page, job["id"]) == "succeeded", 180, "the job succeeding")
+    wait_for_jobs(live_server, lambda: _state(page, job["id"]) == "succeeded", "the job succeeding")
     # Its log (issue 24 item 6): what the planner said, as the API serves it.
     page.click(f"{_item(job['id'])} .job-log-toggle")
     log = page.wait_for_selector(f"{_item(job['id'])} pre.job-log:has-text('PSO of 8 particles')")

@@ -9,7 +9,7 @@ from typing import Any
 import httpx
 import pytest
 
-from tests.frontend.test_browser import wait_for
+from tests.frontend.test_browser import wait_for, wait_for_jobs
 from tests.utils.browser import screenshot
 from tests.utils.example_robots import UR5, robot_file
 from tests.utils.server import Server
@@ -223,7 +223,9 @@ def test_the_form_and_the_running_plan_survive_leaving_and_reload(
     page.wait_for_selector("#job-card h2:has-text('#'), #plan-form .banner.error", timeout=60_000)
     assert page.locator("#plan-form .banner.error").count() == 0, page.inner_text("#plan-form")
     job_id = int(page.inner_text("#job-card h2").split("#")[1])
-    wait_for(lambda: _convergence_points(page) >= 2, 180, "the convergence curve growing")
+    wait_for_jobs(
+        live_server, lambda: _convergence_points(page) >= 2, "the convergence curve growing"
+    )
 
     def kept() -> None:
         page.wait_for_selector("#plan-form")

@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from app.errors import BioPlanError
-from tests.frontend.test_browser import post_files, wait_for
+from tests.frontend.test_browser import post_files, wait_for, wait_for_jobs
 from tests.utils.browser import screenshot
 from tests.utils.data import shared_file
 from tests.utils.server import Server
@@ -79,7 +79,9 @@ def test_detail_page_labels_checks_and_reanalyses(live_server: Server, page: Any
     assert page.is_visible("#rate-rerun")
     # The analysis runs (started by the page); its template is the paper's default, said so,
     # and every analysis warning is shown, also when no lift was found.
-    wait_for(lambda: "template from" in page.inner_text("#template-facts"), 180, "the template")
+    wait_for_jobs(
+        live_server, lambda: "template from" in page.inner_text("#template-facts"), "the template"
+    )
     facts = page.inner_text("#template-facts")
     assert "paper's default (no lifts with kinematics from this person)" in facts
     analysis = live_server.get(f"/api/viewer/recordings/{rid}/analysis?points=50")
@@ -102,7 +104,9 @@ def test_detail_page_labels_checks_and_reanalyses(live_server: Server, page: Any
     stored = live_server.get(f"/api/recordings/{rid}")
     excluded = [c["name"] for f in stored["files"] for c in f["channels"] if c["excluded"]]
     assert excluded == [channel]
-    wait_for(lambda: len(_analyses(live_server, rid)) > before, 180, "the rerun analysis")
+    wait_for_jobs(
+        live_server, lambda: len(_analyses(live_server, rid)) > before, "the rerun analysis"
+    )
 
     # Options: the body mass reaches the analysis job.
     page.click("#options-card summary")
@@ -131,7 +135,7 @@ def test_phase_bounds_from_the_page_change_the_phases(live_server: Server, page:
         now = live_server.get(f"/api/viewer/recordings/{demo}/analysis?points=200")
         return now if now["analysis_id"] != first["analysis_id"] else None
 
-    now = wait_for(changed, 180, "the analysis with the new bounds")
+    now = wait_for_jobs(live_server, changed, "the analysis with the new bounds")
     a_end = [p["end_s"] for lift in now["lifts"] for p in lift["phases"] if p["name"] == "A"]
     a_was = [p["end_s"] for lift in first["lifts"] for p in lift["phases"] if p["name"] == "A"]
     assert a_end and a_end != a_was  # the A/B bound moved, so phase A ends elsewhere
@@ -267,7 +271,7 @@ def test_the_rate_fix_redraws_the_page_in_place(live_server: Server, page: Any) 
         done = page.get_attribute("#lifts", "data-analysis")
         return int(done) if done and int(done) != wrong else None
 
-    new = wait_for(fixed, 240, "the new analysis drawn without a reload")
+    new = wait_for_jobs(live_server, fixed, "the new analysis drawn without a reload")
     assert new == _newest_analysis(live_server, rid)
     assert page.locator("#rate-warning").count() == 0  # the recording as it is now
     assert "has no channels" not in page.inner_text("#app")
@@ -337,7 +341,9 @@ def test_a_single_lift_template_says_it_has_no_spread(live_server: Server, page:
     status, rec = post_files(live_server, [("one-lift.csv", synthetic_curls_csv(lifts=1))])
     assert status == 201, rec
     page.goto(f"{live_server.url}/#/recordings/{rec['id']}")
-    wait_for(lambda: "template from" in page.inner_text("#template-facts"), 180, "the template")
+    wait_for_jobs(
+        live_server, lambda: "template from" in page.inner_text("#template-facts"), "the template"
+    )
     analysis = live_server.get(f"/api/viewer/recordings/{rec['id']}/analysis?points=50")
     assert analysis["template"]["n_lifts"] == 1, analysis["template"]
     facts = page.inner_text("#template-facts")

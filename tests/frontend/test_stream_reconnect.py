@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from tests.frontend.test_browser import wait_for
+from tests.frontend.test_browser import wait_for, wait_for_jobs
 from tests.utils.browser import new_context
 from tests.utils.server import Server
 
@@ -47,7 +47,7 @@ def test_the_drawer_reconnects_after_an_idle_end(chromium: Any, tmp_path: Path) 
                 "the stream ended and reopened twice",
             )
             job = server.post("/api/plans", json=TINY).json()
-            wait_for(lambda: _state(page, job["id"]) == "succeeded", 180, "the job, live")
+            wait_for_jobs(server, lambda: _state(page, job["id"]) == "succeeded", "the job, live")
             assert page.inner_text("#job-drawer-note").strip() == ""
         finally:
             context.close()
@@ -65,7 +65,9 @@ def test_a_refused_drawer_polls_then_takes_the_stream_again(chromium: Any, tmp_p
             note = "#job-drawer-note"
             wait_for(lambda: "unavailable" in page.inner_text(note), 60, "the refusal said")
             job = server.post("/api/plans", json=TINY).json()
-            wait_for(lambda: _state(page, job["id"]) == "succeeded", 180, "the job, by polling")
+            wait_for_jobs(
+                server, lambda: _state(page, job["id"]) == "succeeded", "the job, by polling"
+            )
             first.close()  # a place is free: the drawer takes the stream again
             wait_for(lambda: page.inner_text(note).strip() == "", 180, "the stream again")
         finally:

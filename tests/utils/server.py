@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import socket
@@ -116,3 +117,17 @@ class Server:
 
     def post(self, path: str, **kw: Any) -> httpx.Response:
         return httpx.post(self.url + path, timeout=60, **kw)
+
+    def active_jobs(self) -> list[dict[str, Any]]:
+        """The queued and running jobs (what a new job may wait behind)."""
+        jobs: list[dict[str, Any]] = []
+        for state in ("queued", "running"):
+            jobs += self.get(f"/api/jobs?state={state}&limit=500")["items"]
+        return jobs
+
+    def job_activity(self) -> tuple[tuple[Any, ...], ...]:
+        """What changes while the server's jobs move: each active job's id, state and progress."""
+        return tuple(
+            (job["id"], job["state"], json.dumps(job.get("progress"), sort_keys=True))
+            for job in self.active_jobs()
+        )
