@@ -34,31 +34,30 @@ def wait_for(predicate: Any, timeout: float = 120.0, what: str = "condition") ->
 
 
 def wait_for_jobs(
-    server: Server, predicate: Any, what: str, quiet: float = 180.0, cap: float = 1200.0
+    server: Server, predicate: Any, what: str, quiet: float = 180.0, cap: float = 900.0
 ) -> Any:
     """Wait for something a job brings, however long the jobs queued before it take.
 
     A session's live server runs at most two jobs at once, and other tests on the same worker
     may have queued long ones (a video's pose, a sweep) before this test's job. So the deadline
-    is ``quiet`` seconds after the server's jobs last moved (one started, ended or reported
-    progress), never more than ``cap`` in all; a timeout names the jobs still active.
+    is ``quiet`` seconds after the server last had a job queued or running, never more than
+    ``cap`` in all; a timeout names the jobs still active.
     """
-    start = last_move = time.monotonic()
-    activity = server.job_activity()
+    start = last_active = time.monotonic()
     while time.monotonic() - start < cap:
         value = predicate()
         if value:
             return value
-        time.sleep(0.5)
-        now = server.job_activity()
-        if now != activity:
-            activity, last_move = now, time.monotonic()
-        elif time.monotonic() - last_move > quiet:
+        if server.active_jobs():
+            last_active = time.monotonic()
+        elif time.monotonic() - last_active > quiet:
             break
-    active = [(j["id"], j["kind"], j["state"], j.get("progress")) for j in server.active_jobs()]
+        time.sleep(0.5)
+    active = [(j["id"], j["kind"], j["state"], j["progress"]) for j in server.active_jobs()]
     raise AssertionError(
         f"timed out after {time.monotonic() - start:.0f} s waiting for {what} "
-        f"(the jobs last moved {time.monotonic() - last_move:.0f} s ago; active: {active})"
+        f"(the server's jobs were last active {time.monotonic() - last_active:.0f} s ago; "
+        f"active now: {active})"
     )
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import signal
 import socket
@@ -124,10 +123,3 @@ class Server:
         for state in ("queued", "running"):
             jobs += self.get(f"/api/jobs?state={state}&limit=500")["items"]
         return jobs
-
-    def job_activity(self) -> tuple[tuple[Any, ...], ...]:
-        """What changes while the server's jobs move: each active job's id, state and progress."""
-        return tuple(
-            (job["id"], job["state"], json.dumps(job.get("progress"), sort_keys=True))
-            for job in self.active_jobs()
-        )
