@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query
 from sqlalchemy.orm import Session
 
 from app.api.deps import SessionDep
-from app.api.result_models import AnalysisResultOut
+from app.api.result_models import AnalysisResultOut, HumanTemplateOut
 from app.api.routes._common import PROBLEM_RESPONSES, IdPath
 from app.api.routes._results import ResultRoutes, add_result_routes
 from app.api.schemas import AnalysisRequest
@@ -75,7 +75,11 @@ add_result_routes(
 )
 
 
-@router.get("/{analysis_id:int}/template", response_model=dict[str, object])
+@router.get(
+    "/{analysis_id:int}/template",
+    response_model=HumanTemplateOut,
+    response_model_exclude_unset=True,  # the stored JSON as it is: no keys added as null
+)
 def get_template(session: SessionDep, analysis_id: IdPath) -> dict[str, object]:
     """The HumanTemplate JSON (what ``bioplan analyze --out`` writes; ``plan --template``)."""
     row = get_result_row(session, "analysis", analysis_id)

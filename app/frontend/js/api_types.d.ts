@@ -3,7 +3,104 @@
 //   .venv/bin/python scripts/js_types.py
 // tests/frontend/test_api_types.py fails when this file is stale.
 
-/** An analysis (its result block is ``bioplan analyze --json``, left open). */
+/** Everything measured on one file or merged session (``RecordingAnalysis.to_dict``). */
+export interface AnalysedFile {
+  /** file name(s) */
+  source: string;
+  /** detected format(s) */
+  format: string;
+  /** t_emg = t_pose + offset [s] */
+  offset_s: number;
+  /** muscle (or channel name) -> channel */
+  emg: Record<string, EmgChannelInfo>;
+  /** null without pose */
+  pose: PoseInfo | null;
+  lifts: AnalysisLift[];
+  warnings: string[];
+  /** null when plausible */
+  rate_check?: RateCheckOut | null;
+}
+
+/**
+ * One lift with everything measured on it (``LiftReport.to_dict``); times [s] on the
+ * file's clock, angles elbow flexion [deg].
+ */
+export interface AnalysisLift {
+  /** 1-based within its file */
+  index: number;
+  /** what found it: "angle" or "emg" */
+  source: string;
+  start_s: number;
+  top_s: number;
+  end_s: number;
+  /** [start, top] [s] */
+  concentric_s: number[];
+  /** [start, end] [s] */
+  hold_s?: number[] | null;
+  /** [start, end] [s] */
+  eccentric_s: number[];
+  start_angle_deg: number | null;
+  top_angle_deg: number | null;
+  end_angle_deg: number | null;
+  peak_velocity_deg_s: number | null;
+  /** flexion at the velocity peak */
+  peak_velocity_angle_deg: number | null;
+  peak_velocity_time_fraction: number | null;
+  peak_velocity_range_fraction?: number | null;
+  /** why its kinematics do not shape the template; null: used */
+  kinematics_rejected?: string | null;
+  /** empty for EMG-only lifts */
+  phases: AnalysisPhase[];
+  /** muscle -> onset after the lift's start [s] (negative: before) */
+  onsets_s: Record<string, number | null>;
+  activation_order: string[];
+  /** muscle -> envelope peak time [s] */
+  emg_peak_s: Record<string, number | null>;
+  /** muscle -> envelope peak as a fraction of the concentric part */
+  emg_peak_time_fraction: Record<string, number | null>;
+  /** muscle -> envelope peak minus velocity peak time [s] */
+  emg_peak_after_velocity_peak_s?: Record<string, number | null> | null;
+  /** null without angles or dynamics */
+  energetics: LiftEnergetics | null;
+  /** null without per-frame quality */
+  quality?: LiftQuality | null;
+}
+
+/** One phase of one lift with its EMG and kinematics (``PhaseStats.to_dict``). */
+export interface AnalysisPhase {
+  /** "A", "B" or "C" */
+  name: string;
+  /** "concentric" or "eccentric" */
+  part: string;
+  /** [s] on the file's clock */
+  start_s: number;
+  /** [s] */
+  end_s: number;
+  /** [s] */
+  duration_s: number;
+  /** muscle -> mean envelope over the phase / its peak over the recording */
+  emg_mean: Record<string, number | null>;
+  /** muscle -> peak envelope, same scale */
+  emg_peak: Record<string, number | null>;
+  /** largest |elbow velocity| [deg/s] */
+  peak_velocity_deg_s: number | null;
+  /** [deg/s^2] */
+  peak_acceleration_deg_s2: number | null;
+}
+
+/** An analysis (``bioplan analyze --json``, ``AnalysisResult.to_dict``). */
+export interface AnalysisResult {
+  /** per file (or merged session) */
+  files: AnalysedFile[];
+  n_lifts: number;
+  /** consensus onset order over all lifts */
+  activation_order: string[];
+  template: HumanTemplateOut;
+  settings: AnalysisSettings;
+  warnings: string[];
+}
+
+/** An analysis: the job and, once it succeeded, its summary, result and template. */
 export interface AnalysisResultOut {
   id: number;
   recording_id: number | null;
@@ -11,9 +108,45 @@ export interface AnalysisResultOut {
   /** null until the job succeeded */
   summary: AnalysisSummary | null;
   /** the JSON of `bioplan analyze --json` */
-  result: Record<string, unknown> | null;
+  result: AnalysisResult | null;
   /** the HumanTemplate (planner input) */
-  template: Record<string, unknown> | null;
+  template: HumanTemplateOut | null;
+}
+
+/**
+ * Every option of an analysis as used (``analyze_recordings``), and the reader options
+ * the CLI or the service echo.
+ */
+export interface AnalysisSettings {
+  /** the EMG rate given [Hz]; null: the file's */
+  emg_rate_hz: number | null;
+  /** channel -> site */
+  muscle_map: Record<string, string>;
+  exclude_channels?: string[] | null;
+  /** [A/B, B/C] [deg] */
+  phase_bounds_deg: number[];
+  body_mass_kg: number;
+  body_height_m: number;
+  load_mass_kg: number;
+  /** [s], "auto" or null (same clock) */
+  offset_s: number | string | null;
+  /** "separate" or "together" */
+  session?: string | null;
+  /** EMG filter: band_hz, lowpass_hz, method */
+  emg: Record<string, unknown>;
+  /** pose options given */
+  pose: Record<string, unknown>;
+  keep_low_quality_lifts?: boolean | null;
+  /** reader's frame rate [Hz] */
+  frame_rate_hz?: number | null;
+  /** [width, height] [px] */
+  image_size_px?: number[] | null;
+  /** auto, left or right */
+  side?: string | null;
+  /** the service's reader rate [Hz] */
+  rate_hz?: number | null;
+  /** the service's reader format */
+  format?: string | null;
 }
 
 /** What a list shows of a finished analysis: the template's origin, lifts, every warning. */
@@ -41,14 +174,126 @@ export interface AxisText {
   unit: string;
 }
 
-/** A cohort comparison (``bioplan cohort --json``). */
-export interface CohortResult {
-  /** the groups compared, with their recordings */
-  groups: unknown;
-  units?: unknown;
-  warnings?: string[];
+/** The multiple-comparison correction over every test reported. */
+export interface CohortCorrection {
+  /** holm, bonferroni, fdr_bh or none */
+  method: string;
+  /** tests corrected over */
+  family_size: number;
+  alpha: number;
+  /** what was done, one sentence */
+  statement: string;
 }
 
+/** One group of a comparison (``GroupSummary.to_dict``). */
+export interface CohortGroup {
+  /** recordings measured */
+  n: number;
+  subjects: string[];
+  /** measure -> its summary */
+  measures: Record<string, CohortMeasureSummary>;
+  activation_order: CohortOrderSummary;
+}
+
+/** The most common activation order over the group's single lifts. */
+export interface CohortLiftOrders {
+  most_common: string[];
+  /** lifts with that order */
+  count: number;
+  /** lifts with an order of at least two muscles */
+  n: number;
+  /** count / n; null when n = 0 */
+  frequency: number | null;
+}
+
+/** One measure over a group's recordings, in the measure's unit (``MeasureSummary``). */
+export interface CohortMeasureSummary {
+  /** recordings with a value */
+  n: number;
+  /** recordings without one */
+  missing: number;
+  mean: number | null;
+  /** sample SD (ddof=1); null for n < 2 */
+  sd: number | null;
+  median: number | null;
+  /** first quartile (linear interpolation) */
+  q1: number | null;
+  /** third quartile */
+  q3: number | null;
+  /** q3 - q1 */
+  iqr: number | null;
+}
+
+/** A group's activation orders (``OrderSummary.to_dict``). */
+export interface CohortOrderSummary {
+  /** the most common recording order; [] if none */
+  most_common: string[];
+  /** recordings with that order */
+  count: number;
+  /** recordings with an order of at least two muscles */
+  n: number;
+  /** count / n; null when n = 0 */
+  frequency: number | null;
+  /** order ("a > b > c") -> recordings, most first */
+  orders: Record<string, number>;
+  lifts: CohortLiftOrders;
+  /** muscle -> mean onset latency [s] */
+  mean_onset_s: Record<string, number>;
+}
+
+/** How two groups are compared: design, the subjects paired, and why. */
+export interface CohortPairing {
+  /** [a, b] */
+  groups: string[];
+  /** "paired" or "independent" */
+  design: string;
+  /** the subjects paired (paired design only) */
+  subjects: string[];
+  why: string;
+}
+
+/** One measured recording (``app.analysis.cohort.RecordingMeasures.to_dict``). */
+export interface CohortRecording {
+  /** its group (condition) */
+  group: string;
+  /** file name */
+  source: string;
+  subject: string;
+  /** where the subject label came from */
+  subject_from: string;
+  /** measure -> value in the result's ``units``; null: not measurable */
+  measures: Record<string, number | null>;
+  /** measure -> why it has no value */
+  missing: Record<string, string>;
+  /** the recording's consensus onset order */
+  activation_order: string[];
+  warnings: string[];
+}
+
+/** A cohort comparison (``bioplan cohort --json``, ``CohortResult.to_dict``). */
+export interface CohortResult {
+  /** every recording's measures */
+  recordings: CohortRecording[];
+  /** group name -> summary, in order given */
+  groups: Record<string, CohortGroup>;
+  /** one per measure and pair of groups */
+  tests: CohortTest[];
+  /** one per pair of groups */
+  pairings: CohortPairing[];
+  correction: CohortCorrection;
+  /** measure -> unit, in the table's order */
+  units: Record<string, string>;
+  /** how subjects were found */
+  subject_rule: string;
+  /** the CohortOptions used, by name */
+  options: Record<string, unknown>;
+  /** what the analyses or the comparison assumed */
+  warnings: string[];
+  /** the service's: recording id of each of ``recordings`` */
+  recording_ids?: number[] | null;
+}
+
+/** A cohort comparison: the job, its groups and, once it succeeded, the result. */
 export interface CohortResultOut {
   id: number;
   /** the user's short name for it */
@@ -57,6 +302,38 @@ export interface CohortResultOut {
   groups: Record<string, number[]>;
   job: Job;
   result: CohortResult | null;
+}
+
+/**
+ * One measure compared between two groups (``TestResult.to_dict``); effects are the first
+ * group minus the second.
+ */
+export interface CohortTest {
+  measure: string;
+  unit: string;
+  /** [a, b] */
+  groups: string[];
+  /** "paired" or "independent" */
+  design: string;
+  /** values used per group (pairs: both the same) */
+  n: number[];
+  /** welch_t, mann_whitney_u, paired_t, wilcoxon; null */
+  test: string | null;
+  /** why this test (normality checks or the user's choice) */
+  rule: string;
+  statistic: number | null;
+  /** two-sided p-value; null when not tested */
+  p: number | null;
+  /** p after the correction */
+  p_adjusted: number | null;
+  /** p_adjusted < alpha */
+  significant: boolean | null;
+  /** hedges_g, hedges_g_z or rank_biserial */
+  effect_name: string | null;
+  /** null when undefined (no spread) */
+  effect: number | null;
+  /** why there is no test; null when tested */
+  skipped: string | null;
 }
 
 export interface ComparisonCurves {
@@ -97,6 +374,28 @@ export interface Conditions {
   duration?: number | null;
   template?: string | null;
   target_peak_velocity_angle_deg?: number | null;
+}
+
+/** One processed EMG channel of a file. */
+export interface EmgChannelInfo {
+  /** name in the file */
+  channel: string;
+  /** [Hz] */
+  rate_hz: number;
+  unit: string;
+  /** (M, 2) onset/offset times [s] */
+  onsets_s: number[][];
+  /** share of samples flagged as clipped */
+  saturated_fraction: number;
+}
+
+/** The low-pass filter applied before identifying. */
+export interface FilterNote {
+  kind: string;
+  /** [Hz] */
+  cutoff_hz: number;
+  /** [s] (zero-phase: 0) */
+  delay_s: number;
 }
 
 /** The mesh refinement of one optimal-control solve of a front. */
@@ -176,14 +475,105 @@ export interface HumanInfo {
   lift?: Lift | null;
 }
 
-/** An identification (its result block is ``bioplan identify --json``, left open). */
+/**
+ * The HumanTemplate, the planner's input (``app.planning.human_template.HumanTemplate``;
+ * what ``bioplan analyze --out`` writes and ``plan --template`` reads).
+ */
+export interface HumanTemplateOut {
+  /** elbow flexion where the elbow's velocity peaks, mean over lifts [deg] */
+  peak_velocity_angle_deg: number;
+  /** its SD over lifts [deg] */
+  peak_velocity_angle_sd_deg: number;
+  /** (A/B, B/C) elbow flexion [deg] */
+  phase_bounds_deg: [number, number];
+  /** time of the velocity peak as a fraction of the lift; null: unknown */
+  peak_velocity_time_fraction: number | null;
+  /** (K,) grid in [0, 1] of the profiles */
+  normalized_time: number[];
+  /** (K,) elbow velocity over its peak */
+  velocity_mean: number[];
+  /** (K,) */
+  velocity_sd: number[];
+  /** (K,) elbow acceleration over its peak */
+  acceleration_mean: number[];
+  /** (K,) */
+  acceleration_sd: number[];
+  /** EMG sites in onset order */
+  activation_order: string[];
+  /** site -> time of its EMG envelope peak as a fraction of the lift */
+  emg_peak_time_fraction: Record<string, number>;
+  /** lifts the kinematic fields rest on; 0: paper defaults */
+  n_lifts: number;
+  /** "N lift(s) with kinematics" or "paper default: ..." */
+  source: string;
+  /** where the peak lies within each lift's range, mean */
+  peak_velocity_range_fraction?: number | null;
+  peak_velocity_range_fraction_sd?: number | null;
+  /** mean (start, top) elbow flexion of the lifts [deg] */
+  lift_range_deg?: [number, number] | null;
+  /** recordings it was built from */
+  files?: string[] | null;
+  /** lifts the EMG timing rests on */
+  emg_lifts?: number | null;
+  /** what had to be assumed */
+  assumptions?: string[] | null;
+}
+
+/** An identification (``bioplan identify --json``, ``Identification.to_dict``). */
+export interface IdentificationResult {
+  joints: string[];
+  /** identifiable base parameters of the links */
+  n_base_parameters: number;
+  /** (n_base,) least squares, unconstrained */
+  base_parameters: number[];
+  /** link -> its identified inertia */
+  links: Record<string, IdentifiedLink>;
+  /** joint -> friction and offset */
+  friction: Record<string, JointFriction>;
+  /** null unless a payload was asked */
+  payload: IdentifiedPayload | null;
+  /** joint -> fit on the identified part */
+  fit: Record<string, TorqueFit>;
+  /** joint -> fit on the held-back part */
+  held_back: Record<string, TorqueFit>;
+  /** regression samples used */
+  samples: number;
+  filter: FilterNote;
+  /** how the logs were read and repaired */
+  notes: string[];
+  /** wall time [s] */
+  seconds: number;
+  /** the service's: the robot version it is stored as */
+  version?: string | null;
+}
+
+/** An identification: the job, the robot version and, once it succeeded, the result. */
 export interface IdentificationResultOut {
   id: number;
   robot: string;
   /** the robot the identified model is stored as */
   version: string;
   job: Job;
-  result: Record<string, unknown> | null;
+  result: IdentificationResult | null;
+}
+
+/** A link's identified inertial parameters, physically consistent. */
+export interface IdentifiedLink {
+  /** [kg] */
+  mass: number;
+  /** (3,) centre of mass in the joint frame [m] */
+  com: number[];
+  /** (6,) ixx ixy ixz iyy iyz izz about the centre of mass [kg m^2] */
+  inertia: number[];
+}
+
+/** A point payload identified instead of the last link's inertia. */
+export interface IdentifiedPayload {
+  /** [kg] */
+  mass: number;
+  /** (3,) in the body's frame [m] */
+  com: number[];
+  body: string;
 }
 
 /** A background job (analysis, pose, plan, simulation, sweep, profiles or cohort). */
@@ -222,11 +612,38 @@ export interface Job {
   params: Record<string, unknown>;
 }
 
+/** A joint's identified friction and torque offset. */
+export interface JointFriction {
+  /** [Nm s/rad] */
+  viscous: number;
+  /** [Nm] */
+  coulomb: number;
+  /** [Nm] */
+  offset: number;
+}
+
 export interface Lift {
   index?: number | null;
   file?: string | null;
   start_s?: number | null;
   top_s?: number | null;
+}
+
+/** A lift's metrics and per-phase flow on the arm model (``Energetics.to_dict``). */
+export interface LiftEnergetics {
+  /** tau_sq [N^2 m^2 s], abs_work, pos_work, delta_potential [J], peak_power, min_peak_power [W], peak_torque (2,) [Nm], duration [s] */
+  metrics: Record<string, number | (number | null)[] | null>;
+  phases: PhaseEnergetics[];
+}
+
+/** How much of a lift's pose is low quality. */
+export interface LiftQuality {
+  /** share of its frames that are low quality */
+  low_quality_share: number;
+  /** over the limit: left out of the template */
+  low_quality: boolean;
+  /** reason -> frames */
+  reasons: Record<string, number>;
 }
 
 /** ``GET /api/meta``: the shared names, the floors' formulas and the front's axes. */
@@ -332,6 +749,29 @@ export interface Payload {
   size: number[];
 }
 
+/** One phase's energy flow (``app.analysis.energetics.PhaseEnergetics.to_dict``). */
+export interface PhaseEnergetics {
+  /** "A", "B" or "C" */
+  phase: string;
+  part: string;
+  /** [s] */
+  start: number;
+  /** [s] */
+  end: number;
+  /** [J] */
+  delta_kinetic_j: number | null;
+  /** [J] */
+  delta_potential_j: number | null;
+  /** (2,) shoulder, elbow work [J] */
+  work_j: (number | null)[];
+  /** (2,) [J] */
+  positive_work_j: (number | null)[];
+  /** [J] */
+  kinetic_to_potential_j: number | null;
+  /** [W] */
+  peak_power_w: number | null;
+}
+
 /**
  * One phase of a curl by elbow flexion (PAPER.md point 4).
  *
@@ -392,6 +832,37 @@ export interface Planned {
   optimizer?: Optimizer | null;
 }
 
+/** A file's arm angles. */
+export interface PoseInfo {
+  /** left, right or unspecified */
+  side: string;
+  /** [Hz] */
+  rate_hz: number;
+  samples: number;
+  valid_fraction: number;
+  /** (G, 2) gaps in the elbow angle [s] */
+  gaps_s: number[][];
+  /** [min, max] [deg] */
+  elbow_range_deg: number[] | null;
+  /** null: no such data */
+  quality?: PoseQualitySummary | null;
+}
+
+/** Per-frame pose quality, counted (video and MediaPipe landmarks only). */
+export interface PoseQualitySummary {
+  frames: number;
+  low_quality_frames: number;
+  /** reason -> frames */
+  reasons: Record<string, number>;
+  persons_tracked: number;
+  /** frames where the track changed person */
+  switch_frames: number[];
+  other_person_frames: number;
+  min_visibility: number;
+  /** relative limb-length tolerance */
+  length_tolerance: number;
+}
+
 /** A video's pose extraction: frames, frame rate [Hz] and warnings. */
 export interface PoseResult {
   /** [Hz] */
@@ -438,6 +909,18 @@ export interface PsoDefaults {
   iterations?: number;
   n_samples?: number;
   seed?: number;
+}
+
+/** An implausible stored EMG rate and the likely one (``RateCheck.to_dict``). */
+export interface RateCheckOut {
+  /** the rate the file states [Hz] */
+  stored_rate_hz: number;
+  /** where the spectrum looks like EMG [Hz] */
+  suggested_rate_hz: number;
+  /** spectral median at the stored rate [Hz] */
+  median_frequency_hz: number;
+  channels: string[];
+  reason: string;
 }
 
 /** The collision and workspace check (``app.planning.safety.SafetyReport.to_dict``). */
@@ -530,6 +1013,16 @@ export interface SweepTable {
 export interface TemplateInfo {
   source?: string | null;
   angle_text?: string | null;
+}
+
+/** How well the model predicts one joint's torque. */
+export interface TorqueFit {
+  /** rms of the measured torque [Nm] */
+  rms_measured: number | null;
+  /** rms of measured - predicted [Nm] */
+  residual_rms: number | null;
+  /** R^2; null without spread */
+  r2: number | null;
 }
 
 /** One trajectory's curves on the comparison's grid [SI]. */

@@ -24,9 +24,9 @@ const EFFECT_WORDS = { hedges_g: "Hedges' g", hedges_g_z: "Hedges' g_z", rank_bi
  *   unit?: string | null, help: string }} CohortOption
  */
 /**
- * The comparison's statistics (app/analysis/cohort.py `CohortResult.as_json`): the generated
- * `CohortResult` leaves them `unknown`, so the page reads them untyped.
- * @typedef {any} CohortResult
+ * The comparison's statistics (app/analysis/cohort.py `CohortResult.to_dict`), typed by the
+ * server's model (app/api/result_models.py `CohortResult`).
+ * @typedef {import("./api_types").CohortResult} CohortResult
  */
 /** @typedef {import("./api_types").CohortResultOut} CohortResultOut */
 
@@ -223,12 +223,12 @@ async function resultPage(main, id, stops) {
   if (out.label) /** @type {HTMLElement} */ (head.querySelector("h1")).append(` “${out.label}”`);
   body.append(
     h("p", { class: "small muted" }, `${groups.map((g) => `${g}: ${r.groups[g].n} recording(s)`).join(" · ")}. ${r.subject_rule}.`),
-    ...r.pairings.map((/** @type {any} */ p) => h("p", { class: "small" }, `${p.groups[0]} vs ${p.groups[1]}: ${p.why}`)),
+    ...r.pairings.map((p) => h("p", { class: "small" }, `${p.groups[0]} vs ${p.groups[1]}: ${p.why}`)),
     groupCard(r, groups),
     testsCard(r),
     plotsCard(r),
     orderCard(r, groups),
-    r.warnings.length ? h("details", { class: "card" }, h("summary", {}, `${r.warnings.length} warning(s) from the analysis`), h("ul", {}, r.warnings.map((/** @type {string} */ w) => h("li", { class: "small" }, w)))) : "");
+    r.warnings.length ? h("details", { class: "card" }, h("summary", {}, `${r.warnings.length} warning(s) from the analysis`), h("ul", {}, r.warnings.map((w) => h("li", { class: "small" }, w)))) : "");
   drawPlots(r, groups, colour);
 }
 
@@ -263,16 +263,17 @@ function testsCard(r) {
     h("p", { class: "small", id: "cohort-correction" }, `Correction: ${c.statement}.`),
     h("div", { class: "table-wrap" }, h("table", { id: "cohort-tests" },
       h("thead", {}, h("tr", {}, ["Measure", "Groups", "Test", "Statistic", "p", `p (${c.method})`, "Effect", "Why this test"].map((x) => h("th", {}, x)))),
-      h("tbody", {}, r.tests.map((/** @type {any} */ t) => h("tr", { class: t.significant ? "significant" : "" },
+      h("tbody", {}, r.tests.map((t) => h("tr", { class: t.significant ? "significant" : "" },
         h("td", { class: "mono small" }, t.measure),
         h("td", { class: "small" }, `${t.groups[0]} vs ${t.groups[1]} (${t.design}, n ${t.n.join("/")})`),
         t.skipped
           ? h("td", { colspan: "6", class: "muted small test-skipped" }, `not tested: ${t.skipped}`)
-          : [h("td", {}, TEST_WORDS[t.test] || t.test),
+          // A tested comparison (no `skipped`) names its test and effect.
+          : [h("td", {}, TEST_WORDS[/** @type {string} */ (t.test)] || t.test),
             h("td", { class: "num" }, fmt(t.statistic)),
             h("td", { class: "num p-value" }, fmt(t.p, 3)),
             h("td", { class: "num p-adjusted" }, h("strong", {}, fmt(t.p_adjusted, 3)), t.significant ? " *" : ""),
-            h("td", { class: "small" }, `${EFFECT_WORDS[t.effect_name] || t.effect_name || ""} ${fmt(t.effect, 3)}`),
+            h("td", { class: "small" }, `${EFFECT_WORDS[/** @type {string} */ (t.effect_name)] || t.effect_name || ""} ${fmt(t.effect, 3)}`),
             h("td", { class: "small muted" }, t.rule)]))))),
     h("p", { class: "small muted" }, `* adjusted p < ${c.alpha}. Effects: the first group minus the second.`));
 }
@@ -293,9 +294,9 @@ function plotsCard(r) {
 function drawPlots(r, groups, colour) {
   for (const m of Object.keys(r.units)) {
     const traces = groups.map((g) => {
-      const members = r.recordings.filter((/** @type {any} */ x) => x.group === g && x.measures[m] !== null && x.measures[m] !== undefined);
+      const members = r.recordings.filter((x) => x.group === g && x.measures[m] !== null && x.measures[m] !== undefined);
       return {
-        type: "box", name: g, y: members.map((/** @type {any} */ x) => x.measures[m]), text: members.map((/** @type {any} */ x) => `${x.source} (${x.subject})`),
+        type: "box", name: g, y: members.map((x) => x.measures[m]), text: members.map((x) => `${x.source} (${x.subject})`),
         boxpoints: "all", jitter: 0.4, pointpos: 0, marker: { color: colour[g], size: 7 }, line: { color: colour[g] },
         hovertemplate: "%{text}: %{y}<extra></extra>",
       };

@@ -239,6 +239,7 @@ function identifyCard(log, stops, onVersion) {
         progress.append(banner("error", final.error || `The identification ${final.state}.`));
         return;
       }
+      /** @type {import("./api_types").IdentificationResultOut} */
       const out = await api(final.result_url);
       line.textContent = `Stored as robot ${out.version}: select it on the Plan page.`;
       progress.append(h("p", { id: "identify-done" }, h("a", { href: `#/plan?robot=${encodeURIComponent(out.version)}` }, `Plan with ${out.version} →`)));
