@@ -124,10 +124,19 @@ def test_a_stored_result_survives_a_restart(server: Server) -> None:
     assert _wait(server, job_id, {"succeeded", "failed"})["state"] == "succeeded"
     stored = _stored(server.data_dir, "SELECT job_id FROM result_blobs")
     assert (job_id,) in stored
-    before = server.get(f"/api/plans/{job_id}")["result"]
+    before = _plan_result(server, job_id)
     server.stop()
     server.start()  # the start-up clean-up removes unreferenced files: this one is referenced
-    assert server.get(f"/api/plans/{job_id}")["result"] == before
+    assert _plan_result(server, job_id) == before
+
+
+def _plan_result(server: Server, job_id: int) -> object:
+    """The stored plan's result (a failed read says what the server answered)."""
+    response = httpx.get(f"{server.url}/api/plans/{job_id}", timeout=60)
+    assert response.status_code == 200, response.text
+    body = response.json()
+    assert "result" in body, body
+    return body["result"]
 
 
 def test_a_change_that_would_queue_past_the_bound_is_refused_whole(tmp_path: Path) -> None:
