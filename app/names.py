@@ -170,15 +170,7 @@ HUMAN_CONSTRAINT_TEXT: dict[str, str] = {
 OPTIMAL_INTERVALS = 40
 #: Metrics a Pareto front can trade (``app.planning.front``; ``peak_torque``: the largest
 #: |τ_j| / τ_max,j; ``jerk``: ∫ Σ q⃛² dt [rad²/s⁵], a smoothness measure).
-FRONT_METRICS: tuple[str, ...] = (
-    "tau_sq",
-    "abs_work",
-    "pos_work",
-    "electrical_energy",
-    "peak_power",
-    "peak_torque",
-    "jerk",
-)
+FRONT_METRICS: tuple[str, ...] = (*OBJECTIVES, "jerk")
 #: Every axis of a front: the metrics and the duration [s].
 FRONT_AXES: tuple[str, ...] = (*FRONT_METRICS, "duration")
 #: A front's axes it measures differently from ``METRICS`` (or that they do not name): axis ->

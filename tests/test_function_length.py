@@ -18,8 +18,11 @@ MAX_LINES = 80
 
 #: ``path:qualname`` -> why it may stay over MAX_LINES.
 ALLOWED: dict[str, str] = {
-    # A migration is history: once released it is never edited (a new revision changes it).
-    "app/db/migrations/versions/0001_initial_schema.py:upgrade": "migration history, never edited",
+    # A migration is history: the schema it makes never changes (a new revision changes it;
+    # tests/db/test_migration_schemas.py holds every revision's schema), so its table list
+    # stays one readable block rather than being cut into arbitrary pieces.
+    "app/db/migrations/versions/0001_initial_schema.py:upgrade": "migration history: one "
+    "block per revision, its schema pinned by test_migration_schemas",
 }
 
 

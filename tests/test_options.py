@@ -284,6 +284,40 @@ def test_every_api_option_is_its_field(cls: type, model: Any, _command: str) -> 
             assert field["maxItems"] == spec.meta["max_items"]
 
 
+@pytest.mark.parametrize(("cls", "model", "_command"), INTERFACES)
+def test_the_request_offers_exactly_the_api_options(cls: type, model: Any, _command: str) -> None:
+    """Beside its hand-written base (robot, task, workers), a request model has one field per
+    API option of its dataclass and no other: none is written twice, none is forgotten."""
+    own = set(model.model_fields) - set(model.__base__.model_fields)
+    assert own == {s.name for s in option_specs(cls) if s.meta["api"]}
+
+
+def test_the_profiles_request_takes_the_pso_options_from_plan_options() -> None:
+    """``ProfilesRequest``'s duration, objective and PSO budget are ``PlanOptions``' fields:
+    the same default, bounds, choices and description as the plan request's."""
+    from app.api.schemas import PROFILES_OPTIONS
+
+    profiles = ProfilesRequest.model_json_schema()["properties"]
+    plan = PlanRequest.model_json_schema()["properties"]
+    assert set(PROFILES_OPTIONS) == {"duration", "objective", "seed", "particles", "iterations"}
+    for spec in option_specs(PlanOptions):
+        if spec.name not in PROFILES_OPTIONS:
+            continue
+        field = profiles[spec.name]
+        assert _schema_without_title(field) == _schema_without_title(plan[spec.name])
+        assert field["default"] == spec.default
+        for key, bound in spec.bounds().items():
+            assert field[_JSON_BOUNDS[key]] == bound, (spec.name, key)
+    assert profiles["particles"]["minimum"] == 2 and profiles["particles"]["maximum"] == 1000
+    assert profiles["seed"]["maximum"] == 2**32 - 1
+    # ``methods`` stays its own: a comparison of the profiles alone plans none.
+    assert ProfilesRequest(methods=[]).model_dump()["methods"] == []
+    with pytest.raises(ValueError, match="has no option"):
+        options_model(PlanOptions, "Bad", only=["particle_count"])
+    only = options_model(PlanOptions, "OnlyPso", only=["seed", "particles"]).model_fields
+    assert set(only) == {"seed", "particles"}
+
+
 def test_analysis_request_shares_the_analysis_options(tmp_path: Path) -> None:
     schema = AnalysisRequest.model_json_schema()["properties"]
     for spec in option_specs(AnalysisOptions):

@@ -171,6 +171,10 @@ class CohortOptions(Options):
 
 # -- per recording ---------------------------------------------------------------------------
 
+#: The fields of :class:`RecordingMeasures` that say which recording it is and whose, in the
+#: order the JSON form and the CSV give them.
+IDENTITY_FIELDS = ("group", "source", "subject", "subject_from")
+
 
 @dataclass(frozen=True)
 class RecordingMeasures:
@@ -199,12 +203,13 @@ class RecordingMeasures:
     lift_orders: tuple[tuple[str, ...], ...] = ()
     warnings: tuple[str, ...] = ()
 
+    def identity(self) -> dict[str, str]:
+        """Which recording this is and whose: the :data:`IDENTITY_FIELDS` by name, in order
+        (the first keys of :meth:`to_dict` and the first columns of the CSV)."""
+        return {name: getattr(self, name) for name in IDENTITY_FIELDS}
+
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "group": self.group,
-            "source": self.source,
-            "subject": self.subject,
-            "subject_from": self.subject_from,
+        return self.identity() | {
             "measures": dict(self.values),
             "missing": dict(self.missing),
             "activation_order": list(self.activation_order),
@@ -1012,12 +1017,11 @@ def write_cohort_csv(result: CohortResult, path: str | Path) -> list[Path]:
     names = list(result.units)
     with out.open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
-        w.writerow(["group", "source", "subject", "subject_from", *names, "activation_order",
-                    "missing"])  # fmt: skip
+        w.writerow([*IDENTITY_FIELDS, *names, "activation_order", "missing"])
         for r in result.recordings:
             values = [r.values.get(k) for k in names]
             w.writerow(
-                [r.group, r.source, r.subject, r.subject_from]
+                list(r.identity().values())
                 + [_cell(v) for v in values]
                 + [ORDER_SEP.join(r.activation_order),
                    "; ".join(f"{k}: {v}" for k, v in r.missing.items())]

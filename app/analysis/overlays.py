@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.analysis.downsample import minmax_downsample
+from app.analysis.segmentation import PhaseMeta
 from app.errors import BioPlanError
 from app.jsonsafe import json_safe
 
@@ -39,15 +40,6 @@ _ANGLE_SERIES = ("shoulder_deg", "elbow_deg", "shoulder_velocity_deg_s", "elbow_
 
 class OverlaysError(BioPlanError):
     """Stored overlays that this module did not write, or an impossible window."""
-
-
-class PhaseMeta(TypedDict):
-    """A phase of a lift in the overlays' meta: times [s] on its file's clock."""
-
-    name: str
-    part: str
-    start_s: float
-    end_s: float
 
 
 class LiftMeta(TypedDict):
@@ -77,15 +69,7 @@ def _lift_meta(source: str, report: LiftReport) -> LiftMeta:
         "hold_s": list(lift.hold),
         "end_s": lift.end,
         "peak_velocity_angle_deg": math.degrees(report.profile.peak_velocity_angle),
-        "phases": [
-            {
-                "name": p.phase.name,
-                "part": p.phase.part,
-                "start_s": p.phase.start,
-                "end_s": p.phase.end,
-            }
-            for p in report.phases
-        ],
+        "phases": [p.phase.to_dict() for p in report.phases],
         "activation_order": list(report.activation_order),
     }
 

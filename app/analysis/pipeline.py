@@ -113,10 +113,7 @@ class PhaseStats:
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "name": self.phase.name,
-            "part": self.phase.part,
-            "start_s": self.phase.start,
-            "end_s": self.phase.end,
+            **self.phase.to_dict(),
             "duration_s": self.phase.duration,
             "emg_mean": self.emg_mean,
             "emg_peak": self.emg_peak,

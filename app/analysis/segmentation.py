@@ -9,7 +9,7 @@ DESIGN.md: A [0, 40) deg, B [40, 90) deg, C [90, 150] deg of elbow flexion by de
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -64,6 +64,16 @@ class Lift:
         return self.end - self.start
 
 
+class PhaseMeta(TypedDict):
+    """JSON form of a :class:`Phase` (the overlays' meta, each lift's phase statistics):
+    times [s] on its file's clock."""
+
+    name: str
+    part: str
+    start_s: float
+    end_s: float
+
+
 @dataclass(frozen=True)
 class Phase:
     """One phase of one part of a lift.
@@ -82,6 +92,9 @@ class Phase:
     @property
     def duration(self) -> float:
         return self.end - self.start
+
+    def to_dict(self) -> PhaseMeta:
+        return {"name": self.name, "part": self.part, "start_s": self.start, "end_s": self.end}
 
 
 def _rate_of(t: NDArray[np.float64]) -> float:

@@ -9,6 +9,7 @@ script can move between ``bioplan plan --json`` and ``POST /api/plans``. SI unit
 from __future__ import annotations
 
 import json
+from collections.abc import Collection
 from datetime import datetime
 from typing import TYPE_CHECKING, Annotated, Any, Generic, Literal, TypeVar, get_args
 
@@ -25,7 +26,6 @@ from pydantic import (
 
 from app.kinds import KindName
 from app.names import (
-    DEFAULT_OBJECTIVE,
     FRONT_AXES,
     HUMAN_CONSTRAINTS,
     JOB_STATES,
@@ -35,7 +35,6 @@ from app.names import (
     OBJECTIVES,
     OPTIMAL_INTERVALS,
     PHASE_BOUNDS_DEG,
-    PSO_DEFAULTS,
     STANDARD_METHODS,
     MethodInfo,
     MetricInfo,
@@ -177,16 +176,29 @@ def option_field(cls: type, name: str, **extra: object) -> Any:
 
 
 def options_model(
-    cls: type, name: str, *, base: type[BaseModel] | None = None, doc: str | None = None
+    cls: type,
+    name: str,
+    *,
+    base: type[BaseModel] | None = None,
+    doc: str | None = None,
+    only: Collection[str] | None = None,
 ) -> type[BaseModel]:
     """A request model with every API option of options dataclass ``cls`` (``api`` not False),
-    each from :func:`option_type` and :func:`option_field`."""
+    each from :func:`option_type` and :func:`option_field`, after the fields of ``base``.
+
+    Args:
+        only: the names of the options to take (in ``cls``'s order), when a request offers
+            some of an operation's options (``ProfilesRequest``: the PSO's); default: all.
+    """
     from pydantic import create_model
 
+    unknown = sorted(set(only or ()) - {s.name for s in option_specs(cls)})
+    if unknown:
+        raise ValueError(f"{cls.__name__} has no option(s) {', '.join(unknown)}")
     spec = {
         s.name: (option_type(cls, s.name), option_field(cls, s.name))
         for s in option_specs(cls)
-        if s.meta.get("api", True)
+        if s.meta.get("api", True) and (only is None or s.name in only)
     }
     model: type[BaseModel] = create_model(  # type: ignore[call-overload]
         name, __base__=base or _Request, __doc__=doc or cls.__doc__, **spec
@@ -348,6 +360,10 @@ if TYPE_CHECKING:
 else:  # a site, or "none" to unmap a channel the reader mapped
     SiteOrNone = Literal[(*MUSCLE_COLOURS, "none")]
 ChannelName = Annotated[str, Field(min_length=1, max_length=200)]
+#: Channel label -> EMG site (``"none"`` unmaps a channel the reader mapped), 200 at most.
+MuscleMap = Annotated[dict[ChannelName, SiteOrNone], Field(max_length=200)]
+#: Channel labels (500 at most).
+ChannelNames = Annotated[list[ChannelName], Field(max_length=500)]
 
 
 class ChannelInfo(BaseModel):
@@ -459,13 +475,11 @@ class RecordingPatch(_Request):
     )
     load_kg: float | None = Field(default=None, ge=0, le=100, description="load lifted [kg]")
     session: SessionMode | None = Field(default=None, description="separate or together")
-    muscle_map: dict[ChannelName, SiteOrNone] | None = Field(
-        default=None,
-        max_length=200,
-        description='channel label -> site ("none" unmaps); replaces the stored map',
+    muscle_map: MuscleMap | None = Field(
+        default=None, description='channel label -> site ("none" unmaps); replaces the stored map'
     )
-    exclude_channels: list[ChannelName] | None = Field(
-        default=None, max_length=500, description="channels left out of the analysis"
+    exclude_channels: ChannelNames | None = Field(
+        default=None, description="channels left out of the analysis"
     )
     emg_rate: float | None = Field(
         default=None, ge=EMG_RATE_MIN_HZ, le=RATE_MAX_HZ, description="true EMG rate [Hz]"
@@ -547,13 +561,11 @@ class AnalysisRequest(_Request):
     emg_rate: float | None = Field(
         default=None, ge=EMG_RATE_MIN_HZ, le=RATE_MAX_HZ, description="override [Hz]"
     )
-    muscle_map: dict[ChannelName, SiteOrNone] | None = Field(
-        default=None,
-        max_length=200,
-        description="channel label -> EMG site; overrides the upload's",
+    muscle_map: MuscleMap | None = Field(
+        default=None, description="channel label -> EMG site; overrides the upload's"
     )
-    exclude_channels: list[ChannelName] | None = Field(
-        default=None, max_length=500, description="channels left out; default: the recording's"
+    exclude_channels: ChannelNames | None = Field(
+        default=None, description="channels left out; default: the recording's"
     )
     phase_bounds_deg: tuple[_OpenAngle, _OpenAngle] = Field(
         default=PHASE_BOUNDS_DEG, description="A/B and B/C elbow-flexion bounds [deg], in order"
@@ -644,6 +656,29 @@ class PoseOut(BaseModel):
 # ----------------------------------------------------------------------------------- plans
 
 
+#: A task's start or goal joint angles [deg] (the service checks there is one per joint).
+JointAnglesDeg = list[Annotated[float, Field(ge=-720, le=720)]] | None
+
+
+def _task_angles(end: str) -> Any:
+    """The request field of a task's ``end`` (``"start"`` or ``"goal"``) joint angles [deg]."""
+    return Field(
+        default=None, max_length=32, description=f"{end} joint angles (default: the curl task's)"
+    )
+
+
+def _payload_field() -> Any:
+    """The request field of the payload [kg] a task carries (None: the robot's own)."""
+    return Field(default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)")
+
+
+def _template_analysis_field() -> Any:
+    """The request field naming a finished analysis whose human template a task takes."""
+    return Field(
+        default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
+    )
+
+
 class _RobotTask(_Request):
     """The robot and the task of a plan or a simulation; their options are added from
     ``PlanOptions`` / ``SimulationOptions`` (:func:`options_model`)."""
@@ -654,21 +689,13 @@ class _RobotTask(_Request):
         pattern=ROBOT_NAME,
         description="built-in or uploaded robot name",
     )
-    payload: float | None = Field(
-        default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
-    )
-    start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
-        default=None, max_length=32, description="start joint angles (default: the curl task's)"
-    )
-    goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
-        default=None, max_length=32, description="goal joint angles (default: the curl task's)"
-    )
+    payload: float | None = _payload_field()
+    start_deg: JointAnglesDeg = _task_angles("start")
+    goal_deg: JointAnglesDeg = _task_angles("goal")
     template: dict[str, object] | None = Field(
         default=None, description="a HumanTemplate (as written by `bioplan analyze --out`)"
     )
-    template_analysis_id: int | None = Field(
-        default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
-    )
+    template_analysis_id: int | None = _template_analysis_field()
 
 
 class _SweepTarget(_Request):
@@ -706,18 +733,9 @@ if TYPE_CHECKING:  # what type checkers see; the models themselves are generated
     class SimulationRequest(_MethodFields):
         pass
 
-    class SweepRequest(_SweepTarget):
-        durations: list[float]
-        payloads: list[float]
-        objectives: list[str]
-        seed: int
-        particles: int
-        iterations: int
-        methods: list[str]
-        check_seed: int
-        no_check: bool
-        seeds: int
-        converge: bool
+    # The grid's fields are ``SweepGrid``'s, read through it (``SweepGrid.from_payload``):
+    # type checkers see the robot and the workers only.
+    SweepRequest = _SweepTarget
 
 else:
     # Every option field (default, range, choices, unit, help) comes from its dataclass: a new
@@ -759,9 +777,7 @@ class FrontRequest(_Request):
     robot: str = Field(
         default="curtain_wall_6dof", pattern=ROBOT_NAME, description="built-in or uploaded robot"
     )
-    payload_mass: float | None = Field(
-        default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
-    )
+    payload_mass: float | None = _payload_field()
     # Before ``duration`` and ``max_duration``: their checks read it.
     objectives: Distinct[FrontAxis] = Field(
         min_length=2,
@@ -804,18 +820,12 @@ class FrontRequest(_Request):
         description="the duration axis' longest duration [s] (default: 3 x the shortest "
         "feasible); only with duration as an axis",
     )
-    start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
-        default=None, max_length=32, description="start joint angles (default: the curl task's)"
-    )
-    goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
-        default=None, max_length=32, description="goal joint angles (default: the curl task's)"
-    )
+    start_deg: JointAnglesDeg = _task_angles("start")
+    goal_deg: JointAnglesDeg = _task_angles("goal")
     template: dict[str, object] | None = Field(
         default=None, description="a HumanTemplate (human_optimal's; default: the paper's)"
     )
-    template_analysis_id: int | None = Field(
-        default=None, ge=1, le=2**31 - 1, description="use the template of this finished analysis"
-    )
+    template_analysis_id: int | None = _template_analysis_field()
 
     @field_validator("duration")
     @classmethod
@@ -840,38 +850,44 @@ class FrontRequest(_Request):
         return value
 
 
-class ProfilesRequest(_Request):
-    """Classical profiles, minimum torque change and the planning methods on one task
-    (``bioplan profiles``)."""
+class _ProfilesTask(_Request):
+    """The robot, the task and the baselines of a profiles comparison; the planning methods'
+    duration, objective and PSO budget are added from ``PlanOptions`` (:func:`options_model`)."""
 
     robot: str = Field(
         default="curtain_wall_6dof", pattern=ROBOT_NAME, description="built-in or uploaded robot"
     )
-    duration: float = Field(default=1.0, gt=0, le=MAX_DURATION, description="motion time [s]")
-    payload: float | None = Field(
-        default=None, ge=0, le=10000, description="payload [kg] (default: the robot's)"
-    )
-    start_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
-        default=None, max_length=32, description="start joint angles (default: the curl task's)"
-    )
-    goal_deg: list[Annotated[float, Field(ge=-720, le=720)]] | None = Field(
-        default=None, max_length=32, description="goal joint angles (default: the curl task's)"
-    )
+    payload: float | None = _payload_field()
+    start_deg: JointAnglesDeg = _task_angles("start")
+    goal_deg: JointAnglesDeg = _task_angles("goal")
     min_torque_change: bool = Field(
         default=True, description="also solve the minimum-torque-change baseline (IPOPT)"
     )
     mtc_intervals: int = Field(
         default=100, ge=8, le=400, description="intervals of the minimum-torque-change solve"
     )
+    # Not ``PlanOptions.methods``: a comparison of the profiles alone plans none ([]).
     methods: Distinct[MethodName] = Field(
         default=list(STANDARD_METHODS),
         max_length=len(METHODS),
         description="planning methods listed beside the profiles ([] = none; default: all)",
     )
-    objective: Objective = Field(default=DEFAULT_OBJECTIVE, description="the planning methods' one")
-    seed: int = Field(default=PSO_DEFAULTS.seed, ge=0, le=2**32 - 1)
-    particles: int = Field(default=PSO_DEFAULTS.particles, ge=2, le=1000)
-    iterations: int = Field(default=PSO_DEFAULTS.iterations, ge=1, le=10000)
+
+
+#: The ``PlanOptions`` a profiles comparison offers (the planning methods beside the profiles).
+PROFILES_OPTIONS = ("duration", "objective", "seed", "particles", "iterations")
+
+if TYPE_CHECKING:
+    ProfilesRequest = _ProfilesTask
+else:
+    ProfilesRequest = options_model(
+        PlanOptions,
+        "ProfilesRequest",
+        base=_ProfilesTask,
+        only=PROFILES_OPTIONS,
+        doc="Classical profiles, minimum torque change and the planning methods on one task\n"
+        "(``bioplan profiles``).",
+    )
 
 
 # ---------------------------------------------------------------------------------- cohorts

@@ -87,6 +87,13 @@ def emit(args: argparse.Namespace, payload: dict[str, Any], text: str) -> None:
         print(text)
 
 
+def add_json_args(p: argparse.ArgumentParser, *, out: bool = True) -> None:
+    """--json and (unless ``out`` is False) --out FILE: what :func:`emit` reads."""
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    if out:
+        p.add_argument("--out", default=None, help="also write the JSON to this file")
+
+
 def progress_printer(enabled: bool) -> ProgressFn | None:
     """A progress bar on stderr (never stdout, which carries the JSON), when it is a terminal."""
     if not enabled or not sys.stderr.isatty():
@@ -157,6 +164,7 @@ def add_options(
     cls: type,
     *,
     exclude: Sequence[str] = (),
+    only: Sequence[str] | None = None,
 ) -> None:
     """One flag per option of an options dataclass (``PlanOptions``...), built from its field:
     the flag, type, default, choices, unit and range all come from there.
@@ -165,9 +173,13 @@ def add_options(
         p: the command's parser.
         cls: the options dataclass; only its fields offered on the command line (``cli``).
         exclude: options this command does not offer although the dataclass has them.
+        only: the options this command offers, when it offers a few of the dataclass's
+            (``bioplan submit``: what it sends); None: all but ``exclude``.
     """
     for spec in option_specs(cls):
         if not spec.meta.get("cli", True) or spec.name in exclude:
+            continue
+        if only is not None and spec.name not in only:
             continue
         flag, scale, _ = _cli_spec(spec)
         kwargs: dict[str, Any] = {"dest": spec.name, "help": _cli_help(spec)}
@@ -192,9 +204,17 @@ def add_options(
         p.add_argument(flag, **kwargs)
 
 
-def options_from_args(cls: type[OptionsT], args: argparse.Namespace) -> OptionsT:
+def options_from_args(
+    cls: type[OptionsT], args: argparse.Namespace, *, exclude: Sequence[str] = ()
+) -> OptionsT:
     """The options dataclass ``cls`` from parsed flags; options without a flag on this command
     keep their defaults.
+
+    Args:
+        cls: the options dataclass.
+        args: the parsed flags.
+        exclude: options whose flags the command reads itself (another form than the field's,
+            as given to :func:`add_options`): they keep their defaults here.
 
     Raises:
         CliError: a value out of its range or choices, naming the flag.
@@ -202,7 +222,7 @@ def options_from_args(cls: type[OptionsT], args: argparse.Namespace) -> OptionsT
     given = vars(args)
     values: dict[str, Any] = {}
     for spec in option_specs(cls):
-        if spec.name not in given:
+        if spec.name not in given or spec.name in exclude:
             continue
         flag, scale, _ = _cli_spec(spec)
         value = given[spec.name]
@@ -236,12 +256,7 @@ def floats(text: str, name: str) -> list[float]:
 
 def add_robot_args(p: argparse.ArgumentParser) -> None:
     """--robot, --mjcf, the onboarding options, --duration, --payload, --start-deg, --goal-deg."""
-    p.add_argument(
-        "--robot",
-        default="curtain_wall_6dof",
-        help="built-in robot name (human_arm_2dof, curtain_wall_6dof), a URDF path, or an MJCF "
-        "path alone",
-    )
+    add_robot_flag(p)
     p.add_argument(
         "--mjcf",
         default=None,
@@ -261,6 +276,17 @@ def add_robot_args(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--goal-deg", default=None, help="goal joint angles [deg], comma-separated (all joints)"
+    )
+
+
+def add_robot_flag(p: argparse.ArgumentParser, *, required: bool = False) -> None:
+    """--robot: a built-in robot's name or a robot file (the curtain wall unless ``required``)."""
+    p.add_argument(
+        "--robot",
+        required=required,
+        default=None if required else "curtain_wall_6dof",
+        help="built-in robot name (human_arm_2dof, curtain_wall_6dof), a URDF path, or an MJCF "
+        "path alone",
     )
 
 
@@ -311,14 +337,24 @@ def parse_locks(entries: Sequence[str]) -> dict[str, float]:
         name, sep, text = entry.partition("=")
         if not sep or not name.strip():
             raise CliError(f"--lock {entry!r}: expected NAME=VALUE")
-        try:
-            value = float(text)
-        except ValueError:
-            raise CliError(f"--lock {entry!r}: expected a number after '='") from None
-        if not math.isfinite(value):
-            raise CliError(f"--lock {entry!r}: expected a finite number")
-        out[name.strip()] = value
+        out[name.strip()] = finite(
+            text,
+            not_number=f"--lock {entry!r}: expected a number after '='",
+            not_finite=f"--lock {entry!r}: expected a finite number",
+        )
     return out
+
+
+def finite(text: str, *, not_number: str, not_finite: str) -> float:
+    """``text`` as a finite number, else a CliError in the caller's words for each case
+    (an option's own message: what it expected, naming the flag)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise CliError(not_number) from None
+    if not math.isfinite(value):
+        raise CliError(not_finite)
+    return value
 
 
 def load_robot(args: argparse.Namespace) -> Any:

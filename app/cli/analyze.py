@@ -14,9 +14,20 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError, floats, positive, progress_printer, write_out
+from app.analysis.pipeline import AnalysisOptions
+from app.cli._common import (
+    CliError,
+    add_json_args,
+    add_options,
+    finite,
+    floats,
+    options_from_args,
+    positive,
+    progress_printer,
+    write_out,
+)
 from app.jsonsafe import json_safe
-from app.names import MAX_VIDEO_SECONDS
+from app.names import MAX_VIDEO_SECONDS, PHASE_BOUNDS_DEG
 
 
 def _muscle_map(pairs: Sequence[str] | None) -> dict[str, str] | None:
@@ -34,13 +45,11 @@ def _muscle_map(pairs: Sequence[str] | None) -> dict[str, str] | None:
 def _offset(text: str | None) -> float | str | None:
     if text is None or text == "auto":
         return text
-    try:
-        value = float(text)
-    except ValueError:
-        raise CliError(f"--offset expects seconds or 'auto', got {text!r}") from None
-    if not math.isfinite(value):
-        raise CliError(f"--offset must be finite, got {text!r}")
-    return value
+    return finite(
+        text,
+        not_number=f"--offset expects seconds or 'auto', got {text!r}",
+        not_finite=f"--offset must be finite, got {text!r}",
+    )
 
 
 def _bounds(text: str) -> tuple[float, float]:
@@ -104,13 +113,21 @@ def _unused_pose_options(args: argparse.Namespace, recordings: list[Any]) -> lis
     return out
 
 
-def _settings(args: argparse.Namespace) -> dict[str, Any]:
-    """Keyword options of :func:`app.analysis.analyze_recordings` from the flags."""
-    if args.emg_rate is not None:
-        positive("emg-rate", args.emg_rate)
-    if args.frame_rate is not None:
-        positive("frame-rate", args.frame_rate)
-    positive("max-video-seconds", args.max_video_seconds)
+#: The ``AnalysisOptions`` whose flags are written here by hand, as the command line takes them
+#: in another form than the field (for each: its flags; none: the CLI does not offer it).
+#: Every other field is a flag made from the field (``add_options``).
+HAND_MADE: dict[str, tuple[str, ...]] = {
+    "muscle_map": ("--muscle",),  # repeated LABEL=SITE, not one mapping
+    "exclude_channels": ("--exclude",),  # repeated, one channel each
+    "bounds": ("--phase-bounds-deg",),  # "A/B,B/C" in degrees; the field is in radians
+    "offset": ("--offset",),  # seconds or 'auto' in one text
+    "pose_options": ("--side", "--landmarks"),  # two of arm_angles' options
+    "emg_options": (),  # library only: emg_process's filter settings
+}
+
+
+def _pose_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The options of :func:`app.analysis.arm_angles` that --side and --landmarks give."""
     pose: dict[str, Any] = {}
     if args.side != "auto":
         pose["side"] = args.side
@@ -119,18 +136,40 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
         landmark_spec(args.landmarks)  # an unknown preset or a malformed mapping stops here
         pose["landmarks"] = args.landmarks
+    return pose
+
+
+def analysis_options(args: argparse.Namespace) -> AnalysisOptions:
+    """Every option of the analysis from the flags: the fields made into flags as they are,
+    the :data:`HAND_MADE` ones read from their flags here.
+
+    Raises:
+        CliError: a value out of its range or malformed, naming the flag.
+    """
+    made = options_from_args(AnalysisOptions, args, exclude=tuple(HAND_MADE))
+    return made.replace(
+        muscle_map=_muscle_map(args.muscle),
+        exclude_channels=frozenset(args.exclude or ()),
+        bounds=tuple(math.radians(b) for b in _bounds(args.phase_bounds_deg)),
+        offset=_offset(args.offset),
+        pose_options=_pose_options(args),
+    )
+
+
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword options of :func:`app.analysis.analyze_recordings` from the flags."""
+    options = analysis_options(args)
+    if args.frame_rate is not None:
+        positive("frame-rate", args.frame_rate)
+    positive("max-video-seconds", args.max_video_seconds)
     return {
-        "emg_rate": args.emg_rate,
-        "muscle_map": _muscle_map(args.muscle),
-        "exclude_channels": args.exclude or (),
+        # Every analysis option under its own name; the phase bounds as given, in degrees.
+        **{name: getattr(options, name) for name in options.names() if name != "bounds"},
         "phase_bounds_deg": _bounds(args.phase_bounds_deg),
         "body_mass": positive("body-mass", args.body_mass),
         "body_height": positive("body-height", args.body_height),
         "load_mass": args.load,
-        "offset": _offset(args.offset),
         "together": args.together,
-        "pose_options": pose,
-        "keep_low_quality_lifts": args.keep_low_quality_lifts,
     }
 
 
@@ -237,7 +276,6 @@ def _add_input_arguments(p: argparse.ArgumentParser) -> None:
         help="recording files (format detected from content); videos (mp4, mov, avi) are"
         " turned into pose first",
     )
-    p.add_argument("--emg-rate", type=float, default=None, help="override the stored EMG rate [Hz]")
     p.add_argument(
         "--muscle", action="append", default=None, metavar="LABEL=SITE", help="map a channel"
     )
@@ -283,13 +321,13 @@ def _add_input_arguments(p: argparse.ArgumentParser) -> None:
 def _add_analysis_arguments(p: argparse.ArgumentParser) -> None:
     """``analyze``'s analysis settings: lift quality, phases, the subject, the load and how
     videos are turned into pose (the pose environment, the longest video)."""
+    # Every AnalysisOptions field but the hand-made ones (the EMG rate, keeping low-quality lifts).
+    add_options(p, AnalysisOptions, exclude=tuple(HAND_MADE))
     p.add_argument(
-        "--keep-low-quality-lifts",
-        action="store_true",
-        help="keep lifts on mostly low-quality pose frames (another person tracked, arm poorly"
-        " seen, implausible limb lengths) in the template; default: flagged and left out",
+        "--phase-bounds-deg",
+        default=",".join(f"{b:g}" for b in PHASE_BOUNDS_DEG),
+        help="A/B and B/C elbow angles [deg]",
     )
-    p.add_argument("--phase-bounds-deg", default="40,90", help="A/B and B/C elbow angles [deg]")
     p.add_argument("--body-mass", type=float, default=75.0, help="subject mass [kg]")
     p.add_argument("--body-height", type=float, default=1.75, help="subject height [m]")
     p.add_argument("--load", type=float, default=12.0, help="dumbbell mass [kg]")
@@ -312,7 +350,7 @@ def _add_output_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--skeletons", default=None, metavar="DIR", help="write video frames with the skeleton"
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_args(p, out=False)
     p.add_argument("--out", default=None, help="write the HumanTemplate JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write figures into DIR")
 

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError, add_options, options_from_args
+from app.cli._common import CliError, add_json_args, add_options, options_from_args
 from app.jsonsafe import json_safe
 
 
@@ -85,7 +85,7 @@ def register(sub: Any) -> None:
     from app.analysis.cohort import CohortOptions
 
     add_options(p, CohortOptions)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_args(p, out=False)
     p.add_argument(
         "--plot",
         default=None,

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError, emit, floats
+from app.cli._common import CliError, add_json_args, emit, floats
 
 
 def _read_result(path: str) -> dict[str, Any]:
@@ -168,5 +168,5 @@ def register(sub: Any) -> None:
         "first moves from there to the plan's start (rest to rest, at most half the speed "
         "and acceleration limits, at least 1 s)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_args(p, out=False)
     p.set_defaults(handler=cmd_export)

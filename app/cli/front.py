@@ -15,6 +15,7 @@ from typing import Any
 from app.cli._common import (
     DURATION_HELP,
     CliError,
+    add_json_args,
     add_robot_args,
     duration,
     emit,
@@ -56,8 +57,7 @@ def add_front_args(p: argparse.ArgumentParser) -> None:
 
 def _add_common(p: argparse.ArgumentParser) -> None:
     add_method_args(p)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_json_args(p)
 
 
 def add_method_args(p: argparse.ArgumentParser) -> None:
@@ -224,8 +224,7 @@ def register(sub: Any) -> None:
         if "--duration" in action.option_strings:
             action.help = FRONT_DURATION_HELP
     add_front_args(p)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_json_args(p)
     p.set_defaults(handler=cmd_front)
 
     p = sub.add_parser(

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError, emit, load_robot, positive
+from app.cli._common import CliError, add_json_args, emit, load_robot, positive
 from app.cli.validate import add_log_robot_args
 
 
@@ -88,5 +88,5 @@ def register(sub: Any) -> None:
         help="identify a point payload (mass, centre of mass) at the payload body instead of "
         "that link's own inertia",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_args(p, out=False)
     p.set_defaults(handler=cmd_identify)

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from app.cli._common import (
+    OptionsT,
     add_export_args,
+    add_json_args,
     add_options,
     add_robot_args,
     attach_motion,
@@ -22,7 +24,7 @@ from app.cli._common import (
     task_from_args,
 )
 from app.jsonsafe import json_safe
-from app.names import DEFAULT_OBJECTIVE, METHODS, OBJECTIVES, PSO_DEFAULTS, STANDARD_METHODS
+from app.names import METHODS, STANDARD_METHODS
 from app.planning.options import PlanOptions
 from app.planning.safety import safety_summary
 
@@ -36,18 +38,31 @@ def add_plan_options(
     p.add_argument("--template", default=None, help="HumanTemplate JSON from `bioplan analyze`")
 
 
-def cmd_plan(args: argparse.Namespace) -> int:
-    from app.planning.planner import plan
+def run_on_task(
+    args: argparse.Namespace, cls: type[OptionsT], run: Callable[..., Any]
+) -> tuple[Any, Any]:
+    """The robot of the flags and ``run`` on its task: ``run(robot, options, task=, template=,
+    progress=)`` (``plan`` or ``simulate_comparison``) with options ``cls`` from the flags.
 
-    duration("duration", args.duration)
+    Returns:
+        (robot, the result of ``run``).
+    """
     robot = load_robot(args)
-    result = plan(
+    result = run(
         robot,
-        options_from_args(PlanOptions, args),
+        options_from_args(cls, args),
         task=task_from_args(args, robot),
         template=load_template(args.template),
         progress=progress_printer(not args.json),
     )
+    return robot, result
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from app.planning.planner import plan
+
+    duration("duration", args.duration)
+    robot, result = run_on_task(args, PlanOptions, plan)
     payload = json_safe(result.to_dict())
     attach_motion(args, robot, result, payload)
     emit(args, payload, _plan_text(robot, args, payload))
@@ -81,14 +96,24 @@ def _convergence_text(conv: dict[str, Any] | None) -> str:
         else f"{s['n_intervals']}: failed"
         for s in conv["sequence"]
     )  # fmt: skip
-    change = conv.get("relative_change")
-    estimate = "n/a" if change is None else f"{100 * change:.3g} %"
+    # Results made before the Richardson estimate have only the last relative change.
+    error = ""
+    if "error_estimate" in conv:
+        how = "Richardson" if conv.get("extrapolated") else "the last change"
+        error = f", error estimate {_percent(conv['error_estimate'])} ({how})"
     state = "converged" if conv.get("converged") else "NOT converged"
     return (
-        f"\n  mesh refinement (intervals: objective) {steps}; error estimate {estimate}, "
-        f"{state} (tolerance {100 * conv['tolerance']:g} %), final mesh "
-        f"{conv['final_intervals']} intervals"
+        f"\n  mesh refinement (intervals: objective) {steps}; relative change "
+        f"{_percent(conv.get('relative_change'))}{error}, {state} (tolerance "
+        f"{100 * conv['tolerance']:g} %), final mesh {conv['final_intervals']} intervals"
     )
+
+
+def _percent(fraction: float | None) -> str:
+    """A relative value [-] in percent, 'n/a' when there is none (NaN becomes None in JSON)."""
+    if fraction is None or not math.isfinite(fraction):
+        return "n/a"
+    return f"{100 * fraction:.3g} %"
 
 
 def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) -> str:
@@ -168,12 +193,12 @@ def cmd_profiles(args: argparse.Namespace) -> int:
     payload = json_safe(result.to_dict())
     rows = [(name, m) for name, m in payload["profiles"].items()]
     if args.method != "none":
+        # --objective and --seed are plan's (PlanOptions'); --method may say none.
+        options = options_from_args(PlanOptions, args)
         planned = plan(
             robot,
+            options,
             task=task,
-            duration=args.duration,
-            objective=args.objective,
-            seed=args.seed,
             methods=args.method.split(","),
             progress=progress_printer(not args.json),
         ).to_dict()
@@ -201,8 +226,7 @@ def register(sub: Any) -> None:
     add_robot_args(p)
     add_plan_options(p)
     add_export_args(p)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_json_args(p)
     p.set_defaults(handler=cmd_plan)
 
     p = sub.add_parser("profiles", help="metrics of the classical profiles on the same task")
@@ -223,12 +247,6 @@ def register(sub: Any) -> None:
         default=",".join(STANDARD_METHODS),
         help="planning methods to list beside the profiles, comma-separated, or none",
     )
-    p.add_argument(
-        "--objective",
-        default=DEFAULT_OBJECTIVE,
-        help="the planning methods' objective, one of " + ", ".join(OBJECTIVES),
-    )
-    p.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed (paper)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_options(p, PlanOptions, only=("objective", "seed"))
+    add_json_args(p)
     p.set_defaults(handler=cmd_profiles)

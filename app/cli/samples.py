@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import CliError, emit
+from app.cli._common import CliError, add_json_args, emit
 
 #: Environment variable naming a folder to copy the samples from instead of downloading them.
 SAMPLES_FROM_ENV = "BIOPLAN_SAMPLES_FROM"
@@ -338,14 +338,12 @@ def cmd_samples(args: argparse.Namespace) -> int:
     return 0
 
 
+#: What ``--list`` tells of each sample (the attributes of that name, in this order).
+LISTED = ("path", "sha256", "size", "license", "url")
+
+
 def _describe(sample: Sample) -> dict[str, Any]:
-    return {
-        "path": sample.path,
-        "sha256": sample.sha256,
-        "size": sample.size,
-        "license": sample.license,
-        "url": sample.url,
-    }
+    return {name: getattr(sample, name) for name in LISTED}
 
 
 def register(sub: Any) -> None:
@@ -372,5 +370,5 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--list", action="store_true", help="list the files, licences and sources; fetch nothing"
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_args(p, out=False)
     p.set_defaults(handler=cmd_samples)

@@ -8,20 +8,18 @@ from typing import Any
 from app.cli._common import (
     CliError,
     add_export_args,
+    add_json_args,
     add_options,
     add_robot_args,
     attach_motion,
     duration,
     emit,
     floats,
-    load_robot,
-    load_template,
     options_from_args,
     positive,
     progress_printer,
-    task_from_args,
 )
-from app.cli.plan import add_plan_options
+from app.cli.plan import add_plan_options, run_on_task
 from app.jsonsafe import json_safe
 
 
@@ -31,14 +29,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     duration("duration", args.duration)
     positive("timestep-ms", args.timestep)  # the flag's own words before the range check
-    robot = load_robot(args)
-    result = simulate_comparison(
-        robot,
-        options_from_args(SimulationOptions, args),
-        task=task_from_args(args, robot),
-        template=load_template(args.template),
-        progress=progress_printer(not args.json),
-    )
+    robot, result = run_on_task(args, SimulationOptions, simulate_comparison)
     payload = json_safe(result.to_dict())
     attach_motion(args, robot, result.plan, payload)
     emit(args, payload, result.summary())
@@ -76,8 +67,7 @@ def register(sub: Any) -> None:
     # The optimal-control transcription's options are the API's and plan's, not simulate's flags.
     add_plan_options(p, SimulationOptions, exclude=("no_reversal", "n_intervals", "converge"))
     add_export_args(p)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_json_args(p)
     p.set_defaults(handler=cmd_simulate)
 
     p = sub.add_parser("sweep", help="savings over a grid of durations and payloads")
@@ -91,6 +81,5 @@ def register(sub: Any) -> None:
         help="where the cells run: local (a pool of --workers processes) or dask://HOST:PORT "
         "(one task per cell on that Dask scheduler's workers)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_json_args(p)
     p.set_defaults(handler=cmd_sweep)

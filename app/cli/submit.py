@@ -20,9 +20,20 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from app.cli._common import DURATION_HELP, EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, write_out
+from app.cli._common import (
+    DURATION_HELP,
+    EXIT_BAD_INPUT,
+    EXIT_FAILED,
+    EXIT_OK,
+    add_options,
+    options_from_args,
+    write_out,
+)
 from app.cli.front import FRONT_DURATION_HELP, add_front_args, check_front_args
-from app.names import DEFAULT_OBJECTIVE, OBJECTIVES, PSO_DEFAULTS, TERMINAL_JOB_STATES
+from app.names import TERMINAL_JOB_STATES
+from app.options import Options
+from app.planning.options import MethodOptions
+from app.simulation.options import SweepGrid
 
 
 class ServiceError(Exception):
@@ -137,6 +148,30 @@ def _floats(text: str | None) -> list[float] | None:
     return [float(v) for v in text.replace(",", " ").split()]
 
 
+#: The options ``submit plan``/``submit simulate`` send (``MethodOptions``' fields) ...
+TASK_OPTIONS = ("objective", "seed", "particles", "iterations", "peak_angle_deg")
+#: ... and ``submit sweep`` (``SweepGrid``'s).
+SWEEP_OPTIONS = ("durations", "payloads", "objectives", "seed")
+
+
+def _sent(cls: type[Options], args: argparse.Namespace, names: Sequence[str]) -> dict[str, Any]:
+    """Options ``names`` of ``cls`` from the flags, checked here (a CliError naming the flag)
+    before anything is sent; by the API's names."""
+    options = options_from_args(cls, args).to_dict()
+    return {name: options[name] for name in names}
+
+
+def _task_body(args: argparse.Namespace) -> dict[str, Any]:
+    """The task's start and goal and the template of a plan, simulation or front request."""
+    body: dict[str, Any] = {
+        "start_deg": _floats(args.start_deg),
+        "goal_deg": _floats(args.goal_deg),
+    }
+    if args.template:
+        body["template"] = json.loads(Path(args.template).read_text(encoding="utf-8"))
+    return body
+
+
 def _job_body(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
     """The endpoint and request body for ``bioplan submit <kind>`` (CLI names -> API names)."""
     if args.kind in ("plan", "simulate"):
@@ -144,27 +179,13 @@ def _job_body(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
             "robot": args.robot,
             "duration": args.duration,
             "payload": args.payload,
-            "objective": args.objective,
-            "seed": args.seed,
-            "particles": args.particles,
-            "iterations": args.iterations,
-            "peak_angle_deg": args.peak_angle_deg,
-            "start_deg": _floats(args.start_deg),
-            "goal_deg": _floats(args.goal_deg),
+            **_sent(MethodOptions, args, TASK_OPTIONS),
+            **_task_body(args),
         }
-        if args.template:
-            body["template"] = json.loads(Path(args.template).read_text(encoding="utf-8"))
         path = "/api/plans" if args.kind == "plan" else "/api/simulations"
         return path, {k: v for k, v in body.items() if v is not None}
     if args.kind == "sweep":
-        body = {
-            "robot": args.robot,
-            "durations": _floats(args.durations),
-            "payloads": _floats(args.payloads),
-            "objectives": args.objectives.split(","),
-            "seed": args.seed,
-        }
-        return "/api/sweeps", body
+        return "/api/sweeps", {"robot": args.robot, **_sent(SweepGrid, args, SWEEP_OPTIONS)}
     if args.kind == "front":
         # `bioplan front`'s own checks first: bad input is refused naming the option, as there,
         # before anything is sent.
@@ -180,11 +201,8 @@ def _job_body(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
             "intervals": args.intervals,
             "tolerance": args.tolerance,
             "allow_reversal": args.allow_reversal,
-            "start_deg": _floats(args.start_deg),
-            "goal_deg": _floats(args.goal_deg),
+            **_task_body(args),
         }
-        if args.template:
-            body["template"] = json.loads(Path(args.template).read_text(encoding="utf-8"))
         return "/api/fronts", {k: v for k, v in body.items() if v is not None}
     raise ValueError(f"unknown kind {args.kind}")
 
@@ -298,17 +316,7 @@ def register(sub: Any) -> None:
         q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
         q.add_argument("--duration", type=float, default=1.0, help=DURATION_HELP)
         q.add_argument("--payload", type=float, default=None, help="payload [kg]")
-        q.add_argument(
-            "--objective", default=DEFAULT_OBJECTIVE, help="one of " + ", ".join(OBJECTIVES)
-        )
-        q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
-        q.add_argument("--particles", type=int, default=PSO_DEFAULTS.particles, help="swarm size")
-        q.add_argument(
-            "--iterations", type=int, default=PSO_DEFAULTS.iterations, help="PSO iterations"
-        )
-        q.add_argument(
-            "--peak-angle-deg", type=float, default=None, help="elbow velocity-peak angle [deg]"
-        )
+        add_options(q, MethodOptions, only=TASK_OPTIONS)
         q.add_argument("--start-deg", default=None, help="start joint angles, comma-separated")
         q.add_argument("--goal-deg", default=None, help="goal joint angles, comma-separated")
         q.add_argument("--template", default=None, help="HumanTemplate JSON file")
@@ -317,10 +325,7 @@ def register(sub: Any) -> None:
     task_args(kinds.add_parser("simulate", help="bioplan simulate, on the server"))
     q = kinds.add_parser("sweep", help="bioplan sweep, on the server")
     q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
-    q.add_argument("--durations", default="0.5,0.75,1.0,1.5,2.0", help="comma-separated [s]")
-    q.add_argument("--payloads", default="0,4,8,12,20", help="comma-separated [kg]")
-    q.add_argument("--objectives", default=DEFAULT_OBJECTIVE, help="comma-separated metric names")
-    q.add_argument("--seed", type=int, default=PSO_DEFAULTS.seed, help="PSO seed")
+    add_options(q, SweepGrid, only=SWEEP_OPTIONS)
     q = kinds.add_parser("front", help="bioplan front, on the server (with its references)")
     q.add_argument("--robot", default="curtain_wall_6dof", help="built-in or uploaded robot")
     q.add_argument("--duration", type=float, default=None, help=FRONT_DURATION_HELP)

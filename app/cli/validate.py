@@ -5,17 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from app.cli._common import emit, load_robot, positive
+from app.cli._common import add_json_args, add_robot_flag, emit, load_robot, positive
 
 
 def add_log_robot_args(p: argparse.ArgumentParser) -> None:
     """--robot, --mjcf, --payload and the onboarding options (--lock, --sidecar, roles)."""
-    p.add_argument(
-        "--robot",
-        required=True,
-        help="built-in robot name (human_arm_2dof, curtain_wall_6dof), a URDF path, or an MJCF "
-        "path alone",
-    )
+    add_robot_flag(p, required=True)
     p.add_argument(
         "--lock",
         action="append",
@@ -102,6 +97,5 @@ def register(sub: Any) -> None:
         "aligned in time, tracking error and savings (default: none)",
     )
     p.add_argument("--plot", default=None, metavar="DIR", help="write plotly HTML plots here")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_json_args(p)
     p.set_defaults(handler=cmd_validate)

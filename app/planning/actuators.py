@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -96,15 +96,7 @@ class ActuatorEnvelope:
         return self.peak_torque * np.clip(slope, 0.0, 1.0)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "peak_torque": self.peak_torque,
-            "rated_speed": self.rated_speed,
-            "max_speed": self.max_speed,
-            "corner_speed": self.corner_speed,
-            "rms_torque": self.rms_torque,
-            "duty_cycle": self.duty_cycle,
-            "source": self.source,
-        }
+        return asdict(self)
 
 
 def envelope_from_fields(

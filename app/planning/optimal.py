@@ -80,17 +80,8 @@ logger = logging.getLogger("bioplan.planning")
 
 #: Human-likeness options of the optimal-control problem (one home: ``app.names``).
 HUMAN_CONSTRAINTS: tuple[str, ...] = _names.HUMAN_CONSTRAINTS
-#: Objectives the transcription minimises: every metric, and the torque change.
-OPTIMAL_OBJECTIVES: tuple[str, ...] = (
-    "tau_sq",
-    "abs_work",
-    "pos_work",
-    "electrical_energy",
-    "peak_power",
-    "peak_torque",
-    "torque_change",
-    "jerk",
-)
+#: Objectives the transcription minimises: every metric, the torque change and the jerk.
+OPTIMAL_OBJECTIVES: tuple[str, ...] = (*_names.OBJECTIVES, "torque_change", "jerk")
 #: Default number of constant-jerk intervals.
 DEFAULT_INTERVALS = 40
 #: IPOPT's convergence tolerance (scaled objective, O(1)).

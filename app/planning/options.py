@@ -9,6 +9,7 @@ Importing this module is cheap (no NumPy, CasADi or Pinocchio): ``bioplan --help
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from app.names import (
     DEFAULT_OBJECTIVE,
@@ -22,13 +23,31 @@ from app.names import (
 )
 from app.options import Options, option
 
-__all__ = ["LIBRARY_METHODS", "MethodOptions", "PlanOptions"]
+__all__ = ["LIBRARY_METHODS", "MethodOptions", "PlanOptions", "methods_option"]
 
 #: What the library plans when not told (``planning.methods.DEFAULT_METHODS``): the quick pair.
 #: The CLI and the API plan every standard method (the field's ``interface_default``).
 LIBRARY_METHODS: tuple[str, ...] = ("quintic", "paper")
 #: Largest PSO seed (NumPy's ``SeedSequence`` takes any, JSON clients 32 bits).
 MAX_SEED = 2**32 - 1
+
+
+def methods_option(help: str) -> Any:
+    """A ``methods`` field: some of :data:`app.names.METHODS` (``--method`` on the CLI); the
+    library's default :data:`LIBRARY_METHODS`, the CLI's and the API's every standard method.
+
+    Args:
+        help: the field's help line.
+    """
+    return option(
+        LIBRARY_METHODS,
+        help=help,
+        choices=tuple(METHODS),
+        min_items=1,
+        max_items=len(METHODS),
+        interface_default=STANDARD_METHODS,
+        flag="--method",
+    )
 
 
 @dataclass(frozen=True)
@@ -78,14 +97,8 @@ class MethodOptions(Options):
         gt=0,
         lt=180,
     )
-    methods: tuple[str, ...] = option(
-        LIBRARY_METHODS,
-        help="methods to plan (the quintic always runs: it is every saving's reference)",
-        choices=tuple(METHODS),
-        min_items=1,
-        max_items=len(METHODS),
-        interface_default=STANDARD_METHODS,
-        flag="--method",
+    methods: tuple[str, ...] = methods_option(
+        "methods to plan (the quintic always runs: it is every saving's reference)"
     )
     human_constraint: str = option(
         "peak",

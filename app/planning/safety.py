@@ -36,7 +36,7 @@ import logging
 import math
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -148,16 +148,8 @@ class Finding:
         return _describe(self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "method": self.method,
-            "time": self.time,
-            "kind": self.kind,
-            "links": list(self.links),
-            "obstacle": self.obstacle,
-            "depth": self.depth,
-            "deepest_time": self.deepest_time,
-            "between_samples": self.between_samples,
-        }
+        # The fields in their order; ``links`` as a JSON list.
+        return {**asdict(self), "links": list(self.links)}
 
 
 @dataclass(frozen=True)

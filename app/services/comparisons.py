@@ -10,16 +10,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
-from sqlalchemy import select
-from sqlalchemy.orm import Session, sessionmaker, undefer
+from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.arrays import decode_arrays
-from app.db.models import RESULT_MODELS
 from app.errors import BioPlanError, without_paths
 from app.jobs.tasks import RobotSpec, robot_from_spec
 from app.planning.export import public_result
 from app.services.errors import ConflictError, NotFoundError, ServiceError
 from app.services.job_views import not_finished
+from app.services.results import get_result_row
 from app.services.robots import RobotCatalog
 from app.viewer.comparison import (
     KINDS,
@@ -127,13 +126,8 @@ class ComparisonLoader:
             NotFoundError: no such result.
             ConflictError: its job has not succeeded (no result or arrays yet).
         """
-        model: Any = RESULT_MODELS[kind]  # a union of mapped classes: mypy cannot select on it
         with self.sessions() as session:
-            row = session.scalars(
-                select(model).where(model.id == result_id).options(undefer(model.arrays))
-            ).first()
-            if row is None:
-                raise NotFoundError(f"{kind} {result_id} does not exist")
+            row = get_result_row(session, kind, result_id, arrays=True)
             if row.result is None or row.arrays is None:
                 raise not_finished(session, result_id, f"{kind} {result_id}", lacks="no result yet")
             return dict(row.result), decode_arrays(row.arrays), self.robots.spec(session, row.robot)

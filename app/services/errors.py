@@ -7,6 +7,8 @@ they treat a reader's or the planner's errors. The API maps them by type: ``NotF
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 from app.errors import BioPlanError
 
 __all__ = [
@@ -16,7 +18,10 @@ __all__ = [
     "ParseLimitError",
     "ServiceError",
     "UnknownRobotError",
+    "found",
 ]
+
+T = TypeVar("T")
 
 
 class ServiceError(BioPlanError):
@@ -53,6 +58,14 @@ class ServiceError(BioPlanError):
 class NotFoundError(ServiceError):
     """The resource a request names does not exist: in its path, or in its body (``field``
     then says which member names it, e.g. ``recording_id`` or ``robot``)."""
+
+
+def found(row: T | None, what: str) -> T:
+    """``row``, which a lookup of ``what`` (``"recording 3"``) gave; None is a NotFoundError
+    saying that ``what`` does not exist."""
+    if row is None:
+        raise NotFoundError(f"{what} does not exist")
+    return row
 
 
 class ConflictError(ServiceError):

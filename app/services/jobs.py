@@ -48,7 +48,7 @@ from app.kinds import KIND_PATHS
 from app.names import MAX_VIDEO_SECONDS, TERMINAL_JOB_STATES
 from app.services import recordings
 from app.services.broker import JobBroker
-from app.services.errors import ConflictError, NotFoundError, ServiceError
+from app.services.errors import ConflictError, ServiceError, found
 from app.services.job_views import job_summary, job_to_dict
 from app.services.kinds import KINDS, KindContext, analysis_template
 from app.services.limits import JobLimits
@@ -291,10 +291,7 @@ class JobService:
         Raises:
             NotFoundError: no such job.
         """
-        job = self.find(job_id)
-        if job is None:
-            raise NotFoundError(f"job {job_id} does not exist")
-        return job
+        return found(self.find(job_id), f"job {job_id}")
 
     def log(self, job_id: int) -> dict[str, object]:
         """A job's log: ``lines`` (its records at INFO and above, oldest first, paths cut to

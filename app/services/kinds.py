@@ -25,7 +25,7 @@ from app.db.models import RESULT_MODELS, Analysis, JobRecord, ResultModel
 from app.jobs.tasks import TASKS, JobResult, Payload, TaskFn
 from app.kinds import JOB_KINDS, JobKindInfo
 from app.services import cohorts, recordings, robot_logs
-from app.services.errors import NotFoundError
+from app.services.errors import found
 from app.services.job_views import not_finished
 from app.services.robots import RobotCatalog
 
@@ -102,9 +102,7 @@ def analysis_template(session: Session, analysis_id: int) -> dict[str, object]:
         NotFoundError: no such analysis.
         ConflictError: it has no template (yet).
     """
-    row = session.get(Analysis, analysis_id)
-    if row is None:
-        raise NotFoundError(f"analysis {analysis_id} does not exist")
+    row = found(session.get(Analysis, analysis_id), f"analysis {analysis_id}")
     if row.template is None:
         raise not_finished(session, analysis_id, f"analysis {analysis_id}", lacks="no template yet")
     return row.template

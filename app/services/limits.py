@@ -36,13 +36,7 @@ class JobLimits:
 
     @classmethod
     def from_settings(cls, settings: Settings) -> JobLimits:
-        return cls(
-            particles=settings.max_particles,
-            iterations=settings.max_iterations,
-            n_samples=settings.max_samples,
-            workers=settings.max_workers,
-            cells=settings.max_sweep_cells,
-        )
+        return cls(**{name: getattr(settings, field) for name, field in _SETTINGS.items()})
 
     def fit(
         self, params: Mapping[str, object], left_out: Collection[str] = ()
@@ -68,7 +62,8 @@ class JobLimits:
         Raises:
             ServiceError: 422 naming the field, the limit and its variable.
         """
-        for name, env in _ENV.items():
+        for name, field in _SETTINGS.items():
+            env = f"{_ENV_PREFIX}{field.upper()}"
             limit = getattr(self, name)
             value = _cells(params) if name == "cells" else params.get(name)
             if limit is not None and isinstance(value, int) and value > limit:
@@ -78,13 +73,16 @@ class JobLimits:
 #: The caps that are one request field each (``cells`` is a product of three lists' lengths).
 REQUEST_FIELDS = ("particles", "iterations", "n_samples", "workers")
 
-_ENV = {
-    "particles": "BIOPLAN_MAX_PARTICLES",
-    "iterations": "BIOPLAN_MAX_ITERATIONS",
-    "n_samples": "BIOPLAN_MAX_SAMPLES",
-    "workers": "BIOPLAN_MAX_WORKERS",
-    "cells": "BIOPLAN_MAX_SWEEP_CELLS",
+#: The ``Settings`` field of each cap; the variable that sets it is the field's name in capitals
+#: after the settings' prefix (``max_particles``: ``BIOPLAN_MAX_PARTICLES``).
+_SETTINGS = {
+    "particles": "max_particles",
+    "iterations": "max_iterations",
+    "n_samples": "max_samples",
+    "workers": "max_workers",
+    "cells": "max_sweep_cells",
 }
+_ENV_PREFIX = Settings.model_config.get("env_prefix", "")
 
 
 def _cells(params: Mapping[str, object]) -> int | None:

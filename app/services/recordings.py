@@ -43,7 +43,13 @@ from app.errors import BioPlanError
 from app.jobs.tasks import parse_recording
 from app.names import MAX_VIDEO_SECONDS, SKELETON_FRAMES
 from app.recordings.video import find_pose_python
-from app.services.errors import ConflictError, NotFoundError, ParseLimitError, ServiceError
+from app.services.errors import (
+    ConflictError,
+    NotFoundError,
+    ParseLimitError,
+    ServiceError,
+    found,
+)
 from app.services.sandbox import read_untrusted
 
 #: Options the readers take (stored with the session; a change reads the files again).
@@ -413,10 +419,9 @@ def get_recording(session: Session, recording_id: int) -> RecordingSession:
     Raises:
         NotFoundError: no such recording.
     """
-    rec = crud.get_recording(session=session, recording_id=recording_id)
-    if rec is None:
-        raise NotFoundError(f"recording {recording_id} does not exist")
-    return rec
+    return found(
+        crud.get_recording(session=session, recording_id=recording_id), f"recording {recording_id}"
+    )
 
 
 # ----------------------------------------------------------------------------------- changes

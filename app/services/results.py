@@ -24,7 +24,7 @@ from app.db.models import RESULT_MODELS, JobRecord
 from app.errors import BioPlanError, without_paths
 from app.jsonsafe import json_safe
 from app.planning.export import public_result
-from app.services.errors import ConflictError, NotFoundError, ServiceError
+from app.services.errors import ConflictError, NotFoundError, ServiceError, found
 from app.services.jobs import job_to_dict
 from app.services.robots import RobotCatalog
 
@@ -36,10 +36,7 @@ def get_result_row(session: Session, kind: str, result_id: int, *, arrays: bool 
     stmt = select(model).where(model.id == result_id)
     if arrays:
         stmt = stmt.options(undefer(model.arrays))
-    row = session.scalars(stmt).first()
-    if row is None:
-        raise NotFoundError(f"{kind} {result_id} does not exist")
-    return row
+    return found(session.scalars(stmt).first(), f"{kind} {result_id}")
 
 
 def job_of(session: Session, result_id: int) -> dict[str, Any]:
@@ -140,19 +137,13 @@ def result_arrays(
     return {"id": result_id, "points": 0 if idx is None else len(idx), "arrays": out}
 
 
+#: The request fields an ``ExportError`` may be about, in the order they are looked for.
+_EXPORT_FIELDS = ("from_position", "topic", "goal", "method", "rate", "format")
+
+
 def _export_field(message: str) -> str | None:
-    """The request field an ``ExportError`` is about (its message names it)."""
-    for needle, name in (
-        ("from_position", "from_position"),
-        ("topic", "topic"),
-        ("goal", "goal"),
-        ("method", "method"),
-        ("rate", "rate"),
-        ("format", "format"),
-    ):
-        if needle in message:
-            return name
-    return None
+    """The request field an ``ExportError`` is about (its message names it by name)."""
+    return next((name for name in _EXPORT_FIELDS if name in message), None)
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,13 @@ from app.db.blobs import BlobStore
 from app.db.models import IdentificationRecord, JobRecord, Plan, RobotLogRecord
 from app.errors import BioPlanError
 from app.jobs import tasks
-from app.services.errors import ConflictError, NotFoundError, ParseLimitError, ServiceError
+from app.services.errors import (
+    ConflictError,
+    NotFoundError,
+    ParseLimitError,
+    ServiceError,
+    found,
+)
 from app.services.job_views import not_finished
 from app.services.robots import RobotCatalog
 from app.services.sandbox import read_untrusted
@@ -129,10 +135,7 @@ def get_log(session: Session, log_id: int) -> RobotLogRecord:
     Raises:
         NotFoundError: no such log.
     """
-    row = crud.get_robot_log(session=session, log_id=log_id)
-    if row is None:
-        raise NotFoundError(f"robot log {log_id} does not exist")
-    return row
+    return found(crud.get_robot_log(session=session, log_id=log_id), f"robot log {log_id}")
 
 
 def list_logs(session: Session, robot: str | None = None) -> list[dict[str, object]]:

@@ -29,6 +29,7 @@ from app.services.errors import (
     ParseLimitError,
     ServiceError,
     UnknownRobotError,
+    found,
 )
 from app.services.sandbox import read_untrusted
 
@@ -296,10 +297,7 @@ class RobotCatalog:
         """
         if name in self.builtin:
             return self.describe_builtin(name)
-        row = crud.get_robot(session=session, name=name)
-        if row is None:
-            raise NotFoundError(f"robot {name!r} does not exist")
-        return uploaded_robot(row)
+        return uploaded_robot(found(crud.get_robot(session=session, name=name), f"robot {name!r}"))
 
     def _unknown(self, session: Session, name: str) -> UnknownRobotError:
         uploaded = [r.name for r in crud.list_robots(session=session)]

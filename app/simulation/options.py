@@ -15,14 +15,12 @@ from typing import get_args
 from app.names import (
     DEFAULT_OBJECTIVE,
     MAX_DURATION,
-    METHODS,
     OBJECTIVES,
     PSO_DEFAULTS,
-    STANDARD_METHODS,
     SWEEP_SEEDS,
 )
 from app.options import Options, option
-from app.planning.options import LIBRARY_METHODS, MAX_SEED, MethodOptions
+from app.planning.options import MAX_SEED, MethodOptions, methods_option
 from app.simulation.tracking import (
     DEFAULT_DAMPING_RATIO,
     DEFAULT_NATURAL_FREQUENCY_HZ,
@@ -135,15 +133,7 @@ class SweepGrid(Options):
     seed: int = option(PSO_DEFAULTS.seed, help="PSO seed of every cell", ge=0, le=MAX_SEED)
     particles: int = option(SWEEP_PARTICLES, help="PSO swarm per cell", ge=2, le=1000)
     iterations: int = option(SWEEP_ITERATIONS, help="PSO iterations per cell", ge=1, le=10000)
-    methods: tuple[str, ...] = option(
-        LIBRARY_METHODS,
-        help="methods per cell",
-        choices=tuple(METHODS),
-        min_items=1,
-        max_items=len(METHODS),
-        interface_default=STANDARD_METHODS,
-        flag="--method",
-    )
+    methods: tuple[str, ...] = methods_option("methods per cell")
     check_seed: int = option(
         -1,
         help="first check seed of the paper's PSO (-1: seed + 1; the others follow it)",

@@ -585,7 +585,7 @@ def _run_cases(
 ) -> dict[str, SimulationResult]:
     """Plan and simulate each demo case (PSO with ``particles`` x ``iterations``), by robot."""
     from app.planning.robots import load_robot
-    from app.simulation.sweep import simulate_comparison
+    from app.simulation.comparison import simulate_comparison
 
     results: dict[str, SimulationResult] = {}
     for i, case in enumerate(cases):

@@ -1,11 +1,11 @@
 """Sweeps: plan and simulate every cell of a grid of durations x payloads x objectives.
 
-:func:`run_sweep` runs :func:`app.simulation.comparison.simulate_comparison` (which this module
-re-exports) for every cell in a process pool, with every requested method, and classifies each
-cell per metric: the paper's plan "saves", makes "no difference" (|change| < 1 %) or "costs more"
-than the quintic (every other method's change and its share of the achievable saving are
-reported beside it); cells where the standard quintic already sits on the ``abs_work`` floor
-(within 1 % of |ΔPE|) are marked, and infeasible cells are reported as such.
+:func:`run_sweep` runs :func:`app.simulation.comparison.simulate_comparison` for every cell in a
+process pool, with every requested method, and classifies each cell per metric: the paper's plan
+"saves", makes "no difference" (|change| < 1 %) or "costs more" than the quintic (every other
+method's change and its share of the achievable saving are reported beside it); cells where the
+standard quintic already sits on the ``abs_work`` floor (within 1 % of |ΔPE|) are marked, and
+infeasible cells are reported as such.
 
 A verdict must not hang on the PSO's luck: each cell plans the paper's method with ``seeds``
 seeds at the stated budget (the cell's seed, then ``check_seed``, ``check_seed + 1``, ...); a
@@ -36,13 +36,10 @@ from app.options import OptionsError
 from app.planning.options import LIBRARY_METHODS
 from app.progress import ProgressFn, report
 from app.simulation.comparison import (
-    AGREEMENT_PCT,
-    FLOOR_SLACK,
     METRICS,
     SimulationResult,
     _check_mjcf,
     pct_change,
-    peaks_and_phases,
     scalar_metrics,
     simulate_comparison,
 )
@@ -59,18 +56,12 @@ if TYPE_CHECKING:
 logger = logging.getLogger("bioplan.simulation")
 
 __all__ = [
-    "AGREEMENT_PCT",
-    "FLOOR_SLACK",
-    "METRICS",
-    "SimulationResult",
     "SweepCell",
     "SweepResult",
     "Verdict",
     "certify_verdicts",
     "classify",
-    "peaks_and_phases",
     "run_sweep",
-    "simulate_comparison",
 ]
 
 FloatArray = NDArray[np.float64]

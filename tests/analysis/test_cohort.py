@@ -359,3 +359,25 @@ def test_plots_draw_every_recording_and_the_onset_order(tmp_path: Any) -> None:
     names = [p.name for p in written]
     assert "cohort_x.html" in names and "cohort_onset_order.html" in names
     assert names[-1] == "plotly.min.js" and all(p.is_file() for p in written)
+
+
+def test_csv_and_json_lead_with_which_recording_and_whose(tmp_path: Any) -> None:
+    import csv
+
+    from app.analysis.cohort import write_cohort_csv
+
+    recs = _cohort({"a": [1.5, None], "b": [3.25, 4.0]})
+    result = compare_groups(recs)
+    path, _ = write_cohort_csv(result, tmp_path / "cohort.csv")
+    with path.open(newline="", encoding="utf-8") as fh:
+        header, *rows = list(csv.reader(fh))
+    ids = ["group", "source", "subject", "subject_from"]
+    assert header == [*ids, "x", "activation_order", "missing"]
+    assert [row[:4] for row in rows] == [
+        [r.group, r.source, r.subject, r.subject_from] for r in recs
+    ]
+    assert [row[4] for row in rows] == ["1.5", "", "3.25", "4"]
+    assert rows[1][-1] == "x: absent in the test"
+    d = recs[0].to_dict()
+    assert list(d) == [*ids, "measures", "missing", "activation_order", "warnings"]
+    assert [d[k] for k in ids] == ["a", "a0_a.csv", "a0", "test"]

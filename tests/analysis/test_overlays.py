@@ -64,6 +64,17 @@ def test_lifts_phases_onsets_and_template(
         # (Distance to the nearest multiple, so a start a sample early does not wrap to 4.89.)
         phase = (lift["start_s"] - 1.6) % 4.9
         assert min(phase, 4.9 - phase) == pytest.approx(0.0, abs=0.3)
+    # One file, so its clock is the analysis clock: the phases are the analysis's own.
+    for lift, report in zip(out["lifts"], result.recordings[0].lifts, strict=True):
+        assert [tuple(p.items()) for p in lift["phases"]] == [
+            (
+                ("name", s.phase.name),
+                ("part", s.phase.part),
+                ("start_s", s.phase.start),
+                ("end_s", s.phase.end),
+            )
+            for s in report.phases
+        ]
     sites = {e["muscle"] for e in out["emg"]}
     assert sites == set(DEMO_MUSCLES.values())
     assert all(len(e["envelope"]["t"]) <= 500 for e in out["emg"])

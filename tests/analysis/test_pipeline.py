@@ -58,6 +58,11 @@ def test_to_dict_is_json_and_in_degrees(pyomeca_result) -> None:  # type: ignore
     assert set(f["emg"]) == {"deltoid", "biceps", "triceps"}
     lift = f["lifts"][0]
     assert {p["name"] for p in lift["phases"]} >= {"B", "C"}
+    for p, stats in zip(lift["phases"], pyomeca_result.recordings[0].lifts[0].phases, strict=True):
+        assert list(p)[:5] == ["name", "part", "start_s", "end_s", "duration_s"]
+        assert (p["name"], p["part"]) == (stats.phase.name, stats.phase.part)
+        assert (p["start_s"], p["end_s"]) == (stats.phase.start, stats.phase.end)
+        assert p["duration_s"] == pytest.approx(p["end_s"] - p["start_s"])
     assert lift["energetics"]["metrics"]["abs_work"] > 0
     assert data["template"]["n_lifts"] == 3
     # EMG peaks aligned with the velocity peak: offsets agree with the absolute peak times.

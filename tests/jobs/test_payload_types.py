@@ -39,6 +39,15 @@ def test_payload_type_lists_every_option(payload_type: type, options_type: type)
     assert set(options_type().to_dict()) <= keys
 
 
+def test_sweep_payload_keys_are_the_grid_and_the_job_keys() -> None:
+    """``SweepPayload`` (static typing only: a TypedDict cannot be made from a dataclass) lists
+    exactly ``SweepGrid``'s fields besides the job's own keys: an option added to the grid and
+    not typed here, or one typed here that the grid lost, fails."""
+    job_keys = {"robot", "label", "workers", "cell_executor"}
+    keys = set(SweepPayload.__annotations__)
+    assert keys - job_keys == {f.name for f in fields(SweepGrid)}
+
+
 def test_robot_options_are_the_catalogue_options() -> None:
     assert set(RobotOptions.__annotations__) == set(_OPTION_KEYS)
     stored = {"shoulder_joint": "j2", "locks": {"j1": 10.0}, "not_an_option": 1}

@@ -5,24 +5,32 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 from pathlib import PurePosixPath
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from fastapi import Depends, Path, Query, Response
 from pydantic import BeforeValidator, Field
-from sqlalchemy.orm import Session
 
 from app.api.deps import SettingsDep
 from app.api.errors import ApiError
 from app.api.schemas import Problem
 from app.names import METHODS
-from app.services import RobotCatalog
-from app.services.results import ExportFile, export_file
+from app.services.results import ExportFile
 
 #: Ids in paths: positive and within a 32-bit integer, so no database overflows.
 IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
 #: The most samples per series a read returns: enough for min/max decimation on any screen
 #: (two per pixel of a 4K plot); 100 000 let 16 clients push other requests' p99 to 11 s.
 MAX_POINTS = 10_000
+
+
+def file_answer(
+    media_type: str, description: str, response_class: type[Response] = Response
+) -> dict[str, Any]:
+    """The route arguments of a GET whose 200 is a file of ``media_type``, not JSON: its
+    response class and the OpenAPI ``responses`` that name the media type."""
+    responses = {200: {"content": {media_type: {}}, "description": description}}
+    return {"response_class": response_class, "responses": responses}
+
 
 #: The error answers every route documents, with the problem's schema.
 PROBLEM_RESPONSES: dict[int | str, dict[str, object]] = {
@@ -163,26 +171,6 @@ def export_options(
 
 #: ``export_options`` as a dependency (its query parameters are the route's).
 ExportOptions = Annotated[dict[str, object], Depends(export_options)]
-
-
-def trajectory_out(
-    session: Session,
-    robots: RobotCatalog,
-    kind: str,
-    result_id: int,
-    *,
-    fmt: str,
-    rate: float | None,
-    method: str | None,
-    **options: object,
-) -> Response:
-    """A stored plan's or simulation's export file, streamed as an attachment
-    (``app.services.results.export_file``: its refusals are 404, 409 and 422 naming the
-    field); ``options`` are ``export_options``'."""
-    out = export_file(
-        session, robots, kind, result_id, fmt=fmt, rate=rate, method=method, **options
-    )
-    return export_response(out, fmt)
 
 
 def export_response(out: ExportFile, fmt: str) -> Response:

@@ -33,13 +33,14 @@ from app.api.routes._common import (
     IdPath,
     MethodQuery,
     RateQuery,
-    trajectory_out,
+    export_response,
 )
 from app.api.schemas import ArraysOut, Job, JobState, LabelPatch, Page, ResultOut, left_out
 from app.services import Services
 from app.services.errors import ConflictError
 from app.services.results import (
     delete_job,
+    export_file,
     get_result_row,
     job_of,
     list_results,
@@ -365,7 +366,8 @@ def _add_trajectory(router: APIRouter, spec: ResultRoutes) -> None:
     id_name = spec.id_name
 
     def trajectory(**kw: Any) -> Response:
-        return trajectory_out(
+        # export_file's refusals are 404, 409 and 422 naming the field.
+        out = export_file(
             kw["session"],
             kw["robots"],
             spec.kind,
@@ -375,6 +377,7 @@ def _add_trajectory(router: APIRouter, spec: ResultRoutes) -> None:
             method=kw["method"],
             **kw["options"],
         )
+        return export_response(out, kw["format"])
 
     router.get(
         f"/{{{id_name}:int}}/trajectory", response_class=Response, responses=EXPORT_RESPONSES

@@ -10,7 +10,7 @@ from sqlalchemy.orm import Session
 
 from app.api.deps import SessionDep
 from app.api.result_models import CohortResultOut
-from app.api.routes._common import PROBLEM_RESPONSES, IdPath
+from app.api.routes._common import PROBLEM_RESPONSES, IdPath, file_answer
 from app.api.routes._results import ResultRoutes, add_result_routes
 from app.api.schemas import CohortOptionInfo, CohortRequest
 from app.services import Services
@@ -36,11 +36,7 @@ def _submit(body: CohortRequest, session: Session, services: Services) -> dict[s
     return services.jobs.submit(kind="cohort", params=params, resource={}, label=body.label)
 
 
-@router.get(
-    "/{cohort_id:int}/csv",
-    response_class=Response,
-    responses={200: {"content": {"text/csv": {}}, "description": "one row per recording"}},
-)
+@router.get("/{cohort_id:int}/csv", **file_answer("text/csv", "one row per recording"))
 def get_cohort_csv(session: SessionDep, cohort_id: IdPath) -> Response:
     """One row per measured recording: recording id, group, file, subject, every measure."""
     row = get_result_row(session, "cohort", cohort_id)

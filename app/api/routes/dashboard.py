@@ -20,7 +20,7 @@ from fastapi.responses import FileResponse
 from app.api.deps import ServicesDep
 from app.api.errors import ApiError
 from app.api.result_models import ComparisonView
-from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath
+from app.api.routes._common import MAX_POINTS, PROBLEM_RESPONSES, IdPath, file_answer
 from app.names import METHODS
 from app.services.comparisons import comparison_data, comparison_file, prepare_comparison
 from app.services.results import with_joint_power
@@ -47,11 +47,7 @@ def _etag(path: Path) -> str:
     return hashlib.sha256(f"{path}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()[:20]
 
 
-@router.get(
-    "/assets/plotly.min.js",
-    response_class=FileResponse,
-    responses={200: {"content": {"text/javascript": {}}, "description": "Plotly.js"}},
-)
+@router.get("/assets/plotly.min.js", **file_answer("text/javascript", "Plotly.js", FileResponse))
 def plotly_js(request: Request) -> Response:
     """Plotly.js from the installed ``plotly`` package (no CDN: the dashboard works offline);
     gzip-compressed once (4.8 MB -> about 1.4 MB) for browsers that accept it, cached by ETag."""
@@ -145,8 +141,7 @@ def comparison(
 
 @router.get(
     "/comparisons/{kind}/{result_id:int}/export",
-    response_class=Response,
-    responses={200: {"content": {"text/html": {}}, "description": "a self-contained HTML file"}},
+    **file_answer("text/html", "a self-contained HTML file"),
 )
 def export(
     services: ServicesDep,

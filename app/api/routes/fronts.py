@@ -17,6 +17,7 @@ from app.api.routes._common import (
     IdPath,
     RateQuery,
     export_response,
+    file_answer,
 )
 from app.api.routes._results import ResultRoutes, add_result_routes
 from app.api.schemas import FrontRequest, left_out
@@ -77,11 +78,7 @@ add_result_routes(
 )  # fmt: skip
 
 
-@router.get(
-    "/{front_id:int}/csv",
-    response_class=Response,
-    responses={200: {"content": {"text/csv": {}}, "description": "one row per point"}},
-)
+@router.get("/{front_id:int}/csv", **file_answer("text/csv", "one row per point"))
 def get_front_csv(session: SessionDep, front_id: IdPath) -> Response:
     """The front as CSV: ``id, A, B, every other metric, human_likeness, knee, end``."""
     return Response(

@@ -21,6 +21,7 @@ from app.api.routes._common import (
     PROBLEM_RESPONSES,
     IdPath,
     IsoDateTimeQuery,
+    file_answer,
     upload_name,
     utc,
 )
@@ -386,9 +387,7 @@ def list_frames(session: SessionDep, recording_id: IdPath) -> dict[str, object]:
 
 
 @router.get(
-    "/{recording_id:int}/frames/{k:int}.jpg",
-    response_class=Response,
-    responses={200: {"content": {"image/jpeg": {}}, "description": "the frame (JPEG)"}},
+    "/{recording_id:int}/frames/{k:int}.jpg", **file_answer("image/jpeg", "the frame (JPEG)")
 )
 def get_frame(
     request: Request,
@@ -428,8 +427,7 @@ def get_signals(
 
 @router.get(
     "/{recording_id:int}/files/{file_id:int}",
-    response_class=Response,
-    responses={200: {"content": {"application/octet-stream": {}}, "description": "raw bytes"}},
+    **file_answer("application/octet-stream", "raw bytes"),
 )
 def get_raw_file(
     services: ServicesDep, session: SessionDep, recording_id: IdPath, file_id: IdPath

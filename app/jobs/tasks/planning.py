@@ -7,9 +7,9 @@ A payload's options are the dict of the operation's options object (``PlanOption
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,7 @@ from app.jobs.tasks.types import (
     SweepPayload,
 )
 from app.jsonsafe import json_safe
+from app.options import Options
 from app.progress import ProgressFn, no_progress, report, within
 
 if TYPE_CHECKING:
@@ -84,21 +85,10 @@ def plan(payload: PlanPayload, progress: ProgressFn = no_progress) -> JobResult:
         ``motion`` block (``plan_motion(result, robot).to_dict()``) holds every method's exact
         knots, so the stored result can be exported at any rate.
     """
-    from app.planning.export import plan_motion
     from app.planning.options import PlanOptions
     from app.planning.planner import plan as run_plan
 
-    with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
-        result = run_plan(
-            robot,
-            PlanOptions.from_payload(payload),
-            task=task_from_degrees(robot, payload.get("start_deg"), payload.get("goal_deg")),
-            template=template_of(payload),
-            progress=progress,
-        )
-        out = json_safe(result.to_dict())
-        out["motion"] = plan_motion(result, robot).to_dict()
-    return {"result": out, "arrays": _arrays_of(result)}
+    return _with_motion(payload, run_plan, PlanOptions.from_payload(payload), progress)
 
 
 def simulate(payload: SimulationPayload, progress: ProgressFn = no_progress) -> JobResult:
@@ -111,20 +101,38 @@ def simulate(payload: SimulationPayload, progress: ProgressFn = no_progress) -> 
         ``{"result": SimulationResult.to_dict() + "motion", "arrays":
         SimulationResult.arrays()}`` (the motion block of the simulated plan).
     """
-    from app.planning.export import plan_motion
     from app.simulation import simulate_comparison
     from app.simulation.options import SimulationOptions
 
+    options = SimulationOptions.from_payload(payload)
+    return _with_motion(
+        payload, simulate_comparison, options, progress, plan_of=lambda result: result.plan
+    )
+
+
+def _with_motion(
+    payload: PlanPayload | SimulationPayload,
+    run: Callable[..., Any],
+    options: Options,
+    progress: ProgressFn,
+    *,
+    plan_of: Callable[[Any], Any] = lambda result: result,
+) -> JobResult:
+    """``run(robot, options, task=, template=, progress=)`` on the payload's robot, task and
+    template: its dict with the ``motion`` block of its plan (``plan_of(result)``) and its
+    arrays."""
+    from app.planning.export import plan_motion
+
     with robot_from_spec(payload["robot"], payload.get("payload")) as robot:
-        result = simulate_comparison(
+        result = run(
             robot,
-            SimulationOptions.from_payload(payload),
+            options,
             task=task_from_degrees(robot, payload.get("start_deg"), payload.get("goal_deg")),
             template=template_of(payload),
             progress=progress,
         )
         out = json_safe(result.to_dict())
-        out["motion"] = plan_motion(result.plan, robot).to_dict()
+        out["motion"] = plan_motion(plan_of(result), robot).to_dict()
     return {"result": out, "arrays": _arrays_of(result)}
 
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -92,14 +92,7 @@ class Exceedance:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "joint": self.joint,
-            "limit": self.limit,
-            "bound": self.bound,
-            "value": self.value,
-            "time": self.time,
-            "unit": self.unit,
-        }
+        return asdict(self)
 
 
 def _num(x: float) -> str:

@@ -12,30 +12,14 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from alembic import op
 
+from app.db.migrations._tables import foreign_key, create_job_result_table
+
 revision: str = "0001"
 down_revision: str | None = None
 branch_labels: str | Sequence[str] | None = None
 depends_on: str | Sequence[str] | None = None
 
 TZ = sa.DateTime(timezone=True)
-
-
-def _result_table(name: str, *extra: sa.schema.SchemaItem, arrays: bool) -> None:
-    cols: list[sa.schema.SchemaItem] = [
-        sa.Column("id", sa.Integer(), nullable=False),
-        *extra,
-        sa.Column("result", sa.JSON(), nullable=True),
-    ]
-    if arrays:
-        cols.append(sa.Column("arrays", sa.LargeBinary(), nullable=True))
-    op.create_table(
-        name,
-        *cols,
-        sa.ForeignKeyConstraint(
-            ["id"], ["jobs.id"], name=op.f(f"fk_{name}_id_jobs"), ondelete="CASCADE"
-        ),
-        sa.PrimaryKeyConstraint("id", name=op.f(f"pk_{name}")),
-    )
 
 
 def upgrade() -> None:
@@ -85,12 +69,7 @@ def upgrade() -> None:
         sa.Column("size", sa.BigInteger(), nullable=False),
         sa.Column("sha256", sa.String(64), nullable=False),
         sa.Column("file_metadata", sa.JSON(), nullable=False),
-        sa.ForeignKeyConstraint(
-            ["session_id"],
-            ["recording_sessions.id"],
-            name=op.f("fk_recording_files_session_id_recording_sessions"),
-            ondelete="CASCADE",
-        ),
+        foreign_key("recording_files", "session_id", "recording_sessions", ondelete="CASCADE"),
         sa.PrimaryKeyConstraint("id", name=op.f("pk_recording_files")),
     )
     op.create_index(op.f("ix_recording_files_format"), "recording_files", ["format"])
@@ -112,12 +91,7 @@ def upgrade() -> None:
         sa.Column("data", sa.LargeBinary(), nullable=False),
         sa.Column("confidence", sa.LargeBinary(), nullable=True),
         sa.Column("time", sa.LargeBinary(), nullable=True),
-        sa.ForeignKeyConstraint(
-            ["file_id"],
-            ["recording_files.id"],
-            name=op.f("fk_channels_file_id_recording_files"),
-            ondelete="CASCADE",
-        ),
+        foreign_key("channels", "file_id", "recording_files", ondelete="CASCADE"),
         sa.PrimaryKeyConstraint("id", name=op.f("pk_channels")),
     )
     op.create_index(op.f("ix_channels_file_id"), "channels", ["file_id"])
@@ -137,22 +111,22 @@ def upgrade() -> None:
         sa.UniqueConstraint("name", name=op.f("uq_robots_name")),
     )
 
-    _result_table(
+    create_job_result_table(
         "analyses",
         sa.Column("recording_id", sa.Integer(), nullable=True),
         sa.Column("template", sa.JSON(), nullable=True),
-        sa.ForeignKeyConstraint(
-            ["recording_id"],
-            ["recording_sessions.id"],
-            name=op.f("fk_analyses_recording_id_recording_sessions"),
-            ondelete="SET NULL",
-        ),
-        arrays=False,
+        foreign_key("analyses", "recording_id", "recording_sessions", ondelete="SET NULL"),
+        sa.Column("result", sa.JSON(), nullable=True),
+        indexed=["recording_id"],
     )
-    op.create_index(op.f("ix_analyses_recording_id"), "analyses", ["recording_id"])
     for name, arrays in (("plans", True), ("simulations", True), ("sweeps", False)):
-        _result_table(name, sa.Column("robot", sa.String(100), nullable=False), arrays=arrays)
-        op.create_index(op.f(f"ix_{name}_robot"), name, ["robot"])
+        create_job_result_table(
+            name,
+            sa.Column("robot", sa.String(100), nullable=False),
+            sa.Column("result", sa.JSON(), nullable=True),
+            *([sa.Column("arrays", sa.LargeBinary(), nullable=True)] if arrays else []),
+            indexed=["robot"],
+        )
 
 
 def downgrade() -> None:

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from alembic import op
 
+from app.db.migrations._tables import create_job_result_table
+
 revision: str = "0004_planapi"
 down_revision: str | None = "0003"
 branch_labels: str | Sequence[str] | None = None
@@ -28,17 +30,12 @@ def upgrade() -> None:
         batch.add_column(sa.Column("sidecar_sha256", sa.String(64), nullable=True))
         batch.add_column(sa.Column("sidecar_name", sa.String(255), nullable=True))
         batch.add_column(sa.Column("options", sa.JSON(), nullable=True))
-    op.create_table(
+    create_job_result_table(
         "profiles",
-        sa.Column("id", sa.Integer(), nullable=False),
         sa.Column("robot", sa.String(100), nullable=False),
         sa.Column("result", sa.JSON(), nullable=True),
-        sa.ForeignKeyConstraint(
-            ["id"], ["jobs.id"], name=op.f("fk_profiles_id_jobs"), ondelete="CASCADE"
-        ),
-        sa.PrimaryKeyConstraint("id", name=op.f("pk_profiles")),
+        indexed=["robot"],
     )
-    op.create_index(op.f("ix_profiles_robot"), "profiles", ["robot"])
 
 
 def downgrade() -> None:

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from alembic import op
 
+from app.db.migrations._tables import foreign_key
+
 revision: str = "0005_recapi"
 down_revision: str | None = "0004_planapi"
 branch_labels: str | Sequence[str] | None = None
@@ -46,12 +48,7 @@ def upgrade() -> None:
         sa.Column("time", sa.Float(), nullable=False),
         sa.Column("sha256", sa.String(64), nullable=False),
         sa.Column("jpeg", sa.LargeBinary(), nullable=False),
-        sa.ForeignKeyConstraint(
-            ["file_id"],
-            ["recording_files.id"],
-            name=op.f("fk_skeleton_frames_file_id_recording_files"),
-            ondelete="CASCADE",
-        ),
+        foreign_key("skeleton_frames", "file_id", "recording_files", ondelete="CASCADE"),
         sa.PrimaryKeyConstraint("id", name=op.f("pk_skeleton_frames")),
     )
     op.create_index(op.f("ix_skeleton_frames_file_id"), "skeleton_frames", ["file_id"])
@@ -61,21 +58,9 @@ def upgrade() -> None:
         sa.Column("recording_id", sa.Integer(), nullable=True),
         sa.Column("video_file_id", sa.Integer(), nullable=True),
         sa.Column("result", sa.JSON(), nullable=True),
-        sa.ForeignKeyConstraint(
-            ["id"], ["jobs.id"], name=op.f("fk_pose_extractions_id_jobs"), ondelete="CASCADE"
-        ),
-        sa.ForeignKeyConstraint(
-            ["recording_id"],
-            ["recording_sessions.id"],
-            name=op.f("fk_pose_extractions_recording_id_recording_sessions"),
-            ondelete="SET NULL",
-        ),
-        sa.ForeignKeyConstraint(
-            ["video_file_id"],
-            ["recording_files.id"],
-            name=op.f("fk_pose_extractions_video_file_id_recording_files"),
-            ondelete="SET NULL",
-        ),
+        foreign_key("pose_extractions", "id", "jobs", ondelete="CASCADE"),
+        foreign_key("pose_extractions", "recording_id", "recording_sessions", ondelete="SET NULL"),
+        foreign_key("pose_extractions", "video_file_id", "recording_files", ondelete="SET NULL"),
         sa.PrimaryKeyConstraint("id", name=op.f("pk_pose_extractions")),
     )
     op.create_index(

@@ -13,6 +13,8 @@ from typing import Any
 import sqlalchemy as sa
 from alembic import op
 
+from app.db.migrations._tables import foreign_key
+
 revision: str = "0007_result_blobs"
 down_revision: str | None = "0006_labels"
 branch_labels: str | Sequence[str] | None = None
@@ -25,12 +27,7 @@ def upgrade() -> None:
         sa.Column("job_id", sa.Integer(), nullable=False),
         sa.Column("sha256", sa.String(64), nullable=False),
         sa.Column("size", sa.BigInteger(), nullable=False),
-        sa.ForeignKeyConstraint(
-            ["job_id"],
-            ["jobs.id"],
-            name=op.f("fk_result_blobs_job_id_jobs"),
-            ondelete="CASCADE",
-        ),
+        foreign_key("result_blobs", "job_id", "jobs", ondelete="CASCADE"),
         sa.PrimaryKeyConstraint("job_id", name=op.f("pk_result_blobs")),
     )
     op.create_index(op.f("ix_result_blobs_sha256"), "result_blobs", ["sha256"])

@@ -15,6 +15,8 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from alembic import op
 
+from app.db.migrations._tables import create_job_result_table, drop_job_result_table
+
 revision: str = "0008_cohorts"
 down_revision: str | None = "0007_result_blobs"
 branch_labels: str | Sequence[str] | None = None
@@ -25,23 +27,11 @@ def upgrade() -> None:
     with op.batch_alter_table("recording_sessions") as batch:
         batch.add_column(sa.Column("condition", sa.String(100), nullable=True))
         batch.create_index(op.f("ix_recording_sessions_condition"), ["condition"])
-    op.create_table(
-        "cohorts",
-        sa.Column("id", sa.Integer(), nullable=False),
-        sa.Column("result", sa.JSON(), nullable=True),
-        sa.ForeignKeyConstraint(
-            ["id"], ["jobs.id"], name=op.f("fk_cohorts_id_jobs"), ondelete="CASCADE"
-        ),
-        sa.PrimaryKeyConstraint("id", name=op.f("pk_cohorts")),
-    )
+    create_job_result_table("cohorts", sa.Column("result", sa.JSON(), nullable=True))
 
 
 def downgrade() -> None:
-    # Foreign keys are off while migrations run on SQLite: remove the dependants by hand.
-    cohort_jobs = "SELECT id FROM jobs WHERE kind = 'cohort'"
-    op.execute(f"DELETE FROM result_blobs WHERE job_id IN ({cohort_jobs})")
-    op.drop_table("cohorts")
-    op.execute("DELETE FROM jobs WHERE kind = 'cohort'")
+    drop_job_result_table("cohorts", "cohort")
     with op.batch_alter_table("recording_sessions") as batch:
         batch.drop_index(op.f("ix_recording_sessions_condition"))
         batch.drop_column("condition")

@@ -16,6 +16,8 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from alembic import op
 
+from app.db.migrations._tables import create_job_result_table, drop_job_result_table
+
 revision: str = "0009_robot_logs"
 down_revision: str | None = "0008_cohorts"
 branch_labels: str | Sequence[str] | None = None
@@ -40,27 +42,17 @@ def upgrade() -> None:
     op.create_index(op.f("ix_robot_logs_robot"), "robot_logs", ["robot"])
     op.create_index(op.f("ix_robot_logs_sha256"), "robot_logs", ["sha256"])
     op.create_index(op.f("ix_robot_logs_created_at"), "robot_logs", ["created_at"])
-    op.create_table(
+    create_job_result_table(
         "identifications",
-        sa.Column("id", sa.Integer(), nullable=False),
         sa.Column("result", sa.JSON(), nullable=True),
         sa.Column("robot", sa.String(100), nullable=False),
         sa.Column("version", sa.String(100), nullable=False),
-        sa.ForeignKeyConstraint(
-            ["id"], ["jobs.id"], name=op.f("fk_identifications_id_jobs"), ondelete="CASCADE"
-        ),
-        sa.PrimaryKeyConstraint("id", name=op.f("pk_identifications")),
+        indexed=["robot"],
     )
-    op.create_index(op.f("ix_identifications_robot"), "identifications", ["robot"])
 
 
 def downgrade() -> None:
-    # Foreign keys are off while migrations run on SQLite: remove the dependants by hand.
-    identify_jobs = "SELECT id FROM jobs WHERE kind = 'identify'"
-    op.execute(f"DELETE FROM result_blobs WHERE job_id IN ({identify_jobs})")
-    op.drop_index(op.f("ix_identifications_robot"), table_name="identifications")
-    op.drop_table("identifications")
-    op.execute("DELETE FROM jobs WHERE kind = 'identify'")
+    drop_job_result_table("identifications", "identify", indexed=["robot"])
     op.drop_index(op.f("ix_robot_logs_created_at"), table_name="robot_logs")
     op.drop_index(op.f("ix_robot_logs_sha256"), table_name="robot_logs")
     op.drop_index(op.f("ix_robot_logs_robot"), table_name="robot_logs")

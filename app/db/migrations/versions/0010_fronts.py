@@ -15,6 +15,8 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from alembic import op
 
+from app.db.migrations._tables import create_job_result_table, drop_job_result_table
+
 revision: str = "0010_fronts"
 down_revision: str | None = "0009_robot_logs"
 branch_labels: str | Sequence[str] | None = None
@@ -22,24 +24,14 @@ depends_on: str | Sequence[str] | None = None
 
 
 def upgrade() -> None:
-    op.create_table(
+    create_job_result_table(
         "fronts",
-        sa.Column("id", sa.Integer(), nullable=False),
         sa.Column("result", sa.JSON(), nullable=True),
         sa.Column("robot", sa.String(100), nullable=False),
         sa.Column("arrays", sa.LargeBinary(), nullable=True),
-        sa.ForeignKeyConstraint(
-            ["id"], ["jobs.id"], name=op.f("fk_fronts_id_jobs"), ondelete="CASCADE"
-        ),
-        sa.PrimaryKeyConstraint("id", name=op.f("pk_fronts")),
+        indexed=["robot"],
     )
-    op.create_index(op.f("ix_fronts_robot"), "fronts", ["robot"])
 
 
 def downgrade() -> None:
-    # Foreign keys are off while migrations run on SQLite: remove the dependants by hand.
-    front_jobs = "SELECT id FROM jobs WHERE kind = 'front'"
-    op.execute(f"DELETE FROM result_blobs WHERE job_id IN ({front_jobs})")
-    op.drop_index(op.f("ix_fronts_robot"), table_name="fronts")
-    op.drop_table("fronts")
-    op.execute("DELETE FROM jobs WHERE kind = 'front'")
+    drop_job_result_table("fronts", "front", indexed=["robot"])
