@@ -15,6 +15,9 @@ from pydantic import BaseModel
 from app.api import result_models as rm
 from tests.utils.api import TestClient, wait_job
 
+#: The routes' contract: SQLite only (tests/api/conftest.py).
+pytestmark = pytest.mark.api_contract
+
 #: One small real job per kind (as the kinds' own API tests submit them).
 JOBS: dict[str, tuple[str, dict[str, Any], type[BaseModel]]] = {
     "plan": (

@@ -23,6 +23,9 @@ from tests.utils.api import TestClient, wait_job
 from tests.utils.data import shared_file
 from tests.utils.robot_logs import arm_urdf, excitation, mujoco_torques, write_generic_csv
 
+#: The routes' contract: SQLite only (tests/api/conftest.py).
+pytestmark = pytest.mark.api_contract
+
 C3D = "pyomeca_upperlimb_c3d_emg/markers_analogs.c3d"  # markers + 13 EMG channels: 3 lifts
 LANDMARKS = "mediapipe_bicep_curl_frames/test.csv"  # MediaPipe landmarks with per-frame quality
 NORAXON = "noraxon_curls_biceps_brachioradialis/2023-04-20-15-07_BR_podchwyt.csv"  # EMG only

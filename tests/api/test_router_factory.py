@@ -55,6 +55,9 @@ KIND_MODULES = (
     "robot_logs",
 )
 
+#: The routes' contract: SQLite only (tests/api/conftest.py).
+pytestmark = pytest.mark.api_contract
+
 
 @pytest.fixture(scope="module")
 def app_routes() -> dict[tuple[str, str], APIRoute]:

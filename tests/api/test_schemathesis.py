@@ -68,6 +68,7 @@ UNSTATED_RULES: dict[str, dict[str, str]] = {
         "start_deg": "one angle per joint of the chosen robot, within its limits",
         "goal_deg": "one angle per joint of the chosen robot, within its limits",
         "template": "a HumanTemplate, and not beside template_analysis_id",
+        "human_constraint": "shape only with a template built from recorded lifts (their band)",
     },
     "POST /api/sweeps": {
         "durations": "long enough for the chosen robot's joint speed limits",
