@@ -952,7 +952,9 @@ else:
 
 #: A group (condition) name (one of blanks only is refused by the service, naming ``groups``).
 GroupName = Annotated[str, StringConstraints(min_length=1, max_length=100)]
-RecordingId = Annotated[int, Field(ge=1, le=2**31 - 1)]
+#: The id of a stored row (recording, log...): what the database's integer key can hold.
+StoredId = Annotated[int, Field(ge=1, le=2**31 - 1)]
+RecordingId = StoredId
 #: Most groups and recordings per group of one cohort.
 COHORT_MAX_GROUPS = 20
 COHORT_MAX_PER_GROUP = 500
@@ -1161,7 +1163,9 @@ class IdentifyRequest(_Request):
     """Identify a robot's inertias and friction from stored logs of it (``bioplan identify``);
     the result is stored as a new robot version beside the nominal one."""
 
-    log_ids: list[int] = Field(min_length=1, max_length=20, description="stored logs of one robot")
+    log_ids: list[StoredId] = Field(
+        min_length=1, max_length=20, description="stored logs of one robot"
+    )
     version: str | None = Field(
         default=None,
         pattern=ROBOT_NAME,

@@ -100,11 +100,9 @@ EXPORT_SAMPLES_PARAMETER = "samples"
 
 
 def state_export_limit(schema: dict[str, Any], max_export_samples: int) -> None:
-    """The trajectory routes' ``samples`` parameter goes no higher than this server's cap
+    """Every trajectory export's ``samples`` parameter goes no higher than this server's cap
     (``Settings.max_export_samples``), so a client learns it before it is refused."""
-    for route, path in schema.get("paths", {}).items():
-        if not route.endswith("/trajectory"):
-            continue
+    for path in schema.get("paths", {}).values():
         for operation in path.values():
             for param in operation.get("parameters", []) if isinstance(operation, dict) else []:
                 if param.get("name") != EXPORT_SAMPLES_PARAMETER or param.get("in") != "query":

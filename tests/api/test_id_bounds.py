@@ -64,8 +64,11 @@ def _id_body_cases(spec: dict[str, Any]) -> list[tuple[str, str, str]]:
                 continue
             body = _resolve(spec, content["application/json"]["schema"])
             for field, schema in body.get("properties", {}).items():
-                if re.fullmatch(r"(\w+_)?id", field) and _is_int(_resolve(spec, schema)):
+                schema = _resolve(spec, schema)
+                if re.fullmatch(r"(\w+_)?id", field) and _is_int(schema):
                     cases.append((method.upper(), path, field))
+                elif re.fullmatch(r"\w+_ids", field) and _is_int(schema.get("items", {})):
+                    cases.append((method.upper(), path, field))  # a list of ids
     return cases
 
 
@@ -100,11 +103,32 @@ def test_a_huge_id_anywhere_is_a_422_naming_it(tmp_path: Path) -> None:
         for method, path, name in query_cases:
             r = client.request(method, path, params={name: HUGE})
             assert r.status_code == 422, (method, path, r.status_code, r.text)
+        # POST /api/identifications {"log_ids": [-6e30]} answered 500 (found by schemathesis).
+        assert ("POST", "/api/identifications", "log_ids") in body_cases
         for method, path, field in body_cases:
-            r = client.request(method, path, json={field: HUGE})
+            huge = [HUGE] if field.endswith("_ids") else HUGE
+            r = client.request(method, path, json={field: huge})
             assert r.status_code == 422, (method, path, r.status_code, r.text)
             fields = {e["field"] for e in r.json()["errors"]}
             assert any(field in f for f in fields), (method, path, field, fields)
+
+
+def test_every_export_states_its_sample_cap(tmp_path: Path) -> None:
+    """``samples`` of every trajectory export says this server's BIOPLAN_MAX_EXPORT_SAMPLES as
+    its maximum, as its description promises (a front point's export did not)."""
+    with make_client(tmp_path, max_export_samples=1234) as client:
+        spec = client.get("/openapi.json").json()
+    stated = {
+        path: option.get("maximum")
+        for path, ops in spec["paths"].items()
+        for op in ops.values()
+        for p in op.get("parameters", [])
+        if p["in"] == "query" and p["name"] == "samples"
+        for option in p["schema"].get("anyOf", [p["schema"]])
+        if option.get("type") == "integer"
+    }
+    assert "/api/fronts/{front_id}/points/{pid}/export" in stated
+    assert len(stated) >= 3 and set(stated.values()) == {1234}, stated
 
 
 def test_every_points_parameter_is_capped(tmp_path: Path) -> None:
