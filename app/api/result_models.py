@@ -457,7 +457,7 @@ class CohortResult(_Open):
     correction: CohortCorrection
     units: dict[str, str] = Field(description="measure -> unit, in the table's order")
     subject_rule: str = Field(description="how subjects were found")
-    options: dict[str, Any] = Field(description="the CohortOptions used, by name")
+    options: dict[str, object] = Field(description="the CohortOptions used, by name")
     warnings: list[str] = Field(description="what the analyses or the comparison assumed")
     recording_ids: list[int] | None = Field(
         default=None, description="the service's: recording id of each of ``recordings``"
@@ -666,8 +666,8 @@ class AnalysisSettings(_Open):
     load_mass_kg: float
     offset_s: float | str | None = Field(description='[s], "auto" or null (same clock)')
     session: str | None = Field(default=None, description='"separate" or "together"')
-    emg: dict[str, Any] = Field(description="EMG filter: band_hz, lowpass_hz, method")
-    pose: dict[str, Any] = Field(description="pose options given")
+    emg: dict[str, object] = Field(description="EMG filter: band_hz, lowpass_hz, method")
+    pose: dict[str, object] = Field(description="pose options given")
     keep_low_quality_lifts: bool | None = None
     frame_rate_hz: float | None = Field(default=None, description="reader's frame rate [Hz]")
     image_size_px: list[int] | None = Field(default=None, description="[width, height] [px]")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 from pathlib import PurePosixPath
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Literal, TypedDict
 
 from fastapi import Depends, Path, Query, Response
 from pydantic import BeforeValidator, Field
@@ -23,12 +23,21 @@ IdPath = Annotated[int, Path(ge=1, le=2**31 - 1)]
 MAX_POINTS = 10_000
 
 
+class FileAnswer(TypedDict):
+    """The route arguments of a GET whose 200 is a file, not JSON (:func:`file_answer`)."""
+
+    response_class: type[Response]
+    responses: dict[int | str, dict[str, object]]
+
+
 def file_answer(
     media_type: str, description: str, response_class: type[Response] = Response
-) -> dict[str, Any]:
+) -> FileAnswer:
     """The route arguments of a GET whose 200 is a file of ``media_type``, not JSON: its
     response class and the OpenAPI ``responses`` that name the media type."""
-    responses = {200: {"content": {media_type: {}}, "description": description}}
+    responses: dict[int | str, dict[str, object]] = {
+        200: {"content": {media_type: {}}, "description": description}
+    }
     return {"response_class": response_class, "responses": responses}
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,8 +30,12 @@ from app.progress import ProgressFn, no_progress, report, within
 
 if TYPE_CHECKING:
     from app.planning.human_template import HumanTemplate
-    from app.planning.planner import PlanTask
+    from app.planning.planner import PlanResult, PlanTask
     from app.planning.robots import Robot
+    from app.simulation.comparison import SimulationResult
+
+#: What ``plan`` or ``simulate`` returns (:func:`_with_motion`'s ``run``).
+R = TypeVar("R", "PlanResult", "SimulationResult")
 
 
 def task_from_degrees(
@@ -88,7 +92,8 @@ def plan(payload: PlanPayload, progress: ProgressFn = no_progress) -> JobResult:
     from app.planning.options import PlanOptions
     from app.planning.planner import plan as run_plan
 
-    return _with_motion(payload, run_plan, PlanOptions.from_payload(payload), progress)
+    options = PlanOptions.from_payload(payload)
+    return _with_motion(payload, run_plan, options, progress, plan_of=lambda result: result)
 
 
 def simulate(payload: SimulationPayload, progress: ProgressFn = no_progress) -> JobResult:
@@ -112,11 +117,11 @@ def simulate(payload: SimulationPayload, progress: ProgressFn = no_progress) -> 
 
 def _with_motion(
     payload: PlanPayload | SimulationPayload,
-    run: Callable[..., Any],
+    run: Callable[..., R],
     options: Options,
     progress: ProgressFn,
     *,
-    plan_of: Callable[[Any], Any] = lambda result: result,
+    plan_of: Callable[[R], PlanResult],
 ) -> JobResult:
     """``run(robot, options, task=, template=, progress=)`` on the payload's robot, task and
     template: its dict with the ``motion`` block of its plan (``plan_of(result)``) and its
