@@ -82,6 +82,7 @@ def _run(client: TestClient, body: dict[str, Any]) -> tuple[dict[str, Any], list
     return out, events
 
 
+@pytest.mark.api_contract
 def test_grouped_by_condition_equals_the_library(
     shared_client: TestClient, stored: dict[str, list[int]]
 ) -> None:

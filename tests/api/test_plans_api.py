@@ -161,6 +161,7 @@ def test_template_and_angles_reach_the_planner(shared_client: TestClient) -> Non
     np.testing.assert_allclose(cond["goal_deg"], [30.0, 140.0])
 
 
+@pytest.mark.api_contract
 def test_methods_and_their_options_reach_the_planner(shared_client: TestClient) -> None:
     """Every method option of the request is the library's: the same plan, option by option."""
     from app.db.crud import json_safe
@@ -251,6 +252,7 @@ def test_a_plan_the_planner_refuses_fails_its_job_with_one_line(
     assert "outside the elbow's stroke" in job["error"] and "\n" not in job["error"]
 
 
+@pytest.mark.api_contract
 def test_the_comparison_shows_any_two_planned_methods(shared_client: TestClient) -> None:
     """``methods=a,b`` on the Compare page's data: a's curves as standard, b's as optimized."""
     out = _run(shared_client, seed=6, methods=["quintic", "paper", "bound"], n_intervals=16)

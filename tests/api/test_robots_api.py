@@ -271,6 +271,7 @@ def test_an_mjcf_alone_is_a_robot(client: TestClient) -> None:
     assert isinstance(plan["result"], dict) and "quintic" in plan["result"]["methods"]
 
 
+@pytest.mark.api_contract
 def test_mjcf_files_are_confined_to_the_upload(client: TestClient) -> None:
     """Issue 14 item 5: an uploaded MJCF's ``<include file="/etc/passwd"/>`` was read (and the
     error told whether a file exists). Paths outside the upload are refused from the text

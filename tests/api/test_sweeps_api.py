@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import pytest
+
 from tests.utils.api import TestClient, assert_problem, read_sse
 
 GRID = {
@@ -26,6 +28,7 @@ def _sweep(client: TestClient, **body: Any) -> tuple[dict[str, Any], list[dict[s
     return out, events
 
 
+@pytest.mark.api_contract
 def test_every_cell_reports_every_method_and_its_check(shared_client: TestClient) -> None:
     """Methods reach each cell; the check seed is the one asked; per-cell progress is sent."""
     from app.planning import load_robot
