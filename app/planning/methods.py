@@ -18,8 +18,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from app import names
+from app.errors import BioPlanError
 from app.planning.actuators import actuator_limits, actuator_violation
 from app.planning.clearance import clearance_constraint
 from app.planning.energy import objective_values
@@ -41,9 +43,11 @@ from app.planning.optimal import (
     HUMAN_CONSTRAINTS,
     PEAK_BAND_DEG,
     PEAK_CONCAVE_DEG,
+    TORQUE_MARGIN,
     ExtraConstraints,
     HumanSpec,
     OptimalResult,
+    PiecewiseCubic,
     SolverError,
     human_spec_peak,
     human_spec_phases,
@@ -86,6 +90,7 @@ __all__ = [
 ]
 
 logger = logging.getLogger("bioplan.planning")
+FloatArray = NDArray[np.float64]
 
 #: Every method, in the order results list them (``app.names.METHODS``).
 ALL_METHODS: tuple[str, ...] = tuple(names.METHODS)
@@ -423,18 +428,23 @@ def run_optimal(
     no_reversal: bool,
     report_samples: int,
     near_optimum: bool = False,
+    interval_weights: Sequence[float] | None = None,
+    segment_counts: Sequence[int] | None = None,
 ) -> MethodResult:
     """``human_optimal`` or ``bound``: optimal control, warm-started from the paper's plan.
 
     ``near_optimum``: ``warm`` is already an optimum of this problem on a coarser mesh (mesh
     refinement): IPOPT starts from it with a small barrier parameter
     (``ExtraConstraints.warm``), and again with its default options should that fail.
+    ``interval_weights``, ``segment_counts``: a non-uniform mesh (:func:`solve_optimal`); the
+    re-solves within the actuators' limits or clear of obstacles on more intervals are uniform.
     """
     solve: dict[str, Any] = {
         "objective": objective, "human": spec, "n_intervals": n_intervals,
         "warm_start": None if warm is None else warm.trajectory,
         "warm_start_name": "quintic" if warm is None else warm.name,
         "no_reversal": no_reversal, "report_samples": report_samples, "name": name,
+        "interval_weights": interval_weights, "segment_counts": segment_counts,
     }  # fmt: skip
     solution = _first_solve(
         robot, task, duration, solve, warm_refine=near_optimum and warm is not None
@@ -454,6 +464,8 @@ def run_optimal(
             warm_start=solution.trajectory, warm_start_name=name, n_intervals=n,
             no_reversal=no_reversal, report_samples=report_samples, name=name,
             extra=ExtraConstraints(actuators=limits),
+            interval_weights=interval_weights if n == n_intervals else None,
+            segment_counts=segment_counts if n == n_intervals else None,
         )  # fmt: skip
         evaluated = evaluate_trajectory(robot, solution.trajectory, task)
         if actuator_violation(robot, evaluated) is None:
@@ -605,7 +617,7 @@ MAX_CONVERGENCE_INTERVALS = 320
 _MAX_OBSERVED_RATIO = 4.0
 
 
-def mesh_error_estimate(values: Sequence[float]) -> tuple[float, bool]:
+def mesh_error_estimate(values: Sequence[float], *, halving: bool = True) -> tuple[float, bool]:
     """The error estimate of the last of the objectives on meshes N, 2N, 4N, ... and whether
     it is an extrapolation (Richardson's, from the observed order).
 
@@ -614,6 +626,12 @@ def mesh_error_estimate(values: Sequence[float]) -> tuple[float, bool]:
     the last value is the geometric tail d2 / (r − 1) (r capped at 4, second order). Otherwise
     the last change itself |d2| (the error of a first-order sequence, an upper estimate of a
     faster one). Relative to the last value [-]; NaN with fewer than two values.
+
+    ``halving=False`` (adaptive meshes, :func:`refined_mesh`): a step halves only some
+    intervals, so the ratio of two changes is no order of the method and "at least first
+    order" (r >= 2) is no longer known. Then the geometric tail d2 / (r − 1) is used for any
+    shrinking ratio r > 1 (capped at 4), which is larger than the last change when the changes
+    shrink slower than by half, and the last change itself otherwise (not an extrapolation).
     """
     if len(values) < 2:
         return math.nan, False
@@ -623,9 +641,141 @@ def mesh_error_estimate(values: Sequence[float]) -> tuple[float, bool]:
     change = abs(d2) / size
     if len(values) >= 3 and d2 != 0.0:
         ratio = (values[-3] - values[-2]) / d2
-        if ratio >= 2.0:
+        if ratio >= (2.0 if halving else 1.0 + 1e-9):
             return change / (min(ratio, _MAX_OBSERVED_RATIO) - 1.0), True
     return change, False
+
+
+#: Whether :func:`refine_to_convergence` refines adaptively by default (halving only the
+#: intervals :func:`refined_mesh` flags) instead of doubling the mesh.
+ADAPTIVE_MESH = False
+#: Adaptive refinement (:func:`refined_mesh`): an interval is halved when a limit is within
+#: this fraction of binding on it (torque, speed, position, or the no-reversal rule's zero
+#: speed, relative to the joint's limit) [-] ...
+ACTIVE_BAND = 0.01
+#: ... and, so that every step makes progress where the solution is smooth too, at least this
+#: fraction of the intervals: those whose jerk jumps most to a neighbour (the constant-jerk
+#: transcription's local error) [-].
+PROGRESS_FRACTION = 0.25
+#: An interval whose jerk jump is this many times the progress fraction's is quartered [-].
+QUARTER_ABOVE = 16.0
+#: Points per interval at which the indicator is evaluated (Pinocchio's inverse dynamics).
+_INDICATOR_POINTS = 9
+
+
+def mesh_of(result: MethodResult) -> tuple[FloatArray, tuple[int, ...]]:
+    """The node times (N+1,) [s] and the intervals per segment of an optimal-control result."""
+    knots = result.trajectory.knots
+    if knots is None:
+        raise BioPlanError(f"{result.name}: the result carries no mesh (knots)")
+    t = np.asarray(knots[0], dtype=np.float64)
+    durations = list((result.solver or {}).get("segment_durations") or [t[-1] - t[0]])
+    joins = [int(np.argmin(np.abs(t - j))) for j in np.cumsum(durations)[:-1]]
+    counts = tuple(int(c) for c in np.diff([0, *joins, t.size - 1]))
+    return t, counts
+
+
+def refined_mesh(
+    robot: Robot, result: MethodResult, objective: str, no_reversal: bool, task: PlanTask
+) -> tuple[int, tuple[float, ...], tuple[int, ...], int]:
+    """The next adaptive mesh: the intervals of ``result``'s mesh where the error sits, split.
+
+    Evaluated at :data:`_INDICATOR_POINTS` points of every interval (the knots sampled exactly,
+    the robot's inverse dynamics): an interval is halved where a limit switches between
+    binding and not within it (within :data:`ACTIVE_BAND`: torque with the solver's margin,
+    speed, position, the no-reversal rule's zero speed of a moving joint), and so are its
+    neighbours; then, to at least :data:`PROGRESS_FRACTION` of all intervals, those whose jerk
+    jumps most to a neighbour (scaled by the stroke, times the shorter interval); an interval
+    whose jump is :data:`QUARTER_ABOVE` times that fraction's, the first and last intervals
+    (rest to rest) and both sides of every segment join (the human rules) are quartered.
+    Measured and left out: flagging where a peak objective's integrand is within 2 % of its
+    peak (it flags nearly every interval: the optimum flattens the power; 2-DOF peak power
+    80 → 159 → 315 intervals, no saving). Splitting keeps every coarse node and the segment
+    joins, so the meshes are nested: a cubic on an interval is a cubic on its pieces.
+
+    Returns:
+        (N', relative interval lengths (N',), intervals per segment, intervals split).
+    """
+    t, counts = mesh_of(result)
+    traj = result.trajectory
+    assert traj.knots is not None
+    _, kq, kqd, kqdd = (np.asarray(a, dtype=np.float64) for a in traj.knots)
+    n_int = t.size - 1
+    h = np.diff(t)
+    frac = np.linspace(0.0, 1.0, _INDICATOR_POINTS)
+    times = (t[:-1, None] + h[:, None] * frac[None, :]).ravel()
+    times = np.clip(times, t[0], t[-1])
+    sampled = PiecewiseCubic(t=t, q=kq, qd=kqd, qdd=kqdd).sample(times)
+    tau = robot.dynamics().inverse_dynamics(sampled.q, sampled.qd, sampled.qdd)
+    shape = (n_int, _INDICATOR_POINTS)
+    tau_max = np.asarray(robot.tau_max, dtype=np.float64)
+    qd_max = np.asarray(robot.qd_max, dtype=np.float64)
+    torque = (np.abs(tau) / tau_max).max(axis=1).reshape(shape)
+    speed = (np.abs(sampled.qd) / qd_max).max(axis=1).reshape(shape)
+    # Each limit's activity at every point (N, P); an interval is flagged where one switches
+    # (some of its points active, some not): there the constant-jerk pieces cannot follow the
+    # solution's kink. Where a limit holds throughout (a joint resting at zero speed) halving
+    # changes nothing.
+    active = [
+        torque >= 1.0 - TORQUE_MARGIN - ACTIVE_BAND,
+        speed >= 1.0 - ACTIVE_BAND,
+    ]
+    q_min, q_max = np.asarray(robot.q_min, float), np.asarray(robot.q_max, float)
+    span = np.where(np.isfinite(q_max - q_min), q_max - q_min, np.inf)
+    gap = np.minimum(sampled.q - q_min, q_max - sampled.q) / span
+    active.append((gap.min(axis=1) <= ACTIVE_BAND).reshape(shape))
+    stroke = task.goal - task.start
+    moving = np.abs(stroke) > 0
+    if no_reversal and moving.any():
+        along = (np.sign(stroke) * sampled.qd / qd_max)[:, moving].min(axis=1).reshape(shape)
+        # Interior points only: every joint is at rest at both ends by the boundary conditions.
+        ends = (times <= t[0] + 1e-12) | (times >= t[-1] - 1e-12)
+        active.append((along <= ACTIVE_BAND) & ~ends.reshape(shape))
+    flags = np.zeros(n_int, dtype=bool)
+    for act in active:
+        flags |= act.any(axis=1) & ~act.all(axis=1)
+    flags = flags | np.r_[flags[1:], False] | np.r_[False, flags[:-1]]
+    scale = np.maximum(np.abs(stroke), 0.1) / float(t[-1] - t[0]) ** 3
+    jerk = np.diff(kqdd, axis=0) / h[:, None] / scale
+    # The jump between intervals k and k + 1 times the shorter of them: the change of the
+    # acceleration the jump stands for. It does not shrink where the solution's jerk is
+    # singular (the rest-to-rest ends: q̈ = 0 there, the optimum wants a step), so those
+    # intervals are halved again and again, a mesh graded towards the end.
+    jumps = np.abs(np.diff(jerk, axis=0)).max(axis=1) * np.minimum(h[:-1], h[1:])
+    local = np.maximum(np.r_[jumps, 0.0], np.r_[0.0, jumps])
+    least = math.ceil(PROGRESS_FRACTION * n_int)
+    threshold = float(np.sort(local)[::-1][least - 1])
+    if int(flags.sum()) < least:
+        order = np.argsort(-np.where(flags, -np.inf, local), kind="stable")
+        flags[order[: least - int(flags.sum())]] = True
+    # Far above the rest (a singular end), quarters: two levels in one step.
+    pieces = np.where(flags, 2, 1)
+    pieces[local >= QUARTER_ABOVE * max(threshold, 1e-300)] = 4
+    # Always quartered: the intervals at both ends (rest to rest holds q̈ = 0 there while the
+    # optimum wants a step of the acceleration) and on both sides of every segment join (the
+    # human rules switch there: the elbow's q̈ changes sign at the peak).
+    joins = np.cumsum(counts)[:-1]
+    pieces[[0, n_int - 1, *(joins - 1), *joins]] = 4
+    lengths: list[float] = []
+    new_counts, first = [], 0
+    for count in counts:
+        seg_h = h[first : first + count] / h[first : first + count].sum()
+        seg_pieces = pieces[first : first + count]
+        for length, k in zip(seg_h, seg_pieces, strict=True):
+            lengths.extend([float(length) / int(k)] * int(k))
+        new_counts.append(int(seg_pieces.sum()))
+        first += count
+    return sum(new_counts), tuple(lengths), tuple(new_counts), int((pieces > 1).sum())
+
+
+def _interval_extent(result: MethodResult) -> tuple[float, float]:
+    """The smallest and largest interval [s] of an optimal-control result's mesh (NaN without
+    one)."""
+    knots = result.trajectory.knots
+    if knots is None:
+        return math.nan, math.nan
+    h = np.diff(np.asarray(knots[0], dtype=np.float64))
+    return float(h.min()), float(h.max())
 
 
 def refine_to_convergence(
@@ -639,10 +789,19 @@ def refine_to_convergence(
     no_reversal: bool,
     report_samples: int,
     keep_lowest: bool,
+    adaptive: bool | None = None,
 ) -> MethodResult:
     """An optimal-control result refined on meshes of 2N, 4N, ... intervals, each warm-started
     from the last, until its objective (on the report grid) changes by less than
     :data:`CONVERGENCE_TOLERANCE` (or :data:`MAX_CONVERGENCE_INTERVALS`, or a failed solve).
+
+    ``adaptive`` (None = :data:`ADAPTIVE_MESH`): each finer mesh halves only the intervals
+    :func:`refined_mesh` picks (where a limit switches, the ends, the segment joins and the
+    quarter with the largest jerk jumps), up to :data:`MAX_CONVERGENCE_INTERVALS` intervals in
+    all; it stops when the error estimate (:func:`mesh_error_estimate` with ``halving=False``)
+    is below the tolerance from the third mesh on (a two-mesh change alone never stops it: a
+    step that halves a few intervals changes the objective less than the error left). The
+    ``shape`` constraint needs equal intervals, so it is always refined uniformly.
 
     From the third mesh on, it also stops when the Richardson estimate of the error left
     (:func:`mesh_error_estimate`: the changes shrink at least as fast as first order) is below
@@ -652,41 +811,62 @@ def refine_to_convergence(
     The result's ``solver`` gains ``convergence``: ``sequence`` (every mesh's intervals and
     objective), ``relative_change`` (the last step's), ``error_estimate`` (of the final value,
     :func:`mesh_error_estimate`) and ``extrapolated`` (whether that estimate is Richardson's),
-    ``converged``, ``final_intervals`` and ``tolerance``. ``keep_lowest`` (bounds):
-    the meshes are nested (a cubic on an interval is cubic on its halves), so a finer optimum is
-    never above a coarser one; should IPOPT return one that is, the lower is kept.
+    ``converged``, ``final_intervals``, ``tolerance`` and ``adaptive``; each ``sequence`` entry
+    also gives the mesh's ``smallest_interval`` and ``largest_interval`` [s].
+    ``keep_lowest`` (bounds): the meshes are nested (a cubic on an interval is cubic on its
+    halves), so a finer optimum is never above a coarser one; should IPOPT return one that is,
+    the lower is kept.
     """
     solver = dict(result.solver or {})
     n = int(solver.get("n_intervals", 0))
+    adaptive = ADAPTIVE_MESH if adaptive is None else adaptive
+    adaptive = adaptive and spec.kind != "shape" and result.trajectory.knots is not None
     value = objective_value(robot, result.evaluated, objective)
-    sequence: list[dict[str, Any]] = [{"n_intervals": n, "objective": value}]
+    small, large = _interval_extent(result)
+    sequence: list[dict[str, Any]] = [
+        {"n_intervals": n, "objective": value, "smallest_interval": small,
+         "largest_interval": large}
+    ]  # fmt: skip
     values = [value]
     best, best_value, change, converged = result, value, math.nan, False
     estimate, extrapolated = math.nan, False
     current = result
-    while n > 0 and 2 * n <= MAX_CONVERGENCE_INTERVALS:
-        n *= 2
+    while n > 0:
+        weights: tuple[float, ...] | None = None
+        counts: tuple[int, ...] | None = None
+        if adaptive:
+            n, weights, counts, _ = refined_mesh(robot, current, objective, no_reversal, task)
+            if n > MAX_CONVERGENCE_INTERVALS:
+                break
+        elif 2 * n <= MAX_CONVERGENCE_INTERVALS:
+            n *= 2
+        else:
+            break
         try:
             finer = run_optimal(
                 robot, task, name=result.name, duration=duration, objective=objective,
                 spec=spec, warm=current, n_intervals=n, no_reversal=no_reversal,
                 report_samples=report_samples, near_optimum=True,
+                interval_weights=weights, segment_counts=counts,
             )  # fmt: skip
         except SolverError as exc:
             sequence.append({"n_intervals": n, "error": str(exc)})
             logger.warning("%s: refinement stopped at %d intervals: %s", result.name, n, exc)
             break
         new = objective_value(robot, finer.evaluated, objective)
-        sequence.append({"n_intervals": n, "objective": new})
+        small, large = _interval_extent(finer)
+        sequence.append({"n_intervals": n, "objective": new, "smallest_interval": small,
+                         "largest_interval": large})  # fmt: skip
         values.append(new)
         change = abs(new - value) / max(abs(value), abs(new), 1e-12)
-        estimate, extrapolated = mesh_error_estimate(values)
+        estimate, extrapolated = mesh_error_estimate(values, halving=not adaptive)
         logger.debug("%s: %d intervals, %s = %.6g (change %.2g, error estimate %.2g)",
                      result.name, n, objective, new, change, estimate)  # fmt: skip
         current, value = finer, new
         if not keep_lowest or new <= best_value:
             best, best_value = finer, new
-        if change < CONVERGENCE_TOLERANCE or estimate < CONVERGENCE_TOLERANCE:
+        stop = estimate < CONVERGENCE_TOLERANCE and (not adaptive or len(values) >= 3)
+        if stop or (not adaptive and change < CONVERGENCE_TOLERANCE):
             converged = True
             break
     out = dict(best.solver or {})
@@ -706,6 +886,7 @@ def refine_to_convergence(
         "converged": converged,
         "final_intervals": int((best.solver or {}).get("n_intervals", n)),
         "tolerance": CONVERGENCE_TOLERANCE,
+        "adaptive": adaptive,
     }
     return MethodResult(result.name, best.evaluated, out)
 

@@ -299,6 +299,7 @@ def check_safety(
     findings: list[Finding] = []
     clearance = math.inf
     for name, trajectory in trajectories.items():
+        model.fresh_data()  # each result independent of what the model checked before
         found, low = model.check(name, trajectory, margin)
         findings.extend(found)
         clearance = min(clearance, low)
@@ -453,8 +454,15 @@ class _CollisionModel:
         if not self.pairs:
             raise _NotCheckable(NOT_CHECKED_NO_PAIRS)
         self.coefficients = self._motion_bounds(robot)
+        self.fresh_data()
+
+    def fresh_data(self) -> None:
+        """New Pinocchio and collision data: the distance solver keeps guesses from its last
+        calls, so a reused one gives the same trajectory a clearance different in the 11th
+        digit depending on what was checked before (a plan served by the API differed from the
+        same plan made in the library)."""
         self.data = self.model.createData()
-        self.gdata = geom.createData()
+        self.gdata = self.geom.createData()
 
     def _configuration_map(self, robot: Robot) -> None:
         """Where each of ``robot.all_joint_names`` sits in Pinocchio's configuration."""

@@ -446,3 +446,19 @@ def test_collision_meshes_are_found_like_the_viewer_finds_them(
     urdf.write_text(_two_link_with_mesh(two_link_urdf, "/dev/zero"))
     device = check_safety(load_robot(urdf), move, scene=SafetyScene(mount_plane_height=None))
     assert device.checked is False and "mesh zero not found" in (device.reason or "")
+
+
+def test_a_check_does_not_depend_on_what_was_checked_before() -> None:
+    """The distance solver keeps guesses between calls: a reused one gave the same trajectory a
+    clearance differing in the 11th digit after another check, so a plan served by the API was
+    not the library's plan of the same request. Now the same trajectory gives the same bits
+    whatever came before, equal to a fresh robot's."""
+    robot = load_robot("human_arm_2dof", payload=10.0)
+    task = PlanTask.default(robot)
+    lift = {"lift": quintic(task.start, task.goal, 1.0, n_samples=1000)}
+    other = {"other": quintic(task.start, 0.5 * task.goal, 1.3, n_samples=1000)}
+    first = check_safety(robot, lift).min_clearance
+    check_safety(robot, other)
+    assert check_safety(robot, lift).min_clearance == first
+    fresh = load_robot("human_arm_2dof", payload=10.0)
+    assert check_safety(fresh, lift).min_clearance == first
