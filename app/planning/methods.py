@@ -415,6 +415,27 @@ def human_spec(
     return human_spec_phases(elbow, angles, shares.bounds), shares
 
 
+def _within_actuators(
+    robot: Robot, task: PlanTask, duration: float, limits: Any, solve: dict[str, Any]
+) -> tuple[OptimalResult, EvaluatedTrajectory]:
+    """``solve`` (:func:`solve_optimal`'s keywords, warm-started from the violating solution)
+    again with the actuators' ``limits`` as constraints. Kept at the evaluation points, they may
+    still be crossed between them on a coarse mesh: then once more on twice the intervals (a
+    uniform mesh)."""
+    first = n = int(solve["n_intervals"])
+    while True:
+        solution = solve_optimal(
+            robot, task.start, task.goal, duration, extra=ExtraConstraints(actuators=limits),
+            **{**solve, "n_intervals": n},
+        )  # fmt: skip
+        evaluated = evaluate_trajectory(robot, solution.trajectory, task)
+        if actuator_violation(robot, evaluated) is None or n >= 2 * first:
+            return solution, evaluated
+        n *= 2
+        solve = {**solve, "warm_start": solution.trajectory, "interval_weights": None,
+                 "segment_counts": None}  # fmt: skip
+
+
 def run_optimal(
     robot: Robot,
     task: PlanTask,
@@ -455,22 +476,9 @@ def run_optimal(
     # their rows make every solve 2-3x slower and rarely bind.
     limits = actuator_limits(robot)
     said_no = actuator_violation(robot, evaluated) if limits is not None else None
-    n = n_intervals
-    # Kept at the evaluation points, they may still be crossed between them on a coarse mesh:
-    # then once more on twice the intervals.
-    while said_no is not None and n <= 2 * n_intervals:
-        solution = solve_optimal(
-            robot, task.start, task.goal, duration, objective=objective, human=spec,
-            warm_start=solution.trajectory, warm_start_name=name, n_intervals=n,
-            no_reversal=no_reversal, report_samples=report_samples, name=name,
-            extra=ExtraConstraints(actuators=limits),
-            interval_weights=interval_weights if n == n_intervals else None,
-            segment_counts=segment_counts if n == n_intervals else None,
-        )  # fmt: skip
-        evaluated = evaluate_trajectory(robot, solution.trajectory, task)
-        if actuator_violation(robot, evaluated) is None:
-            break
-        n *= 2
+    if said_no is not None and limits is not None:
+        solve.update(warm_start=solution.trajectory, warm_start_name=name)
+        solution, evaluated = _within_actuators(robot, task, duration, limits, solve)
     # Clearance where it binds (issue 27): a solution that the safety check finds below the
     # mounting plane or inside an obstacle is solved again with the plane and the obstacles as
     # constraints, from itself. Only then, as the actuators above: most tasks stay clear
@@ -687,11 +695,9 @@ def refined_mesh(
     neighbours; then, to at least :data:`PROGRESS_FRACTION` of all intervals, those whose jerk
     jumps most to a neighbour (scaled by the stroke, times the shorter interval); an interval
     whose jump is :data:`QUARTER_ABOVE` times that fraction's, the first and last intervals
-    (rest to rest) and both sides of every segment join (the human rules) are quartered.
-    Measured and left out: flagging where a peak objective's integrand is within 2 % of its
-    peak (it flags nearly every interval: the optimum flattens the power; 2-DOF peak power
-    80 → 159 → 315 intervals, no saving). Splitting keeps every coarse node and the segment
-    joins, so the meshes are nested: a cubic on an interval is a cubic on its pieces.
+    (rest to rest) and both sides of every segment join (the human rules) are quartered
+    (flagging where a peak objective is near its peak flags nearly every interval: measured,
+    left out). The meshes are nested: a cubic on an interval is a cubic on its pieces.
 
     Returns:
         (N', relative interval lengths (N',), intervals per segment, intervals split).
@@ -713,9 +719,8 @@ def refined_mesh(
     torque = (np.abs(tau) / tau_max).max(axis=1).reshape(shape)
     speed = (np.abs(sampled.qd) / qd_max).max(axis=1).reshape(shape)
     # Each limit's activity at every point (N, P); an interval is flagged where one switches
-    # (some of its points active, some not): there the constant-jerk pieces cannot follow the
-    # solution's kink. Where a limit holds throughout (a joint resting at zero speed) halving
-    # changes nothing.
+    # (some points active, some not): there constant jerk cannot follow the solution's kink.
+    # Where a limit holds throughout (a joint resting at zero speed) halving changes nothing.
     active = [
         torque >= 1.0 - TORQUE_MARGIN - ACTIVE_BAND,
         speed >= 1.0 - ACTIVE_BAND,
@@ -756,6 +761,15 @@ def refined_mesh(
     # human rules switch there: the elbow's q̈ changes sign at the peak).
     joins = np.cumsum(counts)[:-1]
     pieces[[0, n_int - 1, *(joins - 1), *joins]] = 4
+    lengths, new_counts = _split(h, counts, pieces)
+    return sum(new_counts), lengths, new_counts, int((pieces > 1).sum())
+
+
+def _split(
+    h: FloatArray, counts: tuple[int, ...], pieces: NDArray[np.int_]
+) -> tuple[tuple[float, ...], tuple[int, ...]]:
+    """Intervals ``h`` (N,) [s] cut into ``pieces`` (N,) equal parts each: the new relative
+    lengths within each segment (N',) and the new intervals per segment."""
     lengths: list[float] = []
     new_counts, first = [], 0
     for count in counts:
@@ -765,7 +779,7 @@ def refined_mesh(
             lengths.extend([float(length) / int(k)] * int(k))
         new_counts.append(int(seg_pieces.sum()))
         first += count
-    return sum(new_counts), tuple(lengths), tuple(new_counts), int((pieces > 1).sum())
+    return tuple(lengths), tuple(new_counts)
 
 
 def _interval_extent(result: MethodResult) -> tuple[float, float]:
@@ -792,56 +806,38 @@ def refine_to_convergence(
     adaptive: bool | None = None,
 ) -> MethodResult:
     """An optimal-control result refined on meshes of 2N, 4N, ... intervals, each warm-started
-    from the last, until its objective (on the report grid) changes by less than
-    :data:`CONVERGENCE_TOLERANCE` (or :data:`MAX_CONVERGENCE_INTERVALS`, or a failed solve).
+    from the last with IPOPT's small initial barrier parameter (``near_optimum``), until its
+    objective (on the report grid) changes by less than :data:`CONVERGENCE_TOLERANCE`, or from
+    the third mesh on the Richardson estimate of the error left (:func:`mesh_error_estimate`)
+    is below it (or :data:`MAX_CONVERGENCE_INTERVALS`, or a failed solve).
 
     ``adaptive`` (None = :data:`ADAPTIVE_MESH`): each finer mesh halves only the intervals
-    :func:`refined_mesh` picks (where a limit switches, the ends, the segment joins and the
-    quarter with the largest jerk jumps), up to :data:`MAX_CONVERGENCE_INTERVALS` intervals in
-    all; it stops when the error estimate (:func:`mesh_error_estimate` with ``halving=False``)
-    is below the tolerance from the third mesh on (a two-mesh change alone never stops it: a
-    step that halves a few intervals changes the objective less than the error left). The
-    ``shape`` constraint needs equal intervals, so it is always refined uniformly.
+    :func:`refined_mesh` picks, up to :data:`MAX_CONVERGENCE_INTERVALS` in all, and stops only
+    on the error estimate (``halving=False``) from the third mesh on (a step that halves a few
+    intervals changes the objective less than the error left). ``shape`` is always uniform.
 
-    From the third mesh on, it also stops when the Richardson estimate of the error left
-    (:func:`mesh_error_estimate`: the changes shrink at least as fast as first order) is below
-    the tolerance: a second-order sequence stops one mesh earlier. Each finer mesh is solved
-    from the coarser optimum with IPOPT's small initial barrier parameter (``near_optimum``).
-
-    The result's ``solver`` gains ``convergence``: ``sequence`` (every mesh's intervals and
-    objective), ``relative_change`` (the last step's), ``error_estimate`` (of the final value,
-    :func:`mesh_error_estimate`) and ``extrapolated`` (whether that estimate is Richardson's),
-    ``converged``, ``final_intervals``, ``tolerance`` and ``adaptive``; each ``sequence`` entry
-    also gives the mesh's ``smallest_interval`` and ``largest_interval`` [s].
+    The result's ``solver`` gains ``convergence``: ``sequence`` (every mesh's intervals,
+    objective, ``smallest_interval`` and ``largest_interval`` [s]), ``relative_change`` (the
+    last step's), ``error_estimate`` (of the final value) and ``extrapolated`` (whether it is
+    Richardson's), ``converged``, ``final_intervals``, ``tolerance`` and ``adaptive``.
     ``keep_lowest`` (bounds): the meshes are nested (a cubic on an interval is cubic on its
     halves), so a finer optimum is never above a coarser one; should IPOPT return one that is,
     the lower is kept.
     """
-    solver = dict(result.solver or {})
-    n = int(solver.get("n_intervals", 0))
+    n = int((result.solver or {}).get("n_intervals", 0))
     adaptive = ADAPTIVE_MESH if adaptive is None else adaptive
     adaptive = adaptive and spec.kind != "shape" and result.trajectory.knots is not None
     value = objective_value(robot, result.evaluated, objective)
-    small, large = _interval_extent(result)
-    sequence: list[dict[str, Any]] = [
-        {"n_intervals": n, "objective": value, "smallest_interval": small,
-         "largest_interval": large}
-    ]  # fmt: skip
+    sequence: list[dict[str, Any]] = [_mesh_entry(result, n, value)]
     values = [value]
     best, best_value, change, converged = result, value, math.nan, False
     estimate, extrapolated = math.nan, False
     current = result
     while n > 0:
-        weights: tuple[float, ...] | None = None
-        counts: tuple[int, ...] | None = None
-        if adaptive:
-            n, weights, counts, _ = refined_mesh(robot, current, objective, no_reversal, task)
-            if n > MAX_CONVERGENCE_INTERVALS:
-                break
-        elif 2 * n <= MAX_CONVERGENCE_INTERVALS:
-            n *= 2
-        else:
+        mesh = _next_mesh(robot, task, current, objective, no_reversal, n, adaptive)
+        if mesh is None:
             break
+        n, weights, counts = mesh
         try:
             finer = run_optimal(
                 robot, task, name=result.name, duration=duration, objective=objective,
@@ -854,9 +850,7 @@ def refine_to_convergence(
             logger.warning("%s: refinement stopped at %d intervals: %s", result.name, n, exc)
             break
         new = objective_value(robot, finer.evaluated, objective)
-        small, large = _interval_extent(finer)
-        sequence.append({"n_intervals": n, "objective": new, "smallest_interval": small,
-                         "largest_interval": large})  # fmt: skip
+        sequence.append(_mesh_entry(finer, n, new))
         values.append(new)
         change = abs(new - value) / max(abs(value), abs(new), 1e-12)
         estimate, extrapolated = mesh_error_estimate(values, halving=not adaptive)
@@ -869,26 +863,56 @@ def refine_to_convergence(
         if stop or (not adaptive and change < CONVERGENCE_TOLERANCE):
             converged = True
             break
+    evidence = {
+        "sequence": sequence, "relative_change": change, "error_estimate": estimate,
+        "extrapolated": extrapolated, "converged": converged, "tolerance": CONVERGENCE_TOLERANCE,
+        "adaptive": adaptive,
+    }  # fmt: skip
+    return _with_evidence(result, best, evidence)
+
+
+def _with_evidence(
+    first: MethodResult, best: MethodResult, evidence: dict[str, Any]
+) -> MethodResult:
+    """``best`` (the refined result kept) with the first solve's multistart and certificate
+    records and ``convergence`` = ``evidence`` + ``final_intervals``."""
     out = dict(best.solver or {})
     for key in ("multistart", "starts", "rules", "certificate"):
-        if key in solver:
-            out[key] = solver[key]
+        if key in (first.solver or {}):
+            out[key] = (first.solver or {})[key]
+    final = int(out.get("n_intervals", 0))
     logger.info(
-        "%s: mesh refinement %s at %d intervals (last change %.2g, tolerance %g)",
-        result.name, "converged" if converged else "did not converge",
-        int((best.solver or {}).get("n_intervals", n)), change, CONVERGENCE_TOLERANCE,
+        "%s: mesh refinement %s at %d intervals (last change %.2g, tolerance %g)", first.name,
+        "converged" if evidence["converged"] else "did not converge", final,
+        evidence["relative_change"], CONVERGENCE_TOLERANCE,
     )  # fmt: skip
-    out["convergence"] = {
-        "sequence": sequence,
-        "relative_change": change,
-        "error_estimate": estimate,
-        "extrapolated": extrapolated,
-        "converged": converged,
-        "final_intervals": int((best.solver or {}).get("n_intervals", n)),
-        "tolerance": CONVERGENCE_TOLERANCE,
-        "adaptive": adaptive,
-    }
-    return MethodResult(result.name, best.evaluated, out)
+    out["convergence"] = {**evidence, "final_intervals": final}
+    return MethodResult(first.name, best.evaluated, out)
+
+
+def _mesh_entry(result: MethodResult, n: int, value: float) -> dict[str, Any]:
+    """One mesh of a refinement's ``sequence``: intervals, objective, interval extent [s]."""
+    small, large = _interval_extent(result)
+    return {"n_intervals": n, "objective": value, "smallest_interval": small,
+            "largest_interval": large}  # fmt: skip
+
+
+def _next_mesh(
+    robot: Robot,
+    task: PlanTask,
+    current: MethodResult,
+    objective: str,
+    no_reversal: bool,
+    n: int,
+    adaptive: bool,
+) -> tuple[int, tuple[float, ...] | None, tuple[int, ...] | None] | None:
+    """The refinement's next mesh after ``current`` of ``n`` intervals: (N', weights, counts),
+    the weights and counts None for a uniform doubling; None past
+    :data:`MAX_CONVERGENCE_INTERVALS`."""
+    if adaptive:
+        n, weights, counts, _ = refined_mesh(robot, current, objective, no_reversal, task)
+        return None if n > MAX_CONVERGENCE_INTERVALS else (n, weights, counts)
+    return (2 * n, None, None) if 2 * n <= MAX_CONVERGENCE_INTERVALS else None
 
 
 @dataclass(frozen=True)

@@ -1127,7 +1127,7 @@ def _segment_counts(human: HumanSpec, n_intervals: int, shares: FloatArray) -> t
     return tuple(int(c) for c in raw)
 
 
-def _check_options(objective: str, human: HumanSpec, n_intervals: int) -> None:
+def _check_options(objective: str, human: HumanSpec, n_intervals: int, grading: int = 0) -> None:
     if objective not in OPTIMAL_OBJECTIVES:
         raise BioPlanError(
             f"unknown objective {objective!r}: expected one of {', '.join(OPTIMAL_OBJECTIVES)}"
@@ -1139,6 +1139,10 @@ def _check_options(objective: str, human: HumanSpec, n_intervals: int) -> None:
         )
     if n_intervals < 8:
         raise BioPlanError(f"n_intervals must be >= 8, got {n_intervals}")
+    if not 0 <= grading <= _MAX_END_GRADING:
+        raise BioPlanError(
+            f"end_grading must be 0 (equal intervals) to {_MAX_END_GRADING}, got {grading}"
+        )
 
 
 def _problem(
@@ -1344,25 +1348,19 @@ def solve_optimal(
         warm_start_name: what the guess is, for the report.
         n_intervals: constant-jerk intervals N.
         no_reversal: no joint ever moves against its stroke (joints with start = goal stay put).
-        report_samples: samples of the returned trajectory.
-        name: the returned trajectory's name.
-        explain: when infeasible, search the shortest feasible duration and name it and the
-            binding limit in the error (:mod:`app.planning.shortest_duration`; a few cheap
-            solves).
+        report_samples, name: the returned trajectory's number of samples and name.
+        explain: when infeasible, name the shortest feasible duration and the binding limit in
+            the error (:mod:`app.planning.shortest_duration`; a few cheap solves).
         extra: further constraints (a metric bound, the controller's acceleration and jerk
             limits, the actuators' envelopes): :class:`ExtraConstraints`.
-        interval_weights: (N,) relative lengths of the N intervals (positive), normalised to
-            sum to 1 within each segment (the segments' durations stay free); passed as NLP
-            parameters, so the built solver is shared by every mesh of the same segment counts.
-            None = equal intervals within each segment. The ``shape`` constraint needs equal
-            intervals (its band is mapped onto the nodes k / N).
+        interval_weights: (N,) relative interval lengths (> 0), normalised within each segment;
+            NLP parameters, so one built solver serves every mesh of the same segment counts.
+            None = equal; not for ``shape`` (its band is mapped onto the nodes k / N).
         segment_counts: (S,) intervals per segment of the split motion (sum N); None = in
             proportion to the warm start's segment durations. A refined mesh passes its own.
-        end_grading: L >= 0, graded ends (:data:`END_GRADING`, the default when None): each
-            segment's first and last interval cut into L + 1 halving pieces, so the mesh has
-            N + 2L intervals per segment (``solver.n_intervals`` stays N). Not with given
-            ``interval_weights``/``segment_counts``, nor the ``shape`` constraint (equal
-            intervals).
+        end_grading: L, graded ends (None = :data:`END_GRADING`): each segment's first and
+            last interval cut into L + 1 halving pieces (``solver.n_intervals`` stays N); not
+            with a given mesh, nor the ``shape`` constraint.
 
     Returns:
         The solution; ``solver.status`` is ``Solve_Succeeded``.
@@ -1371,23 +1369,16 @@ def solve_optimal(
         SolverError: IPOPT found the problem infeasible or did not converge.
         BioPlanError: bad options.
     """
-
     started = time.perf_counter()
-    _check_options(objective, human, n_intervals)
-    if end_grading is not None and not 0 <= end_grading <= _MAX_END_GRADING:
-        raise BioPlanError(
-            f"end_grading must be 0 (equal intervals) to {_MAX_END_GRADING}, got {end_grading}"
-        )
+    grading = END_GRADING if end_grading is None else end_grading
+    _check_options(objective, human, n_intervals, grading)
     start, goal = np.asarray(start, float), np.asarray(goal, float)
     if warm_start is None:
-        warm_start = quintic(start, goal, duration, n_samples=201)
-        warm_start_name = "quintic"
-    problem = _problem(
+        warm_start, warm_start_name = quintic(start, goal, duration, n_samples=201), "quintic"
+    problem = dataclasses.replace(_problem(
         robot, start, goal, duration, objective, human, warm_start, n_intervals, no_reversal,
-        interval_weights, segment_counts, END_GRADING if end_grading is None else end_grading,
-    )  # fmt: skip
-    if extra is not None:
-        problem = dataclasses.replace(problem, extra=extra)
+        interval_weights, segment_counts, grading,
+    ), extra=extra)  # fmt: skip
     nlp, args, cost_fn = _nlp(problem, warm_start)
     solver = _solver(problem, nlp)
     sol = solver(**args)
@@ -1397,16 +1388,12 @@ def solve_optimal(
     xs = np.asarray(sol["x"], dtype=np.float64).ravel()
     knots, seg_durations = _knots(problem, xs)
     info = SolverInfo(
-        status=status,
-        iterations=int(stats.get("iter_count", 0)),
-        seconds=time.perf_counter() - started,
-        objective=float(cost_fn(xs, args["p"])),
-        warm_start=warm_start_name,
-        n_intervals=problem.asked_intervals,
-        human_constraint=human.kind,
-        segment_durations=tuple(float(d) for d in seg_durations),
+        status=status, iterations=int(stats.get("iter_count", 0)),
+        seconds=time.perf_counter() - started, objective=float(cost_fn(xs, args["p"])),
+        warm_start=warm_start_name, n_intervals=problem.asked_intervals,
+        human_constraint=human.kind, segment_durations=tuple(float(d) for d in seg_durations),
         end_grading=problem.end_grading,
-    )
+    )  # fmt: skip
     trajectory = knots.sample(time_grid(duration, report_samples), name=name)
     return OptimalResult(trajectory=trajectory, knots=knots, solver=info)
 
