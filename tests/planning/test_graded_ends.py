@@ -66,7 +66,7 @@ def test_the_mesh_is_graded_nested_and_reports_its_size() -> None:
 )  # fmt: skip
 def test_graded_ends_beat_equal_intervals_four_times_as_fine(kind: str, objective: str) -> None:
     """40 graded intervals (50 in all) give a better feasible motion than 160 equal ones: the
-    bound's peak power (measured 97.4 against 97.9 W) and the human-like optimum's `tau_sq`,
+    bound's peak power (measured 97.6 against 97.9 W) and the human-like optimum's `tau_sq`,
     whose peak rule kinks the optimum at its segment joins (1817 against 1840; at 40 equal
     intervals 1920)."""
     robot, task = _arm()
