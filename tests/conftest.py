@@ -72,7 +72,6 @@ LONGEST_FIRST = (
     "tests/api/test_recordings.py",
     "tests/api/test_robots_api.py",
     "tests/api/test_analyses_options.py",
-    "tests/planning/test_export_cli.py",
     "tests/frontend/test_browser.py",
     "tests/test_cli_front.py",
     "tests/frontend/test_compare_page.py",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import subprocess
 import sys
@@ -127,6 +128,18 @@ def run_json(capsys: pytest.CaptureFixture[str], *args: str) -> dict[str, object
     return data
 
 
+#: Outputs of :func:`base_json` by arguments: the parametrised option tests below compare each
+#: option against the same unchanged run, computed once per module run rather than once a case.
+_BASES: dict[tuple[str, ...], dict[str, object]] = {}
+
+
+def base_json(capsys: pytest.CaptureFixture[str], *args: str) -> dict[str, object]:
+    """:func:`run_json` of a reference run several tests share (a fresh copy each time)."""
+    if args not in _BASES:
+        _BASES[args] = run_json(capsys, *args)
+    return copy.deepcopy(_BASES[args])
+
+
 FAST_PLAN = ("plan", "--robot", "human_arm_2dof", "--particles", "12", "--iterations", "12")
 
 
@@ -173,7 +186,7 @@ def test_each_plan_option_changes_the_result(
         template.write_text(HumanTemplate(peak_velocity_angle_deg=75.0, n_lifts=2).to_json())
         value = str(template)
     base_args = (*FAST_PLAN, "--objective", "tau_sq", "--intervals", "16", "--method", methods)
-    base = run_json(capsys, *base_args)
+    base = base_json(capsys, *base_args)
     changed = run_json(capsys, *base_args, option, value)
 
     def get(d: object) -> object:
@@ -214,7 +227,7 @@ def test_profiles_list_the_planning_methods(
     capsys: pytest.CaptureFixture[str], option: str, value: str, method: str
 ) -> None:
     args = ("profiles", "--robot", "human_arm_2dof", "--no-min-torque-change")
-    base = run_json(capsys, *args, "--method", "paper,bound", "--objective", "peak_power")
+    base = base_json(capsys, *args, "--method", "paper,bound", "--objective", "peak_power")
     assert list(base["methods"]) == ["quintic", "paper", "bound"]  # type: ignore[arg-type]
     assert base["share_of_achievable_pct"]["bound"] == pytest.approx(100.0)  # type: ignore[index]
     changed = run_json(
@@ -255,7 +268,7 @@ def test_each_simulate_option_changes_the_result(
         template = tmp_path / "template.json"
         template.write_text(HumanTemplate(peak_velocity_angle_deg=80.0, n_lifts=2).to_json())
         value = str(template)
-    base = run_json(capsys, *SIM)
+    base = base_json(capsys, *SIM)
     changed = run_json(capsys, *SIM, option, value)
     assert base["optimized"] != changed["optimized"]
 
@@ -305,7 +318,7 @@ SWEEP = (
 def test_each_sweep_option_changes_the_result(
     capsys: pytest.CaptureFixture[str], option: str, value: str | None, key: str
 ) -> None:
-    base = run_json(capsys, *SWEEP)
+    base = base_json(capsys, *SWEEP)
     extra = (option,) if value is None else (option, value)
     changed = run_json(capsys, *SWEEP, *extra)
     assert base["cells"][0][key] != changed["cells"][0][key]  # type: ignore[index]

@@ -74,19 +74,39 @@ def pose_upload(client: TestClient, path: Path, **form: str) -> int:
     return rid
 
 
+@pytest.fixture(scope="module")
+def pose_default(api: TestClient, files: dict[str, Path]) -> tuple[int, dict[str, Any]]:
+    """The pose file uploaded at :data:`RATE` with its true image size, and its analysis with
+    every option at its default: the reference most option tests compare against, analysed
+    once (further analyses of this recording, with options, leave it as it is)."""
+    rid = pose_upload(api, files["pose"])
+    return rid, analysis(api, rid)
+
+
+@pytest.fixture(scope="module")
+def emg_default(api: TestClient, files: dict[str, Path]) -> dict[str, Any]:
+    """The EMG file uploaded with no options and analysed with none (only ever that one
+    analysis of this recording: a test lists its analyses)."""
+    return analysis(api, upload(api, files["emg"])["id"])
+
+
 # ------------------------------------------------------------------------ upload (reader)
 
 
-def test_frame_rate_sets_the_pose_clock(api: TestClient, files: dict[str, Path]) -> None:
-    slow = analysis(api, upload(api, files["pose"], frame_rate="60", image_size=IMAGE)["id"])
+def test_frame_rate_sets_the_pose_clock(
+    api: TestClient, files: dict[str, Path], pose_default: tuple[int, dict[str, Any]]
+) -> None:
+    slow = pose_default[1]  # uploaded with frame_rate=60
     fast = analysis(api, upload(api, files["pose"], frame_rate="120", image_size=IMAGE)["id"])
     assert slow["result"]["settings"]["frame_rate_hz"] == 60.0
     assert fast["result"]["settings"]["frame_rate_hz"] == 120.0
     assert lifts(fast)[1]["top_s"] == pytest.approx(lifts(slow)[1]["top_s"] / 2, abs=0.02)
 
 
-def test_image_size_undoes_the_aspect_distortion(api: TestClient, files: dict[str, Path]) -> None:
-    true = analysis(api, pose_upload(api, files["pose"]))
+def test_image_size_undoes_the_aspect_distortion(
+    api: TestClient, files: dict[str, Path], pose_default: tuple[int, dict[str, Any]]
+) -> None:
+    true = pose_default[1]  # uploaded with the true image size
     raw = analysis(api, upload(api, files["pose"], frame_rate=str(RATE))["id"])
     assert true["result"]["settings"]["image_size_px"] == list(syn.IMAGE)
     assert raw["result"]["settings"]["image_size_px"] is None
@@ -97,8 +117,10 @@ def test_image_size_undoes_the_aspect_distortion(api: TestClient, files: dict[st
     assert not any("video size unknown" in w for w in true["summary"]["warnings"])
 
 
-def test_emg_rate_at_upload_and_per_analysis(api: TestClient, files: dict[str, Path]) -> None:
-    stored = analysis(api, upload(api, files["emg"])["id"])
+def test_emg_rate_at_upload_and_per_analysis(
+    api: TestClient, files: dict[str, Path], emg_default: dict[str, Any]
+) -> None:
+    stored = emg_default  # the rate the file states
     at_upload = analysis(api, upload(api, files["emg"], emg_rate="2000")["id"])
     rid = upload(api, files["emg"])["id"]
     per_request = analysis(api, rid, emg_rate=2000.0)
@@ -109,8 +131,10 @@ def test_emg_rate_at_upload_and_per_analysis(api: TestClient, files: dict[str, P
         np.testing.assert_allclose([x["top_s"] for x in lifts(out)], np.divide(t0, 2), atol=0.05)
 
 
-def test_muscle_map_at_upload_and_per_analysis(api: TestClient, files: dict[str, Path]) -> None:
-    default = analysis(api, upload(api, files["emg"])["id"])
+def test_muscle_map_at_upload_and_per_analysis(
+    api: TestClient, files: dict[str, Path], emg_default: dict[str, Any]
+) -> None:
+    default = emg_default  # no map
     rec = upload(api, files["emg"], muscle_map='{"deltoid": "triceps"}')
     sites = {c["name"]: c["site"] for c in rec["files"][0]["channels"]}
     assert sites["deltoid"] == "triceps"
@@ -195,9 +219,10 @@ def test_offset_shifts_the_pose_onto_the_emg_clock(api: TestClient, files: dict[
         assert b["start_s"] - a["start_s"] == pytest.approx(0.75, abs=1e-6)
 
 
-def test_phase_bounds_move_the_phases(api: TestClient, files: dict[str, Path]) -> None:
-    rid = pose_upload(api, files["pose"])
-    default = analysis(api, rid)
+def test_phase_bounds_move_the_phases(
+    api: TestClient, pose_default: tuple[int, dict[str, Any]]
+) -> None:
+    rid, default = pose_default
     moved = analysis(api, rid, phase_bounds_deg=[60, 110])
     assert moved["result"]["settings"]["phase_bounds_deg"] == [60.0, 110.0]
     assert moved["template"]["phase_bounds_deg"] == [60.0, 110.0]
@@ -214,10 +239,9 @@ def test_phase_bounds_move_the_phases(api: TestClient, files: dict[str, Path]) -
      ("load_mass", 20.0, "load_mass_kg")],
 )  # fmt: skip
 def test_body_and_load_change_the_energetics(
-    api: TestClient, files: dict[str, Path], option: str, value: float, key: str
+    api: TestClient, pose_default: tuple[int, dict[str, Any]], option: str, value: float, key: str
 ) -> None:
-    rid = pose_upload(api, files["pose"])
-    default = analysis(api, rid)
+    rid, default = pose_default
     changed = analysis(api, rid, **{option: value})
     assert changed["result"]["settings"][key] == value
     work = [lifts(d)[0]["energetics"]["metrics"]["pos_work"] for d in (default, changed)]
@@ -241,9 +265,10 @@ def test_exclude_channels_per_analysis(api: TestClient, files: dict[str, Path]) 
 # ------------------------------------------------------------------- templates and warnings
 
 
-def test_templates_say_where_they_came_from(api: TestClient, files: dict[str, Path]) -> None:
-    emg_only = analysis(api, upload(api, files["emg"])["id"])
-    posed = analysis(api, pose_upload(api, files["pose"]))
+def test_templates_say_where_they_came_from(
+    api: TestClient, emg_default: dict[str, Any], pose_default: tuple[int, dict[str, Any]]
+) -> None:
+    emg_only, posed = emg_default, pose_default[1]
     s = emg_only["summary"]
     assert s["is_paper_default"] and s["template_lifts"] == 0
     assert s["template_source"].startswith("paper default: no kinematics")

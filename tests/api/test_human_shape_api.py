@@ -31,6 +31,7 @@ def _job(client: TestClient, **body: Any) -> dict[str, Any]:
     return wait_job(client, r.json()["id"])
 
 
+@pytest.mark.api_contract
 def test_shape_reaches_the_planner_and_changes_the_optimum(
     shared_client: TestClient, template: dict[str, Any]
 ) -> None:

@@ -147,6 +147,7 @@ def test_bad_plan_requests_name_the_field(shared_client: TestClient) -> None:
     )
 
 
+@pytest.mark.api_contract
 def test_template_and_angles_reach_the_planner(shared_client: TestClient) -> None:
     out = _run(
         shared_client,

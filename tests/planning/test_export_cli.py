@@ -162,8 +162,9 @@ def test_plan_refuses_a_bad_export_before_planning(
 
 def test_onboarding_flags_on_a_ur5(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     urdf = str(robot_file(UR5))
+    # The paper's method alone: these flags are about the robot, not the planning methods.
     base = ["plan", "--robot", urdf, "--duration", "2", "--payload", "1", "--particles", "10",
-            "--iterations", "8", "--json"]  # fmt: skip
+            "--iterations", "8", "--method", "paper", "--json"]  # fmt: skip
     code, plain, _ = run(capsys, *base)
     assert code == 0 and len(plain["joint_names"]) == 6
     assert plain["standard"]["electrical_energy"] is None  # no motor model: not modelled
@@ -204,7 +205,8 @@ def test_onboarding_errors_name_the_joints(capsys: pytest.CaptureFixture[str]) -
 def test_simulate_exports_and_honours_the_task(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
-    base = ["simulate", "--robot", "human_arm_2dof", "--json"]
+    # A small swarm and the paper's method alone: this test is about the task and the export.
+    base = ["simulate", "--robot", "human_arm_2dof", *FAST, "--json"]
     code, data, _ = run(capsys, *base, "--goal-deg", "10,120", "--export", str(tmp_path / "s.json"))
     assert code == 0 and data["conditions"]["goal_deg"] == pytest.approx([10.0, 120.0])
     exported = json.loads((tmp_path / "s.json").read_text())

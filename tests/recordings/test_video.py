@@ -18,6 +18,7 @@ import pytest
 from app.progress import Progress
 from app.recordings import (
     PoseCancelled,
+    PoseExtraction,
     RecordingError,
     extract_pose,
     find_pose_python,
@@ -87,10 +88,20 @@ def test_a_video_read_as_a_recording_points_to_pose_extraction() -> None:
     assert "pose" in str(err.value)
 
 
-def test_demo_video_gives_pose_with_size_rate_progress_and_skeletons() -> None:
+@pytest.fixture(scope="module")
+def demo_pose() -> tuple[PoseExtraction, list[Progress]]:
+    """The demo video's pose, extracted once for the tests that read it (the whole video
+    through MediaPipe), and the progress updates the extraction sent."""
     py = _pose_python()
     updates: list[Progress] = []
     x = extract_pose(shared_file(DEMO), pose_python=py, progress=updates.append)
+    return x, updates
+
+
+def test_demo_video_gives_pose_with_size_rate_progress_and_skeletons(
+    demo_pose: tuple[PoseExtraction, list[Progress]],
+) -> None:
+    x, updates = demo_pose
     assert (x.frames, x.fps, x.image_size) == (230, 30.0, (1768, 994))
     assert x.frames_with_pose >= 200  # a person is on screen throughout
     assert [u.stage for u in updates] == ["pose"] * len(updates)
@@ -170,14 +181,15 @@ def test_analyze_files_takes_a_video() -> None:
     assert not result.template.assumptions  # the video states its size
 
 
-def test_demo_video_says_two_people_and_shows_the_tracked_person() -> None:
+def test_demo_video_says_two_people_and_shows_the_tracked_person(
+    demo_pose: tuple[PoseExtraction, list[Progress]],
+) -> None:
     """Two people: the platform's is tracked in frames 3-168, then the track jumps to the
     walker and to another place; the warning says so, the skeleton frames show the tracked
     person, and the template's lifts come from the tracked person's well-seen frames."""
     from app.analysis import analyze_recordings
 
-    py = _pose_python()
-    x = extract_pose(shared_file(DEMO), pose_python=py)
+    x = demo_pose[0]
     (people,) = [w for w in x.warnings if "people" in w]
     assert people.startswith("demo.mp4: 2 people detected (another person in")
     assert "the tracked person is shown in frames 3-16" in people

@@ -125,6 +125,10 @@ def test_the_handshake_is_still_readable(viewer: ViewerServer) -> None:
     ws = connect_client(viewer, issued_path(viewer, "plan", 7), origin=own)
     try:
         assert _outcome(ws, timeout=60.0)[0] is None, "_handshake no longer reads viser's table"
+        # viser streams before the tab's session is registered: wait for it (a busy machine).
+        deadline = time.monotonic() + 60
+        while not viewer.sessions() and time.monotonic() < deadline:
+            time.sleep(0.1)
         client_id = viewer.sessions()[0]["client_id"]
         path, origin = server_module._handshake(viewer._server, client_id) or (None, None)
         assert path is not None and path.startswith("/bioplan/plan/7?token="), path
