@@ -3,16 +3,17 @@
 ``.venv/bin/python benchmarks/adaptive_mesh.py [--runs 3] [--cases robot:objective,...]
 [--reference]``: ``plan(..., methods=quintic,paper,human_optimal,bound, converge=True)`` on the
 default task (1 s; ``human_arm_2dof`` 12 kg, ``curtain_wall_6dof`` 4 kg), each run in its own
-child process (cold), per ``--variants``: ``uniform`` (uniform doubling of equal intervals: the
-default), ``graded`` (uniform doubling, every segment's end intervals graded,
-``optimal.END_GRADING = 5``) and ``adaptive`` (``methods.ADAPTIVE_MESH = True``).
+child process (cold), per ``--variants``: ``uniform`` (uniform doubling of equal intervals,
+``optimal.END_GRADING = 0``), ``graded`` (uniform doubling, every segment's end intervals graded:
+the default, ``optimal.END_GRADING = 5`` capped by the report grid) and ``adaptive``
+(``methods.ADAPTIVE_MESH = True`` on equal intervals).
 Prints CPU seconds per method (the refinement included), the mesh
 sequence, the final value and, with ``--reference``, its error against one more mesh of 640
-intervals (graded when the ``graded`` variant runs, else equal) solved from that variant's
-final optimum (the reference, re-evaluated on the
-plan's report grid like every value here); then the adaptive runs' CPU until each method first
-reaches the uniform runs' final value (each row's ``cpu_at_mesh``: the method's CPU at the end
-of each mesh of its sequence).
+intervals (graded with L = 5 on a report grid of :data:`REFERENCE_SAMPLES` when the ``graded``
+variant runs, else equal) solved from that variant's final optimum (the reference, re-evaluated
+with Pinocchio on its report grid like every value here); then the adaptive runs' CPU until
+each method first reaches the uniform runs' final value (each row's ``cpu_at_mesh``: the
+method's CPU at the end of each mesh of its sequence).
 """
 
 from __future__ import annotations
@@ -42,6 +43,8 @@ METHODS = ("human_optimal", "bound")
 GRADED_LEVELS = 5
 #: The reference mesh [intervals].
 REFERENCE_INTERVALS = 640
+#: The reference's report grid [samples]: fine enough that L = 5 is not capped at 640 intervals.
+REFERENCE_SAMPLES = 640 * 32 + 1
 
 
 def _child(robot_name: str, payload: float, objective: str, variant: str, reference: bool) -> None:
@@ -50,8 +53,7 @@ def _child(robot_name: str, payload: float, objective: str, variant: str, refere
     from app.planning.robots import load_robot
 
     methods.ADAPTIVE_MESH = variant == "adaptive"
-    if variant == "graded":
-        optimal.END_GRADING = GRADED_LEVELS
+    optimal.END_GRADING = GRADED_LEVELS if variant == "graded" else 0
     cpu: dict[str, float] = {}
     began: dict[str, float] = {}  # CPU clock when each method's first solve began [s]
     ended: dict[str, float] = {}  # ... and when it returned
@@ -118,7 +120,8 @@ def _child(robot_name: str, payload: float, objective: str, variant: str, refere
             fine = methods.run_optimal(
                 robot, call["task"], name=name, duration=call["duration"], objective=objective,
                 spec=call["spec"], warm=method, n_intervals=REFERENCE_INTERVALS,
-                no_reversal=call["no_reversal"], report_samples=call["report_samples"],
+                no_reversal=call["no_reversal"],
+                report_samples=max(call["report_samples"], REFERENCE_SAMPLES),
                 near_optimum=True,
             )  # fmt: skip
             out[name]["reference"] = methods.objective_value(robot, fine.evaluated, objective)

@@ -298,6 +298,9 @@ class FrontConvergence(_Open):
     converged: bool
     final_intervals: int
     tolerance: float
+    end_grading: int = Field(
+        0, description="graded ends: pieces added at each segment's end intervals (0: equal)"
+    )
 
 
 class FrontPoint(_Open):

@@ -58,11 +58,13 @@ from app.planning.methods import (
 )
 from app.planning.optimal import (
     DEFAULT_INTERVALS,
+    END_GRADING,
     ExtraConstraints,
     FloatArray,
     HumanSpec,
     OptimalResult,
     SolverError,
+    report_resolved_grading,
     solve_optimal,
 )
 from app.planning.profiles import Trajectory, quintic, time_grid
@@ -199,6 +201,11 @@ class _Setup:
     tolerance: float = CONVERGENCE_TOLERANCE
     #: Actuator limits kept lazily: a solution that breaks them is solved again with them.
     lazy_actuators: Any = None
+    #: Graded ends, one L for every solve and mesh (the coarsest mesh's default, so the finer
+    #: meshes nest in it); 0 on a front or scan with a jerk axis: a graded mesh concentrates the
+    #: jerk of an optimum whose continuous jerk is unbounded at rest (``tau_sq``) in its finest
+    #: pieces, so the jerk axis would measure the mesh, not the motion.
+    end_grading: int = 0
 
     def extra(self, metric: str | None = None, bound: float = math.inf) -> ExtraConstraints:
         return ExtraConstraints(
@@ -222,7 +229,7 @@ def _solve(
         setup.robot, setup.task.start, setup.task.goal, duration, objective=objective,
         human=setup.spec, warm_start=warm, warm_start_name=warm_name, n_intervals=n_intervals,
         no_reversal=setup.no_reversal, report_samples=setup.report_samples, explain=False,
-        extra=extra,
+        extra=extra, end_grading=setup.end_grading,
     )  # fmt: skip
     if setup.lazy_actuators is None or extra.actuators is not None:
         return result
@@ -310,6 +317,7 @@ def _converged(
         "converged": converged,
         "final_intervals": result.solver.n_intervals,
         "tolerance": setup.tolerance,
+        "end_grading": result.solver.end_grading,
     }
     return _Solved(ev, result, convergence)
 
@@ -420,6 +428,7 @@ def _setup(
     controller_limits: bool,
     actuators: Any,
     tolerance: float = CONVERGENCE_TOLERANCE,
+    jerk_axis: bool = False,
 ) -> _Setup:
     task = task or PlanTask.default(robot)
     if method not in FRONT_METHODS:
@@ -438,6 +447,7 @@ def _setup(
     return _Setup(
         robot, task, spec, n_intervals, no_reversal, report_samples, controller_limits, fixed,
         tolerance, lazy,
+        0 if jerk_axis else report_resolved_grading(END_GRADING, n_intervals, report_samples),
     )  # fmt: skip
 
 
@@ -675,7 +685,7 @@ def pareto_front(
     a, b = check_front_options(objectives, points=points, method=method, duration=duration)
     setup = _setup(
         robot, task, method, template, n_intervals, no_reversal, report_samples,
-        controller_limits, actuators, tolerance,
+        controller_limits, actuators, tolerance, jerk_axis="jerk" in (a, b),
     )  # fmt: skip
     e = robot.elbow_joint
     q0, q1 = float(setup.task.start[e]), float(setup.task.goal[e])
@@ -1060,7 +1070,7 @@ def throughput(
     _check_throughput(objective, cycle_rate, dwell, points)
     setup = _setup(
         robot, task, method, template, n_intervals, no_reversal, report_samples, False, actuators,
-        tolerance,
+        tolerance, jerk_axis=objective == "jerk",
     )  # fmt: skip
     cycle = 3600.0 / cycle_rate
     longest = cycle - dwell

@@ -451,14 +451,15 @@ def run_optimal(
     near_optimum: bool = False,
     interval_weights: Sequence[float] | None = None,
     segment_counts: Sequence[int] | None = None,
+    end_grading: int | None = None,
 ) -> MethodResult:
     """``human_optimal`` or ``bound``: optimal control, warm-started from the paper's plan.
 
     ``near_optimum``: ``warm`` is already an optimum of this problem on a coarser mesh (mesh
     refinement): IPOPT starts from it with a small barrier parameter
     (``ExtraConstraints.warm``), and again with its default options should that fail.
-    ``interval_weights``, ``segment_counts``: a non-uniform mesh (:func:`solve_optimal`); the
-    re-solves within the actuators' limits or clear of obstacles on more intervals are uniform.
+    ``interval_weights``, ``segment_counts``, ``end_grading``: the mesh (:func:`solve_optimal`);
+    the re-solves clear of obstacles on more intervals take the default grading.
     """
     solve: dict[str, Any] = {
         "objective": objective, "human": spec, "n_intervals": n_intervals,
@@ -466,6 +467,7 @@ def run_optimal(
         "warm_start_name": "quintic" if warm is None else warm.name,
         "no_reversal": no_reversal, "report_samples": report_samples, "name": name,
         "interval_weights": interval_weights, "segment_counts": segment_counts,
+        "end_grading": end_grading,
     }  # fmt: skip
     solution = _first_solve(
         robot, task, duration, solve, warm_refine=near_optimum and warm is not None
@@ -825,6 +827,8 @@ def refine_to_convergence(
     the lower is kept.
     """
     n = int((result.solver or {}).get("n_intervals", 0))
+    # The first mesh's graded ends are kept: the finer meshes nest in it, their pieces shrink.
+    grading = int((result.solver or {}).get("end_grading", 0))
     adaptive = ADAPTIVE_MESH if adaptive is None else adaptive
     adaptive = adaptive and spec.kind != "shape" and result.trajectory.knots is not None
     value = objective_value(robot, result.evaluated, objective)
@@ -843,7 +847,7 @@ def refine_to_convergence(
                 robot, task, name=result.name, duration=duration, objective=objective,
                 spec=spec, warm=current, n_intervals=n, no_reversal=no_reversal,
                 report_samples=report_samples, near_optimum=True,
-                interval_weights=weights, segment_counts=counts,
+                interval_weights=weights, segment_counts=counts, end_grading=grading,
             )  # fmt: skip
         except SolverError as exc:
             sequence.append({"n_intervals": n, "error": str(exc)})

@@ -6,7 +6,8 @@ Direct transcription solved by IPOPT (CasADi, exact Hessians on SX graphs):
   intervals (a triple integrator). Its states q, q̇, q̈ at the nodes are the unknowns; the exact
   integration of constant jerk links consecutive nodes. So the trajectory is known *between*
   the nodes too, and any grid samples it exactly (:meth:`PiecewiseCubic.sample`). Within each
-  segment of the motion the intervals are equal, or of the relative lengths
+  segment of the motion the intervals are equal except the first and last, each cut into
+  halving pieces (graded ends, :data:`END_GRADING`), or of the relative lengths
   ``interval_weights`` (NLP parameters: an adaptive mesh reuses the solver of its counts).
 * **Boundary conditions** are the quintic's: rest to rest, q̇ = q̈ = 0 at both ends.
 * **Limits between nodes, exactly.** On an interval, q is a cubic and q̇ a quadratic; a
@@ -86,16 +87,18 @@ HUMAN_CONSTRAINTS: tuple[str, ...] = _names.HUMAN_CONSTRAINTS
 OPTIMAL_OBJECTIVES: tuple[str, ...] = (*_names.OBJECTIVES, "torque_change", "jerk")
 #: Default number of constant-jerk intervals.
 DEFAULT_INTERVALS = 40
-#: Graded ends, off by default (0): with L > 0 the first and last interval of every segment is
-#: cut into L + 1 pieces of 1/2, 1/4, ..., 2^-L, 2^-L of its length. Rest to rest holds the
-#: acceleration at zero at both ends where the optimum wants a step, and the human rule kinks
-#: the optimum at its segment joins; on equal intervals those intervals cap the error at first
-#: order (the human arm's `tau_sq` human-like optimum: 6 % above its converged value at 40 equal
-#: intervals, 0.2 % at 40 graded with L = 5; benchmarks/RESULTS.md, "Graded ends"). Not the
-#: default yet: the 1000-sample report grid does not resolve pieces of 2^-5 of an interval (the
-#: bound's work-energy check fails on a 6 s task), and a front with a jerk objective loses its
-#: middle points to the ends' jerk. Halving pieces keep a mesh of 2N nested on one of N.
-END_GRADING = 0
+#: Graded ends: the first and last interval of every segment is cut into L + 1 pieces of 1/2,
+#: 1/4, ..., 2^-L, 2^-L of its length. Rest to rest holds the acceleration at zero at both ends
+#: where the optimum wants a step, and the human rule kinks the optimum at its segment joins; on
+#: equal intervals those intervals cap the error at first order (the human arm's `tau_sq`
+#: human-like optimum: 6 % above its converged value at 40 equal intervals, 0.2 % at 40 graded
+#: with L = 5; benchmarks/RESULTS.md, "Graded ends"). On the first mesh L is capped so that the
+#: finest piece is no shorter than the report grid's step (:func:`report_resolved_grading`): a
+#: piece the reported trajectory cannot resolve would make its metrics wrong (a 6 s task on 300
+#: samples missed the potential-energy change by 0.75 % at L = 5). A refinement keeps that L:
+#: with halving pieces a mesh of 2N is nested on one of N, and its end pieces are half as long,
+#: so the end error falls with the rest (a cap per mesh would hold it and fake convergence).
+END_GRADING = 5
 #: The finest grading: pieces of 2^-12 of an interval (a 1 s task on 40 intervals: 6 µs).
 _MAX_END_GRADING = 12
 #: IPOPT's convergence tolerance (scaled objective, O(1)).
@@ -155,8 +158,8 @@ class SolverInfo:
         warm_start: what the initial guess came from.
         n_intervals: constant-jerk intervals N asked for (the mesh's size, doubled by refinement).
         end_grading: L, the pieces each segment's end intervals are further cut into beyond
-            one (:data:`END_GRADING`; 0 for the ``shape`` constraint and given meshes): the
-            mesh has N + 2L intervals per segment.
+            one (:data:`END_GRADING` capped by :func:`report_resolved_grading`; 0 for the
+            ``shape`` constraint and given meshes): the mesh has 2L more intervals per segment.
         human_constraint: ``peak``, ``phases``, ``shape`` or ``none``.
         segment_durations: (S,) durations of the split motion's segments [s].
     """
@@ -1127,6 +1130,16 @@ def _segment_counts(human: HumanSpec, n_intervals: int, shares: FloatArray) -> t
     return tuple(int(c) for c in raw)
 
 
+def report_resolved_grading(levels: int, n_intervals: int, report_samples: int) -> int:
+    """The graded ends' L, capped so that the finest piece, 2^-L of a mean interval (T / N),
+    spans at least one step of the report grid (T / (report_samples - 1)): the largest L <= levels
+    with 2^L <= (report_samples - 1) / N, and 0 when an interval is shorter than a step."""
+    steps_per_interval = (report_samples - 1) / n_intervals
+    if steps_per_interval < 2.0:
+        return 0
+    return max(0, min(levels, math.floor(math.log2(steps_per_interval) + 1e-9)))
+
+
 def _check_options(objective: str, human: HumanSpec, n_intervals: int, grading: int = 0) -> None:
     if objective not in OPTIMAL_OBJECTIVES:
         raise BioPlanError(
@@ -1358,9 +1371,11 @@ def solve_optimal(
             None = equal; not for ``shape`` (its band is mapped onto the nodes k / N).
         segment_counts: (S,) intervals per segment of the split motion (sum N); None = in
             proportion to the warm start's segment durations. A refined mesh passes its own.
-        end_grading: L, graded ends (None = :data:`END_GRADING`): each segment's first and
-            last interval cut into L + 1 halving pieces (``solver.n_intervals`` stays N); not
-            with a given mesh, nor the ``shape`` constraint.
+        end_grading: L, graded ends: each segment's first and last interval cut into L + 1
+            halving pieces (``solver.n_intervals`` stays N, ``solver.end_grading`` says L); None
+            = :data:`END_GRADING` capped by :func:`report_resolved_grading` for this N and
+            report grid (a refinement passes its first mesh's L on, so the finer meshes are
+            nested in it and their pieces shrink); not with a given mesh, nor ``shape``.
 
     Returns:
         The solution; ``solver.status`` is ``Solve_Succeeded``.
@@ -1370,7 +1385,10 @@ def solve_optimal(
         BioPlanError: bad options.
     """
     started = time.perf_counter()
-    grading = END_GRADING if end_grading is None else end_grading
+    if end_grading is None:
+        grading = report_resolved_grading(END_GRADING, n_intervals, report_samples)
+    else:
+        grading = end_grading
     _check_options(objective, human, n_intervals, grading)
     start, goal = np.asarray(start, float), np.asarray(goal, float)
     if warm_start is None:

@@ -55,7 +55,7 @@ def test_equal_weights_give_the_solution_without_weights(human_kind: str) -> Non
     if human_kind == "peak":
         spec = _peak_spec(robot, task)
     common: dict[str, Any] = {"objective": "tau_sq", "human": spec, "n_intervals": 40}
-    plain = solve_optimal(robot, task.start, task.goal, 1.0, **common)
+    plain = solve_optimal(robot, task.start, task.goal, 1.0, **common, end_grading=0)
     h = np.diff(plain.knots.t)
     # Today's segment counts, read off the solution (segments of equal intervals).
     joins = np.cumsum(plain.solver.segment_durations)[:-1]
@@ -94,7 +94,14 @@ def test_graded_mesh_keeps_every_limit_and_its_objective(objective: str) -> None
     value = objective_value(robot, ev, objective)
     assert value == pytest.approx(graded.solver.objective, rel=3e-3)
     uniform = solve_optimal(
-        robot, task.start, task.goal, 1.0, objective=objective, human=spec, n_intervals=n
+        robot,
+        task.start,
+        task.goal,
+        1.0,
+        objective=objective,
+        human=spec,
+        n_intervals=n,
+        end_grading=0,
     )
     assert value < objective_value(robot, evaluate_trajectory(robot, uniform.trajectory, task),
                                    objective)  # fmt: skip
@@ -131,7 +138,9 @@ def test_adaptive_bound_converges_below_a_finer_uniform_solve(objective: str) ->
         "name": "bound", "duration": 1.0, "objective": objective, "spec": spec,
         "no_reversal": True, "report_samples": 1000,
     }  # fmt: skip
-    coarse = run_optimal(robot, task, warm=None, n_intervals=16, **common)
+    # Equal weights: refinement from today's equal mesh (graded ends are a fixed grading).
+    coarse = run_optimal(robot, task, warm=None, n_intervals=16, interval_weights=[1.0] * 16,
+                         **common)  # fmt: skip
     # One refinement step by hand: nested, and not a doubling.
     n, lengths, counts, split = refined_mesh(robot, coarse, objective, True, task)
     assert counts == (n,) and 16 < n < 32 and 0 < split < 16
@@ -154,7 +163,7 @@ def test_adaptive_bound_converges_below_a_finer_uniform_solve(objective: str) ->
     assert value == pytest.approx(values[-1], rel=1e-12)
     assert refined.evaluated.violations == ()
     uniform = solve_optimal(robot, task.start, task.goal, 1.0, objective=objective, human=spec,
-                            n_intervals=320)  # fmt: skip
+                            n_intervals=320, end_grading=0)  # fmt: skip
     fine = objective_value(robot, evaluate_trajectory(robot, uniform.trajectory, task), objective)
     assert conv["final_intervals"] < 320
     assert value <= fine * (1 + TARGET), (value, fine, conv)

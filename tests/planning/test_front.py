@@ -106,6 +106,8 @@ def test_front_on_the_2dof_is_non_dominated_with_the_single_objective_optima_at_
     _non_dominated(front)
     assert len(front.points) == 3 and front.knee == 1
     assert front.points[0].role == "A end" and front.points[-1].role == "B end"
+    # A jerk axis keeps equal intervals (graded ends would put the tau_sq end's jerk in pieces).
+    assert all(p.convergence["end_grading"] == 0 for p in front.points)
     # The tau_sq end against the converged bound of plan() on tau_sq.
     alone = plan(
         robot, duration=1.0, objective="tau_sq", methods=["quintic", "bound"], converge=True
@@ -142,6 +144,8 @@ def test_an_end_beaten_by_its_neighbour_on_a_coarse_tolerance_is_replaced_and_sa
         tolerance=0.05,
     )  # fmt: skip
     assert front.points[0].role == "A end" and front.points[-1].role == "B end"
+    # Without a jerk axis every point's mesh has graded ends (L = 5 on 8 intervals).
+    assert all(p.convergence["end_grading"] == 5 for p in front.points)
     ends = front.to_dict()["ends"]
     assert ends["abs_work"] == min(p.values["abs_work"] for p in front.points)
     for drop in front.dropped:

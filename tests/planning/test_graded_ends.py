@@ -17,7 +17,7 @@ from app.errors import BioPlanError
 from app.planning.evaluation import PlanTask, evaluate_trajectory
 from app.planning.human_template import HumanTemplate
 from app.planning.methods import human_spec, objective_value
-from app.planning.optimal import HumanSpec, solve_optimal
+from app.planning.optimal import END_GRADING, HumanSpec, report_resolved_grading, solve_optimal
 from app.planning.robots import load_robot
 
 LEVELS = 5
@@ -42,13 +42,14 @@ def _value(robot: Any, task: PlanTask, result: Any, objective: str) -> float:
 
 def test_the_mesh_is_graded_nested_and_reports_its_size() -> None:
     """N = 16 with L = 5: 16 + 10 intervals, the end pieces 1/32 ... 1/2 of 1/16 s, N reported
-    as asked; the 32-interval graded mesh keeps every node of the 16-interval one."""
+    as asked; the 32-interval graded mesh keeps every node of the 16-interval one (a report grid
+    of 2001 samples resolves L = 5 on both)."""
     robot, task = _arm()
     spec = HumanSpec("none", robot.elbow_joint)
     meshes = {}
     for n in (16, 32):
         out = solve_optimal(robot, task.start, task.goal, 1.0, objective="tau_sq", human=spec,
-                            n_intervals=n, end_grading=LEVELS)  # fmt: skip
+                            n_intervals=n, end_grading=LEVELS, report_samples=2001)  # fmt: skip
         assert out.solver.n_intervals == n and out.solver.end_grading == LEVELS
         meshes[n] = out.knots.t
     h = np.diff(meshes[16])
@@ -65,26 +66,58 @@ def test_the_mesh_is_graded_nested_and_reports_its_size() -> None:
     ("kind", "objective"), [("none", "peak_power"), ("peak", "tau_sq")]
 )  # fmt: skip
 def test_graded_ends_beat_equal_intervals_four_times_as_fine(kind: str, objective: str) -> None:
-    """40 graded intervals (50 in all) give a better feasible motion than 160 equal ones: the
-    bound's peak power (measured 97.6 against 97.9 W) and the human-like optimum's `tau_sq`,
-    whose peak rule kinks the optimum at its segment joins (1817 against 1840; at 40 equal
-    intervals 1920)."""
+    """40 graded intervals, as a plan solves them by default (L = 4 on the 1000-sample report
+    grid), give a better feasible motion than 160 equal ones: the bound's peak power and the
+    human-like optimum's `tau_sq`, whose peak rule kinks the optimum at its segment joins
+    (measured with L = 5: 97.6 against 97.9 W; 1817 against 1840, at 40 equal intervals 1920)."""
     robot, task = _arm()
     spec = HumanSpec("none", robot.elbow_joint) if kind == "none" else _peak(robot, task)
     common: dict[str, Any] = {"objective": objective, "human": spec}
-    graded = solve_optimal(robot, task.start, task.goal, 1.0, n_intervals=40,
-                           end_grading=LEVELS, **common)  # fmt: skip
+    graded = solve_optimal(robot, task.start, task.goal, 1.0, n_intervals=40, **common)
     equal = solve_optimal(robot, task.start, task.goal, 1.0, n_intervals=160, end_grading=0,
                           **common)  # fmt: skip
-    assert graded.solver.end_grading == LEVELS and equal.solver.end_grading == 0
+    assert graded.solver.end_grading == 4 and equal.solver.end_grading == 0
     assert _value(robot, task, graded, objective) < _value(robot, task, equal, objective)
 
 
-def test_the_default_is_equal_intervals_and_bad_grading_is_named() -> None:
+def test_the_grading_is_as_fine_as_the_report_grid_resolves() -> None:
+    """L = END_GRADING (5) by default, capped so the finest piece (2^-L of T / N) spans at least
+    one step of the report grid (T / (samples - 1)): a plan on N or on 2N intervals has the same
+    finest piece, and the meshes are nested. (A refinement keeps its first mesh's L instead:
+    tests/planning/test_converge_option.py.) 0 asks for equal intervals."""
+    assert END_GRADING == LEVELS
+    assert [report_resolved_grading(LEVELS, n, 1000) for n in (16, 40, 80, 160, 320, 640)] == [
+        5,
+        4,
+        3,
+        2,
+        1,
+        0,
+    ]
+    assert report_resolved_grading(LEVELS, 40, 300) == 2
+    assert report_resolved_grading(2, 8, 10**4) == 2  # never above the levels asked for
+    robot, task = _arm()
+    spec = HumanSpec("none", robot.elbow_joint)
+    for samples, levels in ((1000, 5), (200, 3)):
+        out = solve_optimal(robot, task.start, task.goal, 1.0, objective="tau_sq", human=spec,
+                            n_intervals=16, report_samples=samples)  # fmt: skip
+        assert out.solver.end_grading == levels
+        h = np.diff(out.knots.t)
+        assert h.size == 16 + 2 * levels and h.min() >= 1.0 / (samples - 1) - 1e-12
+    coarse, fine = (
+        solve_optimal(robot, task.start, task.goal, 1.0, objective="tau_sq", human=spec,
+                      n_intervals=n).knots.t
+        for n in (40, 80)
+    )  # fmt: skip
+    assert np.diff(coarse).min() == pytest.approx(np.diff(fine).min(), rel=1e-9)
+    assert all(np.min(np.abs(fine - node)) < 1e-12 for node in coarse)
+
+
+def test_equal_intervals_on_request_and_bad_grading_is_named() -> None:
     robot, task = _arm()
     spec = HumanSpec("none", robot.elbow_joint)
     plain = solve_optimal(robot, task.start, task.goal, 1.0, objective="tau_sq", human=spec,
-                          n_intervals=16)  # fmt: skip
+                          n_intervals=16, end_grading=0)  # fmt: skip
     assert plain.solver.end_grading == 0 and np.ptp(np.diff(plain.knots.t)) < 1e-12
     for bad in (-1, 13):
         with pytest.raises(BioPlanError, match=f"end_grading must be 0 .* got {bad}"):

@@ -59,14 +59,21 @@ def test_error_estimate_is_conservative_or_the_last_change() -> None:
     assert math.isnan(mesh_error_estimate([1.0])[0])
 
 
-def _fine(robot_name: str, objective: str, n_intervals: int, spec: HumanSpec | None) -> float:
-    """An independent solve from the quintic on ``n_intervals``, on the plan's report grid."""
+def _fine(
+    robot_name: str,
+    objective: str,
+    n_intervals: int,
+    spec: HumanSpec | None,
+    end_grading: int | None = None,
+) -> float:
+    """An independent solve from the quintic on ``n_intervals`` (graded ends: ``end_grading``,
+    None = the default for that mesh), on the plan's report grid."""
     robot = load_robot(robot_name)
     task = PlanTask.default(robot)
     human = spec or HumanSpec("none", robot.elbow_joint)
     sol = solve_optimal(
         robot, task.start, task.goal, 1.0, objective=objective, human=human,
-        n_intervals=n_intervals,
+        n_intervals=n_intervals, end_grading=end_grading,
     )  # fmt: skip
     return objective_value(robot, evaluate_trajectory(robot, sol.trajectory, task), objective)
 
@@ -103,9 +110,9 @@ def test_converged_bound_is_within_the_target_of_a_much_finer_solve(
 
 
 def test_human_optimal_carries_honest_evidence_on_the_2dof_tau_sq() -> None:
-    """``human_optimal`` carries the same evidence. Its peak rule makes the refinement slow
-    (measured: 2330, 1903, 1856, 1840, 1827 on 20 ... 320 intervals; the segments about the
-    peak sit at their least share): the result must then say it did not converge, with the
+    """``human_optimal`` carries the same evidence. On equal intervals its peak rule made the
+    refinement slow (measured: 2330, 1903, 1856, 1840, 1827 on 20 ... 320 intervals: the
+    segment joins kink the optimum); should it not converge, the result must say so, with the
     last change as its error estimate, and report the finest mesh's value."""
     robot = load_robot("human_arm_2dof")
     res = plan(
@@ -129,7 +136,9 @@ def test_human_optimal_carries_honest_evidence_on_the_2dof_tau_sq() -> None:
     e = robot.elbow_joint
     q_via = res.template.peak_joint_angle(float(task.start[e]), float(task.goal[e]))
     spec, _ = human_spec("peak", robot, task, res.template, q_via)
-    again = _fine("human_arm_2dof", "tau_sq", conv["final_intervals"], spec)
+    # The same mesh: the refinement keeps its first mesh's graded ends.
+    grading = res.methods["human_optimal"].solver["end_grading"]
+    again = _fine("human_arm_2dof", "tau_sq", conv["final_intervals"], spec, grading)
     assert abs(values[-1] - again) / again <= max(conv["error_estimate"], TARGET)
 
 

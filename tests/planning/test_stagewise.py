@@ -31,6 +31,7 @@ def _project(robot: Robot, objective: str) -> OptimalResult:
     return solve_optimal(
         robot, task.start, task.goal, 1.0, objective=objective,
         human=HumanSpec("none", robot.elbow_joint), n_intervals=N, explain=False,
+        end_grading=0,  # the stage-wise NLP's equal intervals
     )  # fmt: skip
 
 

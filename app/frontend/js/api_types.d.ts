@@ -406,6 +406,8 @@ export interface FrontConvergence {
   converged: boolean;
   final_intervals: number;
   tolerance: number;
+  /** graded ends: pieces added at each segment's end intervals (0: equal) */
+  end_grading?: number;
 }
 
 export interface FrontOut {
