@@ -1362,8 +1362,7 @@ def solve_optimal(
         n_intervals: constant-jerk intervals N.
         no_reversal: no joint ever moves against its stroke (joints with start = goal stay put).
         report_samples, name: the returned trajectory's number of samples and name.
-        explain: when infeasible, name the shortest feasible duration and the binding limit in
-            the error (:mod:`app.planning.shortest_duration`; a few cheap solves).
+        explain: when infeasible, name the shortest feasible duration and the binding limit.
         extra: further constraints (a metric bound, the controller's acceleration and jerk
             limits, the actuators' envelopes): :class:`ExtraConstraints`.
         interval_weights: (N,) relative interval lengths (> 0), normalised within each segment;
@@ -1371,11 +1370,9 @@ def solve_optimal(
             None = equal; not for ``shape`` (its band is mapped onto the nodes k / N).
         segment_counts: (S,) intervals per segment of the split motion (sum N); None = in
             proportion to the warm start's segment durations. A refined mesh passes its own.
-        end_grading: L, graded ends: each segment's first and last interval cut into L + 1
-            halving pieces (``solver.n_intervals`` stays N, ``solver.end_grading`` says L); None
-            = :data:`END_GRADING` capped by :func:`report_resolved_grading` for this N and
-            report grid (a refinement passes its first mesh's L on, so the finer meshes are
-            nested in it and their pieces shrink); not with a given mesh, nor ``shape``.
+        end_grading: L, each segment's first and last interval cut into L + 1 halving pieces
+            (``solver.end_grading``); None = :data:`END_GRADING` capped by
+            :func:`report_resolved_grading` (a refinement passes its first mesh's L on).
 
     Returns:
         The solution; ``solver.status`` is ``Solve_Succeeded``.
@@ -1385,10 +1382,8 @@ def solve_optimal(
         BioPlanError: bad options.
     """
     started = time.perf_counter()
-    if end_grading is None:
-        grading = report_resolved_grading(END_GRADING, n_intervals, report_samples)
-    else:
-        grading = end_grading
+    default = report_resolved_grading(END_GRADING, n_intervals, report_samples)
+    grading = default if end_grading is None else end_grading
     _check_options(objective, human, n_intervals, grading)
     start, goal = np.asarray(start, float), np.asarray(goal, float)
     if warm_start is None:
