@@ -67,8 +67,9 @@ from app.planning.optimal import (
     report_resolved_grading,
     solve_optimal,
 )
-from app.planning.profiles import Trajectory, quintic, time_grid
+from app.planning.profiles import Trajectory, quintic, stretched, time_grid
 from app.planning.robots import Robot
+from app.planning.shortest_duration import PROBE_ITERATIONS, feasibility_probe, probe_warm_name
 from app.progress import ProgressFn, report
 
 __all__ = [
@@ -224,12 +225,13 @@ def _solve(
     n_intervals: int,
     extra: ExtraConstraints,
     warm_name: str,
+    max_iterations: int | None = None,
 ) -> OptimalResult:
     result = solve_optimal(
         setup.robot, setup.task.start, setup.task.goal, duration, objective=objective,
         human=setup.spec, warm_start=warm, warm_start_name=warm_name, n_intervals=n_intervals,
         no_reversal=setup.no_reversal, report_samples=setup.report_samples, explain=False,
-        extra=extra, end_grading=setup.end_grading,
+        extra=extra, end_grading=setup.end_grading, max_iterations=max_iterations,
     )  # fmt: skip
     if setup.lazy_actuators is None or extra.actuators is not None:
         return result
@@ -239,7 +241,9 @@ def _solve(
     if actuator_violation(setup.robot, evaluate_trajectory(setup.robot, fine, setup.task)) is None:
         return result
     kept = dataclasses.replace(extra, actuators=setup.lazy_actuators)
-    return _solve(setup, duration, objective, result.trajectory, n_intervals, kept, "itself")
+    return _solve(
+        setup, duration, objective, result.trajectory, n_intervals, kept, "itself", max_iterations
+    )
 
 
 def _warm_solve(
@@ -322,19 +326,6 @@ def _converged(
     return _Solved(ev, result, convergence)
 
 
-def _stretched(traj: Trajectory, duration: float) -> Trajectory:
-    """The same path in ``duration`` seconds (a warm start for a neighbouring duration)."""
-    s = traj.duration / duration
-    return Trajectory(
-        t=traj.t / s,
-        q=traj.q,
-        qd=traj.qd * s,
-        qdd=traj.qdd * s**2,
-        jerk=traj.jerk * s**3,
-        name=traj.name,
-    )
-
-
 # ----------------------------------------------------------------------------------------------
 # Shortest duration
 # ----------------------------------------------------------------------------------------------
@@ -387,18 +378,16 @@ def _shortest(setup: _Setup, rel_tol: float = DURATION_REL_TOL) -> tuple[Shortes
     # No rest-to-rest motion reaches its mean speed's limit: a strict lower bound.
     lo = float(np.max(stroke / np.asarray(robot.qd_max)))
     solves = 0
-    solved: dict[float, OptimalResult] = {}
 
-    def feasible(duration: float) -> bool:
+    def solve(duration: float, warm: Trajectory | None) -> OptimalResult:
         nonlocal solves
         solves += 1
-        try:
-            solved[duration] = _solve(
-                setup, duration, "tau_sq", None, setup.n_intervals, setup.extra(), "quintic"
-            )
-        except SolverError:
-            return False
-        return True
+        return _solve(
+            setup, duration, "tau_sq", warm, setup.n_intervals, setup.extra(),
+            probe_warm_name(warm), PROBE_ITERATIONS,
+        )  # fmt: skip
+
+    feasible, solved = feasibility_probe(solve)
 
     hi = 2.0 * lo if lo > 0 else 0.1
     while not feasible(hi):
@@ -849,7 +838,7 @@ def _duration_front(
     warm: Trajectory | None = None
     n_warm = 0
     for i, t in enumerate(durations):
-        guess = None if warm is None else _stretched(warm, float(t))
+        guess = None if warm is None else stretched(warm, float(t))
         try:
             solved = _converged(
                 setup, float(t), metric, guess, setup.extra(), "neighbour", n_warm // 2
@@ -1017,7 +1006,7 @@ def _scan_durations(
     warm: Trajectory | None = None
     n_warm = 0
     for t in durations:
-        at(float(t), None if warm is None else _stretched(warm, float(t)), n_warm)
+        at(float(t), None if warm is None else stretched(warm, float(t)), n_warm)
         last = scanned[float(t)][2]
         warm, n_warm = last.evaluated.trajectory, last.result.solver.n_intervals
     ts = sorted(scanned)
@@ -1034,7 +1023,7 @@ def _scan_durations(
                 near = scanned[ts[k]][2]
                 at(
                     vertex,
-                    _stretched(near.evaluated.trajectory, vertex),
+                    stretched(near.evaluated.trajectory, vertex),
                     near.result.solver.n_intervals,
                 )
 

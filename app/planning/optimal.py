@@ -1140,7 +1140,13 @@ def report_resolved_grading(levels: int, n_intervals: int, report_samples: int) 
     return max(0, min(levels, math.floor(math.log2(steps_per_interval) + 1e-9)))
 
 
-def _check_options(objective: str, human: HumanSpec, n_intervals: int, grading: int = 0) -> None:
+def _check_options(
+    objective: str,
+    human: HumanSpec,
+    n_intervals: int,
+    grading: int = 0,
+    max_iterations: int | None = None,
+) -> None:
     if objective not in OPTIMAL_OBJECTIVES:
         raise BioPlanError(
             f"unknown objective {objective!r}: expected one of {', '.join(OPTIMAL_OBJECTIVES)}"
@@ -1152,6 +1158,8 @@ def _check_options(objective: str, human: HumanSpec, n_intervals: int, grading: 
         )
     if n_intervals < 8:
         raise BioPlanError(f"n_intervals must be >= 8, got {n_intervals}")
+    if max_iterations is not None and max_iterations < 1:
+        raise BioPlanError(f"max_iterations must be >= 1, got {max_iterations}")
     if not 0 <= grading <= _MAX_END_GRADING:
         raise BioPlanError(
             f"end_grading must be 0 (equal intervals) to {_MAX_END_GRADING}, got {grading}"
@@ -1313,16 +1321,19 @@ def _structure_key(problem: _Problem) -> tuple[Any, ...]:
     )
 
 
-def _solver(problem: _Problem, nlp: dict[str, Any]) -> Any:
-    """The IPOPT solver of this problem's structure (built once, then reused)."""
+def _solver(problem: _Problem, nlp: dict[str, Any], max_iterations: int | None = None) -> Any:
+    """The IPOPT solver of this problem's structure and iteration cap (built once, reused)."""
     import casadi as ca
 
-    key = _structure_key(problem)
+    key = (*_structure_key(problem), max_iterations)
     solver = _SOLVERS.get(key)
     if solver is None:
         extra = problem.extra
         warm = extra is not None and extra.warm
-        solver = ca.nlpsol("optimal", "ipopt", nlp, {**_IPOPT_OPTIONS, **(_WARM if warm else {})})
+        options = {**_IPOPT_OPTIONS, **(_WARM if warm else {})}
+        if max_iterations is not None:
+            options["ipopt.max_iter"] = max_iterations
+        solver = ca.nlpsol("optimal", "ipopt", nlp, options)
         if len(_SOLVERS) >= _SOLVER_CACHE_SIZE:
             _SOLVERS.pop(next(iter(_SOLVERS)))
         _SOLVERS[key] = solver
@@ -1348,6 +1359,7 @@ def solve_optimal(
     interval_weights: Sequence[float] | None = None,
     segment_counts: Sequence[int] | None = None,
     end_grading: int | None = None,
+    max_iterations: int | None = None,
 ) -> OptimalResult:
     """Solve one optimal-control problem by direct transcription and IPOPT.
 
@@ -1373,6 +1385,8 @@ def solve_optimal(
         end_grading: L, each segment's first and last interval cut into L + 1 halving pieces
             (``solver.end_grading``); None = :data:`END_GRADING` capped by
             :func:`report_resolved_grading` (a refinement passes its first mesh's L on).
+        max_iterations: IPOPT's iteration cap (None = 1000); a probe that only asks "is this
+            feasible?" stops early, since proving infeasibility can take minutes.
 
     Returns:
         The solution; ``solver.status`` is ``Solve_Succeeded``.
@@ -1384,7 +1398,7 @@ def solve_optimal(
     started = time.perf_counter()
     default = report_resolved_grading(END_GRADING, n_intervals, report_samples)
     grading = default if end_grading is None else end_grading
-    _check_options(objective, human, n_intervals, grading)
+    _check_options(objective, human, n_intervals, grading, max_iterations)
     start, goal = np.asarray(start, float), np.asarray(goal, float)
     if warm_start is None:
         warm_start, warm_start_name = quintic(start, goal, duration, n_samples=201), "quintic"
@@ -1393,7 +1407,7 @@ def solve_optimal(
         interval_weights, segment_counts, grading,
     ), extra=extra)  # fmt: skip
     nlp, args, cost_fn = _nlp(problem, warm_start)
-    solver = _solver(problem, nlp)
+    solver = _solver(problem, nlp, max_iterations)
     sol = solver(**args)
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))

@@ -67,6 +67,20 @@ class Trajectory:
         return int(self.q.shape[1])
 
 
+def stretched(traj: Trajectory, duration: float) -> Trajectory:
+    """The same path in ``duration`` seconds: velocities scale by s = T / T', accelerations by
+    s², jerks by s³ (a warm start for a neighbouring duration)."""
+    s = traj.duration / duration
+    return Trajectory(
+        t=traj.t / s,
+        q=traj.q,
+        qd=traj.qd * s,
+        qdd=traj.qdd * s**2,
+        jerk=traj.jerk * s**3,
+        name=traj.name,
+    )
+
+
 # ----------------------------------------------------------------------------------------------
 # Input checks
 # ----------------------------------------------------------------------------------------------

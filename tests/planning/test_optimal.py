@@ -10,10 +10,13 @@ import dataclasses
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from app.errors import BioPlanError
+from app.planning import shortest_duration
 from app.planning.energy import MotorModel, energy_metrics
 from app.planning.evaluation import PlanTask, evaluate_trajectory, phase_boundary_times
 from app.planning.optimal import HumanSpec, SolverError, human_spec_peak, solve_optimal
@@ -257,6 +260,63 @@ def test_infeasible_request_names_the_shortest_feasible_duration(
     assert np.abs(ev.tau[:, 1]).max() <= 1.0 + 1e-3
     # The same request with the stock 500 Nm elbow solves: the error was the limit, not the task.
     solve_optimal(scara, start, goal, 0.5, objective="abs_work", human=HumanSpec("none", 1))
+
+
+def test_the_search_probes_with_capped_warm_started_solves(
+    tmp_path: Path, scara: Robot, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Found when a sweep cell took a minute to fail: proving one near-boundary duration
+    infeasible took IPOPT 30 s. Every probe of the search is capped at PROBE_ITERATIONS, and each
+    one after the first feasible starts from the nearest longer solved motion slowed down; the
+    hint is still a duration the search solved (the pure-inertia case above, [T*, 1.06 T*])."""
+    weak = tmp_path / "weak.urdf"
+    weak.write_text(SCARA.replace('effort="500"/>\n  </joint>\n  <link name="fore"',
+                                  'effort="1"/>\n  </joint>\n  <link name="fore"'))  # fmt: skip
+    robot = load_robot(str(weak), payload=0.0)
+    probes: list[tuple[float, object, object, bool]] = []  # duration, cap, warm start, solved
+    real = shortest_duration.solve_optimal
+
+    def recorded(*args: Any, **kwargs: Any) -> Any:
+        entry = (float(args[3]), kwargs.get("max_iterations"), kwargs.get("warm_start_name"))
+        try:
+            result = real(*args, **kwargs)
+        except SolverError:
+            probes.append((*entry, False))
+            raise
+        probes.append((*entry, True))
+        return result
+
+    monkeypatch.setattr(shortest_duration, "solve_optimal", recorded)
+    found = shortest_duration.shortest_feasible_duration(
+        robot, np.zeros(2), np.array([0.0, 2.0]), 0.5, human=HumanSpec("none", 1),
+        n_intervals=40, no_reversal=True,
+    )  # fmt: skip
+    t_star = 2.0 * math.sqrt(2.0 * SCARA_J / 1.0)
+    assert found.duration is not None and t_star <= found.duration <= 1.06 * t_star
+    assert len(probes) == found.solves >= 5 and any(not ok for *_, ok in probes)
+    assert all(cap == shortest_duration.PROBE_ITERATIONS for _, cap, _, _ in probes)
+    for i, (t, _, warm, _) in enumerate(probes):
+        longer_solved = any(ok and u > t for u, _, _, ok in probes[:i])
+        assert warm == ("longer probe" if longer_solved else "quintic"), (i, t, warm)
+
+
+def test_max_iterations_caps_ipopt(human: Robot) -> None:
+    """``max_iterations`` stops IPOPT there: a solve that needs more raises a not-converged
+    (not infeasible) error, the same solve uncapped succeeds, and a cap below 1 is refused."""
+    task = PlanTask.default(human)
+    spec = human_spec_peak(1, math.radians(62.0))
+    full = solve_optimal(human, task.start, task.goal, 1.0, objective="tau_sq", human=spec)
+    assert full.solver.iterations > 3
+    with pytest.raises(SolverError, match="Maximum_Iterations_Exceeded") as info:
+        solve_optimal(human, task.start, task.goal, 1.0, objective="tau_sq", human=spec,
+                      max_iterations=3)  # fmt: skip
+    assert not info.value.infeasible
+    capped = solve_optimal(human, task.start, task.goal, 1.0, objective="tau_sq", human=spec,
+                           max_iterations=full.solver.iterations)  # fmt: skip
+    assert capped.solver.objective == pytest.approx(full.solver.objective, rel=1e-9)
+    with pytest.raises(BioPlanError, match="max_iterations must be >= 1, got 0"):
+        solve_optimal(human, task.start, task.goal, 1.0, objective="tau_sq", human=spec,
+                      max_iterations=0)  # fmt: skip
 
 
 def test_no_reversal_keeps_still_joints_still_and_can_be_lifted(human: Robot) -> None:

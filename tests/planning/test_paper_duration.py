@@ -19,9 +19,11 @@ import pytest
 from app.planning.evaluation import PlanTask
 from app.planning.human_template import flexion_on_stroke
 from app.planning.methods import PaperInfeasible
+from app.planning.optimal import OptimalResult, SolverError
 from app.planning.planner import PlanFailed, plan
+from app.planning.profiles import Trajectory, quintic
 from app.planning.robots import Robot, load_robot
-from app.planning.shortest_duration import bracket_shortest
+from app.planning.shortest_duration import bracket_shortest, feasibility_probe, probe_warm_name
 from tests.utils.example_robots import robot_file
 
 KINOVA = "kinova_description/robots/kinova.urdf"
@@ -129,3 +131,35 @@ def test_bracket_shortest_finds_a_threshold_to_its_step() -> None:
 
     none = bracket_shortest(never, 1.0, max_factor=16.0)
     assert none.feasible is None and none.searched == 16.0 and tried == [2.0, 4.0, 8.0, 16.0]
+
+
+def test_a_probe_starts_from_the_nearest_longer_solved_motion_slowed_down() -> None:
+    """feasibility_probe on a known threshold (1.5 s): a failed solve is "none found" and is not
+    kept; each probe's warm start is the nearest longer solved motion, stretched to its own
+    duration. The fake solver's motion at duration d is the quintic from 0 to d rad, so the warm
+    start names its donor, and a stretched quintic is the quintic of the new duration (closed
+    form)."""
+    calls: list[tuple[float, float | None]] = []  # duration, the warm start's donor
+
+    def solve(duration: float, warm: Trajectory | None) -> OptimalResult:
+        donor = None if warm is None else float(warm.q[-1, 0])
+        calls.append((duration, donor))
+        if warm is not None:
+            exact = quintic(np.zeros(2), np.full(2, donor), duration, n_samples=11)
+            for got, want in zip(
+                (warm.t, warm.q, warm.qd, warm.qdd),
+                (exact.t, exact.q, exact.qd, exact.qdd),
+                strict=True,
+            ):
+                np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+        if duration < 1.5:
+            raise SolverError("none found", infeasible=True)
+        path = quintic(np.zeros(2), np.full(2, duration), duration, n_samples=11)
+        return OptimalResult(trajectory=path, knots=None, solver=None)  # type: ignore[arg-type]
+
+    feasible, solved = feasibility_probe(solve)
+    assert feasible(4.0) and feasible(2.0) and not feasible(1.0) and feasible(3.0)
+    assert sorted(solved) == [2.0, 3.0, 4.0]
+    assert calls == [(4.0, None), (2.0, 4.0), (1.0, 2.0), (3.0, 4.0)]
+    assert probe_warm_name(None) == "quintic"
+    assert probe_warm_name(solved[2.0].trajectory) == "longer probe"
