@@ -1369,14 +1369,12 @@ def solve_optimal(
         duration: motion time [s].
         objective: one of :data:`OPTIMAL_OBJECTIVES`.
         human: the human-likeness constraint (``kind="none"`` for the bound).
-        warm_start: the initial guess (e.g. the PSO plan); None = the quintic.
-        warm_start_name: what the guess is, for the report.
+        warm_start, warm_start_name: the initial guess (None = the quintic), its name (reported).
         n_intervals: constant-jerk intervals N.
         no_reversal: no joint ever moves against its stroke (joints with start = goal stay put).
         report_samples, name: the returned trajectory's number of samples and name.
         explain: when infeasible, name the shortest feasible duration and the binding limit.
-        extra: further constraints (a metric bound, the controller's acceleration and jerk
-            limits, the actuators' envelopes): :class:`ExtraConstraints`.
+        extra: further constraints: a metric bound, controller limits, actuators' envelopes.
         interval_weights: (N,) relative interval lengths (> 0), normalised within each segment;
             NLP parameters, so one built solver serves every mesh of the same segment counts.
             None = equal; not for ``shape`` (its band is mapped onto the nodes k / N).
@@ -1385,8 +1383,7 @@ def solve_optimal(
         end_grading: L, each segment's first and last interval cut into L + 1 halving pieces
             (``solver.end_grading``); None = :data:`END_GRADING` capped by
             :func:`report_resolved_grading` (a refinement passes its first mesh's L on).
-        max_iterations: IPOPT's iteration cap (None = 1000); a probe that only asks "is this
-            feasible?" stops early, since proving infeasibility can take minutes.
+        max_iterations: IPOPT's iteration cap (None = 1000), e.g. for a feasibility probe.
 
     Returns:
         The solution; ``solver.status`` is ``Solve_Succeeded``.
@@ -1408,8 +1405,7 @@ def solve_optimal(
     ), extra=extra)  # fmt: skip
     nlp, args, cost_fn = _nlp(problem, warm_start)
     solver = _solver(problem, nlp, max_iterations)
-    sol = solver(**args)
-    stats = solver.stats()
+    sol, stats = solver(**args), solver.stats()
     status = str(stats.get("return_status", "unknown"))
     _raise_unless_solved(status, problem, explain)
     xs = np.asarray(sol["x"], dtype=np.float64).ravel()
