@@ -15,10 +15,15 @@ from tests.utils.server import Server
 TINY = {"robot": "human_arm_2dof", "particles": 8, "iterations": 5, "methods": ["quintic", "paper"]}
 
 
-def _open_drawer(chromium: Any, server: Server) -> tuple[Any, Any, list[str]]:
-    """A page of the dashboard with its job drawer open; the stream requests it makes."""
+def _open_drawer(
+    chromium: Any, server: Server, *, fake_clock: bool = False
+) -> tuple[Any, Any, list[str]]:
+    """A page of the dashboard with its job drawer open; the stream requests it makes.
+    ``fake_clock``: the page's timers run on Playwright's clock, moved on by the test."""
     context = new_context(chromium, viewport={"width": 1280, "height": 800})
     page = context.new_page()
+    if fake_clock:
+        page.clock.install()
     streams: list[str] = []
     page.on("request", lambda r: streams.append(r.url) if "/api/events/jobs" in r.url else None)
     page.goto(f"{server.url}/#/recordings")
@@ -60,16 +65,22 @@ def test_a_refused_drawer_polls_then_takes_the_stream_again(chromium: Any, tmp_p
     server.start()
     try:
         first, _, _ = _open_drawer(chromium, server)
-        second, page, _ = _open_drawer(chromium, server)  # the same client: refused
+        # The same client: refused. Its polls (every 5 s) and its retry of the stream (a minute
+        # later) run on a fake clock the test moves on, instead of waiting a real minute.
+        second, page, _ = _open_drawer(chromium, server, fake_clock=True)
+
+        def after(ms: int, done: Any) -> Any:
+            return lambda: page.clock.run_for(ms) or done()
+
         try:
             note = "#job-drawer-note"
             wait_for(lambda: "unavailable" in page.inner_text(note), 60, "the refusal said")
             job = server.post("/api/plans", json=TINY).json()
-            wait_for_jobs(
-                server, lambda: _state(page, job["id"]) == "succeeded", "the job, by polling"
-            )
+            polled = after(5_000, lambda: _state(page, job["id"]) == "succeeded")
+            wait_for_jobs(server, polled, "the job, by polling")
+            assert "unavailable" in page.inner_text(note)  # still polling, not streaming
             first.close()  # a place is free: the drawer takes the stream again
-            wait_for(lambda: page.inner_text(note).strip() == "", 180, "the stream again")
+            wait_for(after(60_000, lambda: page.inner_text(note).strip() == ""), 180, "the stream")
         finally:
             second.close()
     finally:
