@@ -1381,8 +1381,8 @@ def solve_optimal(
         segment_counts: (S,) intervals per segment of the split motion (sum N); None = in
             proportion to the warm start's segment durations. A refined mesh passes its own.
         end_grading: L, each segment's first and last interval cut into L + 1 halving pieces
-            (``solver.end_grading``); None = :data:`END_GRADING` capped by
-            :func:`report_resolved_grading` (a refinement passes its first mesh's L on).
+            (``solver.end_grading``; not with ``interval_weights`` nor ``shape``); None =
+            :data:`END_GRADING` capped by :func:`report_resolved_grading`.
         max_iterations: IPOPT's iteration cap (None = 1000), e.g. for a feasibility probe.
 
     Returns:

@@ -155,9 +155,9 @@ def feasibility_probe(
 
     ``solve(duration, warm)`` solves the probe problem (best with ``max_iterations =``
     :data:`PROBE_ITERATIONS`); a :class:`SolverError` means "none found". Each probe starts from
-    the nearest longer solved motion slowed down to its duration (feasible for the limits by
-    the time-scaling argument above, up to the torques' gravity part), which IPOPT refines in
-    fewer iterations than from the quintic.
+    the nearest longer solved motion sped up to its duration (the same path: at most a little
+    over the limits when the two durations are close, which is where bisection probes), which
+    IPOPT refines in fewer iterations than the quintic.
     """
     solved: dict[float, OptimalResult] = {}
 

@@ -267,7 +267,7 @@ def test_the_search_probes_with_capped_warm_started_solves(
 ) -> None:
     """Found when a sweep cell took a minute to fail: proving one near-boundary duration
     infeasible took IPOPT 30 s. Every probe of the search is capped at PROBE_ITERATIONS, and each
-    one after the first feasible starts from the nearest longer solved motion slowed down; the
+    one after the first feasible starts from the nearest longer solved motion sped up; the
     hint is still a duration the search solved (the pure-inertia case above, [T*, 1.06 T*])."""
     weak = tmp_path / "weak.urdf"
     weak.write_text(SCARA.replace('effort="500"/>\n  </joint>\n  <link name="fore"',

@@ -133,7 +133,7 @@ def test_bracket_shortest_finds_a_threshold_to_its_step() -> None:
     assert none.feasible is None and none.searched == 16.0 and tried == [2.0, 4.0, 8.0, 16.0]
 
 
-def test_a_probe_starts_from_the_nearest_longer_solved_motion_slowed_down() -> None:
+def test_a_probe_starts_from_the_nearest_longer_solved_motion_sped_up() -> None:
     """feasibility_probe on a known threshold (1.5 s): a failed solve is "none found" and is not
     kept; each probe's warm start is the nearest longer solved motion, stretched to its own
     duration. The fake solver's motion at duration d is the quintic from 0 to d rad, so the warm
