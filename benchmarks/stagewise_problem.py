@@ -257,9 +257,8 @@ class StagewiseProblem:
         free = list(prob.free)
         sc = ca.DM(_opt._scales(prob)[free])
         d = 1.0 / prob.n_intervals
-        fn = _opt._reduced_dynamics(prob)
-        if self.compile_dynamics:
-            fn = _opt._compiled(prob, fn)
+        compiled = _opt._compiled(prob) if self.compile_dynamics else None
+        fn = compiled if compiled is not None else _opt._reduced_dynamics(prob)
         cols: list[list[Any]] = [[], [], []]
         for frac in self.rule[0]:
             s = frac * d

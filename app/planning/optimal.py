@@ -60,6 +60,8 @@ from numpy.typing import NDArray
 
 from app import names as _names
 from app.errors import BioPlanError
+from app.planning import jit_cache
+from app.planning.blas_threads import single_threaded_casadi_blas
 from app.planning.energy import FRICTION_VELOCITY_SCALE
 from app.planning.profiles import Trajectory, quintic, time_grid
 from app.planning.symbolic import symbolic_chain
@@ -807,15 +809,17 @@ def _reduced_dynamics(problem: _Problem) -> Any:
     return ca.Function("reduced_dynamics", syms, [tau])
 
 
-#: Evaluation points from which the per-point dynamics is compiled to C (:func:`_compiled`):
-#: below, compiling it (0.3 s, its derivatives 1-4 s more, once per process) costs more than
-#: it saves (benchmarks/RESULTS.md, "Converged results: where the time goes"). The peak
-#: objectives' 160 intervals are 1440 points (eighths), the others' 320 are 1600 (quarters);
-#: no uniform mesh of 40 x 2^k intervals has 1000-1400 points, but adaptive meshes do (6-DOF
-#: peak power, 149 intervals = 1341 points: 12-14 s interpreted, 4-8 s compiled; "Adaptive mesh
-#: refinement" there), hence 1000 rather than 1400.
+#: Evaluation points from which the per-point dynamics is compiled to C (:func:`_compiled`) when
+#: the compiled objects cannot be cached on disk (:mod:`app.planning.jit_cache` off): below,
+#: compiling it (0.3 s, its derivatives 1-4 s more, once per process) costs more than it saves
+#: (benchmarks/RESULTS.md, "Converged results: where the time goes"). The peak objectives' 160
+#: intervals are 1440 points (eighths), the others' 320 are 1600 (quarters); no uniform mesh of
+#: 40 x 2^k intervals has 1000-1400 points, but adaptive meshes do (6-DOF peak power, 149
+#: intervals = 1341 points: 12-14 s interpreted, 4-8 s compiled; "Adaptive mesh refinement"
+#: there), hence 1000 rather than 1400. With the cache on, the compiler runs once per chain
+#: structure and machine, and the dynamics is compiled at every mesh.
 COMPILE_FROM_POINTS = 1000
-#: Compiled per-point dynamics by chain structure (free joints, the fixed joints' angles).
+#: Compiled per-point dynamics by chain structure (None: no working C compiler).
 _COMPILED: dict[tuple[Any, ...], Any] = {}
 
 
@@ -838,15 +842,20 @@ def _jit_folder() -> str:
 
 def _jit_options() -> dict[str, Any]:
     """CasADi options of a function compiled by the system C compiler (its derivatives alike),
-    every file it writes in :func:`_jit_folder`."""
+    every file it writes in :func:`_jit_folder`, the objects cached on disk
+    (:mod:`app.planning.jit_cache`) unless that is off."""
+    options: dict[str, Any] = {
+        "flags": ["-O1"], "verbose": False, "directory": os.path.join(_jit_folder(), ""),
+    }  # fmt: skip
+    cached = jit_cache.compiler_command()
+    if cached is not None:
+        options["compiler"] = cached
     return {
         "jit": True,
         "compiler": "shell",
         "jit_name": "bioplan_dynamics",
-        "jit_options": {
-            "flags": ["-O1"], "verbose": False, "directory": os.path.join(_jit_folder(), ""),
-        },
-    }  # fmt: skip
+        "jit_options": options,
+    }
 
 
 def _chain_key(problem: _Problem) -> tuple[Any, ...]:
@@ -864,20 +873,23 @@ def _chain_key(problem: _Problem) -> tuple[Any, ...]:
     return bodies, chain.gravity.tobytes(), problem.free, fixed
 
 
-def _compiled(problem: _Problem, fn: Any) -> Any:
-    """``fn`` with itself and its derivatives (the Jacobians and the Hessian IPOPT asks for)
-    compiled to C by the system compiler, built once per chain structure in this process and
-    reused by every mesh and task of that structure; ``fn`` itself if no compiler works.
+def _compiled(problem: _Problem) -> Any:
+    """The reduced dynamics (:func:`_reduced_dynamics`), itself and its derivatives (the
+    Jacobians and the Hessian IPOPT asks for) compiled to C by the system compiler; built once
+    per chain structure in this process, the objects once per machine
+    (:mod:`app.planning.jit_cache`), and reused by every mesh and task of that structure. None
+    if no compiler works.
 
-    Why: on the refined meshes IPOPT's function evaluations (mostly the Hessian of the mapped
-    dynamics) take half of each iteration in CasADi's virtual machine; compiled, a quarter of that.
-    Only this small function is compiled (about 200 instructions for the 6-DOF arm, 0.2 s),
-    never the whole NLP (36-70 MB of C that did not compile in 11 minutes).
+    Why: IPOPT's function evaluations (mostly the Hessian of the mapped dynamics) take half of
+    each iteration in CasADi's virtual machine; compiled, a quarter of that. Only this small
+    function is compiled (about 200 instructions for the 6-DOF arm, 0.2 s), never the whole
+    NLP (36-70 MB of C that did not compile in 11 minutes).
     """
     import casadi as ca
 
     key = _chain_key(problem)
     if key not in _COMPILED:
+        fn = _reduced_dynamics(problem)
         try:
             args = fn.sx_in()
             jit = _jit_options()
@@ -886,19 +898,36 @@ def _compiled(problem: _Problem, fn: Any) -> Any:
             )
         except RuntimeError as exc:  # no working C compiler: the interpreted function
             logger.info("per-point dynamics not compiled (%s): interpreted", exc)
-            _COMPILED[key] = fn
+            _COMPILED[key] = None
     return _COMPILED[key]
 
 
+def _compile_from_points() -> int:
+    """Evaluation points from which the dynamics is compiled: every mesh when the objects are
+    cached on disk, else :data:`COMPILE_FROM_POINTS`."""
+    return 0 if jit_cache.cache_folder() is not None else COMPILE_FROM_POINTS
+
+
+def point_torques(problem: _Problem, q: Any, qd: Any, qdd: Any, *, compile_c: bool) -> Any:
+    """(n, P) joint torques [Nm] at P points from the free joints' (m, P) positions, speeds and
+    accelerations: one mapped call of the SX dynamics, compiled to C if ``compile_c`` and a
+    compiler works."""
+    points = q.shape[1]
+    fn = _compiled(problem) if compile_c else None
+    if fn is None:
+        fn = _reduced_dynamics(problem)
+    return fn.map(points)(q, qd, qdd)
+
+
 def _torques(problem: _Problem, grid: _Grid) -> Any:
-    """(n, P) joint torques at every evaluation point: one mapped call of the SX dynamics
-    (compiled to C from :data:`COMPILE_FROM_POINTS` points)."""
-    fn = _reduced_dynamics(problem)
-    if grid.point_q.shape[1] >= COMPILE_FROM_POINTS:
-        fn = _compiled(problem, fn)
+    """(n, P) joint torques at every evaluation point (:func:`point_torques`; compiled to C
+    from :func:`_compile_from_points` points)."""
     free = list(problem.free)
-    points = grid.point_q.shape[1]
-    return fn.map(points)(grid.point_q[free, :], grid.point_qd[free, :], grid.point_qdd[free, :])
+    compile_c = grid.point_q.shape[1] >= _compile_from_points()
+    return point_torques(
+        problem, grid.point_q[free, :], grid.point_qd[free, :], grid.point_qdd[free, :],
+        compile_c=compile_c,
+    )  # fmt: skip
 
 
 def _objective(
@@ -1333,6 +1362,7 @@ def _solver(problem: _Problem, nlp: dict[str, Any], max_iterations: int | None =
         options = {**_IPOPT_OPTIONS, **(_WARM if warm else {})}
         if max_iterations is not None:
             options["ipopt.max_iter"] = max_iterations
+        single_threaded_casadi_blas()  # MUMPS's extra BLAS threads only spin
         solver = ca.nlpsol("optimal", "ipopt", nlp, options)
         if len(_SOLVERS) >= _SOLVER_CACHE_SIZE:
             _SOLVERS.pop(next(iter(_SOLVERS)))

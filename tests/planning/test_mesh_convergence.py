@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.planning import optimal
+from app.planning import jit_cache, optimal
 from app.planning.evaluation import PlanTask, evaluate_trajectory
 from app.planning.methods import (
     MethodResult,
@@ -162,6 +162,7 @@ def test_compiled_dynamics_give_the_interpreted_optimum(
     optimal._SOLVERS.clear()
     compiled = solve()  # 320 intervals x 5 points: compiled
     assert "reduced_dynamics_c" in {f.name() for f in optimal._COMPILED.values()}
+    monkeypatch.setenv(jit_cache.CACHE_ENV, "off")  # no cache: compiled from the threshold only
     monkeypatch.setattr(optimal, "COMPILE_FROM_POINTS", 10**9)
     optimal._SOLVERS.clear()
     interpreted = solve()
@@ -175,7 +176,7 @@ def test_compiled_dynamics_give_the_interpreted_optimum(
     spec = HumanSpec("none", robot.elbow_joint)
     warm = quintic(task.start, task.goal, 1.0, n_samples=51)
     problem = optimal._problem(robot, task.start, task.goal, 1.0, "tau_sq", spec, warm, 40, True)
-    fn = optimal._compiled(problem, optimal._reduced_dynamics(problem))
+    fn = optimal._compiled(problem)
     assert fn.name() == "reduced_dynamics_c"
     free = list(problem.free)
     rng = np.random.default_rng(3)

@@ -144,7 +144,7 @@ async function renderLog(main, id, stops) {
       robots.push(r);
       robot.append(h("option", { value: r.name }, robotLabel(r)));
       robot.value = r.name;
-      await show();
+      void show(); // the new version's residuals fill in below when computed
     }));
   await show();
 }
@@ -210,6 +210,7 @@ function trackingCard(p) {
  * @param {RobotLog} log
  * @param {(() => void)[]} stops the page's cleanup functions
  * @param {(version: string) => Promise<void>} onVersion called with the stored robot version
+ *   (resolves once it is offered and selected; its residuals follow)
  */
 function identifyCard(log, stops, onVersion) {
   const version = h("input", { id: "identify-version", maxlength: "100", placeholder: `${log.robot}-identified` });
@@ -242,8 +243,8 @@ function identifyCard(log, stops, onVersion) {
       /** @type {import("./api_types").IdentificationResultOut} */
       const out = await api(final.result_url);
       line.textContent = `Stored as robot ${out.version}: select it on the Plan page.`;
+      await onVersion(out.version); // offered and selected here before the link says done
       progress.append(h("p", { id: "identify-done" }, h("a", { href: `#/plan?robot=${encodeURIComponent(out.version)}` }, `Plan with ${out.version} →`)));
-      await onVersion(out.version);
     } catch (err) {
       progress.append(banner("error", inFormWords(err, FIELD_WORDS)));
     } finally {

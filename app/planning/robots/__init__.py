@@ -6,6 +6,7 @@
 ``write_robot_files(spec, folder)`` and ``load_robot_files(files, spec)``.
 """
 
+from app.planning.robots._cache import cache_root
 from app.planning.robots._human import HumanArmSegments, human_arm_segments, segment_masses
 from app.planning.robots._identified import LinkInertial, link_inertials
 from app.planning.robots._loader import (
@@ -59,6 +60,7 @@ __all__ = [
     "Sidecar",
     "builtin_files",
     "cache_dir",
+    "cache_root",
     "check_mesh",
     "check_package_zip",
     "human_arm_segments",

@@ -16,19 +16,22 @@ __all__ = ["CACHE_MAX_FILES", "cache_dir", "prune_cache", "write_cached"]
 CACHE_MAX_FILES = 200
 
 
-def cache_dir() -> Path:
-    """Where URDF/MJCF files of non-default subjects are written (never next to the package).
-
-    ``$BIOPLAN_CACHE_DIR``, else ``$XDG_CACHE_HOME/bioplan``, else ``~/.cache/bioplan``; if that
-    is not writable, a per-user folder under the system temporary directory.
-    """
+def cache_root() -> Path:
+    """BioPlan's cache folder: ``$BIOPLAN_CACHE_DIR``, else ``$XDG_CACHE_HOME/bioplan``, else
+    ``~/.cache/bioplan`` (not created here)."""
     env = os.environ.get("BIOPLAN_CACHE_DIR")
     if env:
-        root = Path(env)
-    else:
-        xdg = os.environ.get("XDG_CACHE_HOME")
-        root = Path(xdg) / "bioplan" if xdg else Path.home() / ".cache" / "bioplan"
-    path = root / "robots"
+        return Path(env)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return Path(xdg) / "bioplan" if xdg else Path.home() / ".cache" / "bioplan"
+
+
+def cache_dir() -> Path:
+    """Where URDF/MJCF files of non-default subjects are written (never next to the package):
+    ``robots`` in :func:`cache_root`; if that is not writable, a per-user folder under the
+    system temporary directory.
+    """
+    path = cache_root() / "robots"
     try:
         path.mkdir(parents=True, exist_ok=True)
         if os.access(path, os.W_OK):
