@@ -908,26 +908,15 @@ def _compile_from_points() -> int:
     return 0 if jit_cache.cache_folder() is not None else COMPILE_FROM_POINTS
 
 
-def point_torques(problem: _Problem, q: Any, qd: Any, qdd: Any, *, compile_c: bool) -> Any:
-    """(n, P) joint torques [Nm] at P points from the free joints' (m, P) positions, speeds and
-    accelerations: one mapped call of the SX dynamics, compiled to C if ``compile_c`` and a
-    compiler works."""
-    points = q.shape[1]
-    fn = _compiled(problem) if compile_c else None
+def _torques(problem: _Problem, grid: _Grid) -> Any:
+    """(n, P) joint torques at every evaluation point: one mapped call of the SX dynamics,
+    compiled to C from :func:`_compile_from_points` points when a compiler works."""
+    free = list(problem.free)
+    points = grid.point_q.shape[1]
+    fn = _compiled(problem) if points >= _compile_from_points() else None
     if fn is None:
         fn = _reduced_dynamics(problem)
-    return fn.map(points)(q, qd, qdd)
-
-
-def _torques(problem: _Problem, grid: _Grid) -> Any:
-    """(n, P) joint torques at every evaluation point (:func:`point_torques`; compiled to C
-    from :func:`_compile_from_points` points)."""
-    free = list(problem.free)
-    compile_c = grid.point_q.shape[1] >= _compile_from_points()
-    return point_torques(
-        problem, grid.point_q[free, :], grid.point_qd[free, :], grid.point_qdd[free, :],
-        compile_c=compile_c,
-    )  # fmt: skip
+    return fn.map(points)(grid.point_q[free, :], grid.point_qd[free, :], grid.point_qdd[free, :])
 
 
 def _objective(
