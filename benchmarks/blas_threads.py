@@ -12,27 +12,17 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from benchmarks.jit_cache import DEFAULT_CASES, ROOT
+from benchmarks.jit_cache import DEFAULT_CASES, run_plan
 
 
 def _run(case: str, converge: bool, threads: str | None) -> dict[str, Any]:
-    robot_name, objective = case.split(":")
-    env = {
-        k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
-    }
-    if threads is not None:
-        env["OPENBLAS_NUM_THREADS"] = threads
-    script = str(ROOT / "benchmarks" / "jit_cache.py")
-    args = [sys.executable, script, "--child", robot_name, objective, str(int(converge))]
-    out = subprocess.run(args, env=env, capture_output=True, text=True, check=True, cwd=ROOT)
-    row: dict[str, Any] = json.loads(out.stdout.strip().splitlines()[-1])
-    return row
+    """One plan with casadi's OpenBLAS on ``threads`` threads (None: BioPlan's default, one)."""
+    return run_plan(case, converge, {"OPENBLAS_NUM_THREADS": threads, "OMP_NUM_THREADS": None})
 
 
 def main() -> None:

@@ -60,16 +60,26 @@ def _child(robot_name: str, objective: str, converge: bool) -> None:
     }), flush=True)  # fmt: skip
 
 
-def _run(case: str, converge: bool, variant: str, folder: str) -> dict[str, Any]:
+def run_plan(case: str, converge: bool, env_changes: dict[str, str | None]) -> dict[str, Any]:
+    """One plan of ``robot:objective`` in a child process with these environment variables set
+    (None: removed); the child's JSON line."""
     robot_name, objective = case.split(":")
-    env = {**os.environ, "BIOPLAN_CACHE_DIR": folder}
-    env.pop("BIOPLAN_JIT_CACHE", None)
-    if variant == "off":
-        env["BIOPLAN_JIT_CACHE"] = "off"
-    args = [sys.executable, __file__, "--child", robot_name, objective, str(int(converge))]
+    env = dict(os.environ)
+    for name, value in env_changes.items():
+        if value is None:
+            env.pop(name, None)
+        else:
+            env[name] = value
+    script = str(ROOT / "benchmarks" / "jit_cache.py")
+    args = [sys.executable, script, "--child", robot_name, objective, str(int(converge))]
     out = subprocess.run(args, env=env, capture_output=True, text=True, check=True, cwd=ROOT)
     row: dict[str, Any] = json.loads(out.stdout.strip().splitlines()[-1])
     return row
+
+
+def _run(case: str, converge: bool, variant: str, folder: str) -> dict[str, Any]:
+    off = "off" if variant == "off" else None
+    return run_plan(case, converge, {"BIOPLAN_CACHE_DIR": folder, "BIOPLAN_JIT_CACHE": off})
 
 
 def bench(cases: list[str], converge_modes: list[bool], runs: int) -> list[dict[str, Any]]:

@@ -34,8 +34,8 @@ _KEY_VERSION = b"bioplan-jit-cache-1"
 
 
 def cache_folder() -> Path | None:
-    """This user's JIT cache folder (created, mode 0700), or None when the cache is off or no
-    private folder can be made there."""
+    """This user's JIT cache folder (created with mode 0700), or None when the cache is off or
+    the folder cannot be made, is not this user's, or others may write to it."""
     if os.environ.get(CACHE_ENV, "").strip().lower() == "off":
         return None
     from app.planning.robots import cache_root  # the parent process only: not in the script
@@ -46,9 +46,9 @@ def cache_folder() -> Path | None:
         info = folder.lstat()
     except OSError:
         return None
-    if not stat.S_ISDIR(info.st_mode) or info.st_uid != os.getuid():
-        return None
-    return folder
+    # Objects from here are loaded into the process: only a folder no one else can write to.
+    private = info.st_uid == os.getuid() and not info.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+    return folder if stat.S_ISDIR(info.st_mode) and private else None
 
 
 def compiler_command(compiler: str = "gcc") -> str | None:

@@ -155,6 +155,10 @@ def test_off_or_an_unsafe_folder_turns_the_cache_off(
     monkeypatch.setenv(jit_cache.CACHE_ENV, "off")
     assert jit_cache.cache_folder() is None and jit_cache.compiler_command() is None
     monkeypatch.delenv(jit_cache.CACHE_ENV)
+    folder.chmod(0o777)  # others could plant objects the process would load
+    assert jit_cache.cache_folder() is None
+    folder.chmod(0o700)
+    assert jit_cache.cache_folder() == folder
     (tmp_path / "file").write_text("")
     monkeypatch.setenv("BIOPLAN_CACHE_DIR", str(tmp_path / "file"))  # not a folder
     assert jit_cache.cache_folder() is None
@@ -218,12 +222,14 @@ def test_a_second_process_compiles_nothing_and_solves_alike(tmp_path: Path) -> N
     assert result_off["objective"] == pytest.approx(results[0]["objective"], rel=1e-9)
 
 
-def test_without_the_cache_the_threshold_decides(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_without_the_cache_the_threshold_decides(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("BIOPLAN_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv(jit_cache.CACHE_ENV, "off")
     assert optimal._compile_from_points() == optimal.COMPILE_FROM_POINTS
     monkeypatch.delenv(jit_cache.CACHE_ENV)
-    if jit_cache.cache_folder() is not None:
-        assert optimal._compile_from_points() == 0
+    assert optimal._compile_from_points() == 0
     arm = load_robot("human_arm_2dof")
     task = PlanTask.default(arm)
     monkeypatch.setenv(jit_cache.CACHE_ENV, "off")
