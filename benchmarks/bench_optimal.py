@@ -1,6 +1,7 @@
 """Optimal control beside the paper's method: speed, convergence evidence and the shares.
 
-Run: ``.venv/bin/python benchmarks/bench_optimal.py [--runs 5] [--json] [--only speed]``.
+Run: ``.venv/bin/python benchmarks/bench_optimal.py [--runs 5] [--json] [--only speed]
+[--cases robot:objective,...] [--variants before,after] [--cli-robots r1,r2] [--cli-converge]``.
 
 1. ``speed``: ``human_optimal`` and ``bound`` on ``curtain_wall_6dof`` (default task, 1 s, 4 kg,
    default resolution) and ``human_arm_2dof`` (1 s, 12 kg), per objective, warm-started from the
@@ -14,13 +15,17 @@ Run: ``.venv/bin/python benchmarks/bench_optimal.py [--runs 5] [--json] [--only 
    (quintic − paper) / (quintic − bound), and the cost of the human constraint
    (human_optimal vs bound), per robot and objective; the minimum-torque-change baseline with
    the joint limits.
-4. ``cli``: ``bioplan plan`` with every method, process start to JSON.
+4. ``cli``: ``bioplan plan --objective peak_power`` with every method, process start to JSON,
+   per robot of ``--cli-robots`` (default task and payload); ``--cli-converge``: also with
+   ``--converge``.
 5. ``converged`` (issue 25, items 1 and 6): ``plan(..., converge=True)`` with the paper's PSO,
    ``human_optimal`` and ``bound`` on each robot and objective of ``--cases``, each variant in
    its own child process (cold: nothing cached): ``before`` (every refined mesh solved with
-   IPOPT's default start, interpreted dynamics, the change-only stop) and ``after`` (the
-   defaults: small initial barrier parameter from the coarser optimum, the per-point dynamics
-   compiled to C from ``optimal.COMPILE_FROM_POINTS`` points, the Richardson stop). CPU
+   IPOPT's default start, interpreted dynamics, the change-only stop), ``separate_nodes`` (the
+   defaults, but every node evaluated twice, as one interval's end and the next one's start:
+   ``optimal.SHARE_NODES = False``) and ``after`` (the defaults: small initial barrier
+   parameter from the coarser optimum, the per-point dynamics compiled to C, the Richardson
+   stop, each node evaluated once). CPU
    seconds of the process per method (the machine is shared: wall time counts the others'
    load) and of the C compiler (child processes, all methods together), the mesh sequences,
    and (human_optimal + bound) / PSO.
@@ -194,19 +199,23 @@ def bench_shares() -> dict[str, Any]:
     return out
 
 
-def bench_cli(runs: int) -> dict[str, Any]:
+def bench_cli(runs: int, robots: str, converge: bool) -> dict[str, Any]:
+    """``bioplan plan`` (every method, ``peak_power``, the robot's default task and payload),
+    process start to JSON, per robot; with ``converge`` also with ``--converge``."""
+    from benchmarks.bench_planner import json_command_seconds
+
     exe = ROOT / ".venv" / "bin" / "bioplan"
-    cmd = [str(exe) if exe.exists() else "bioplan", "plan", "--robot", "curtain_wall_6dof",
-           "--duration", "1", "--payload", "4", "--objective", "peak_power", "--json"]  # fmt: skip
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
-        times.append(time.perf_counter() - t0)
-        json.loads(proc.stdout)
-    print(f"bioplan plan (all methods): median {statistics.median(times):.2f} s", flush=True)
-    return {"command": " ".join(cmd[1:]), "seconds": times,
-            "median_seconds": statistics.median(times)}  # fmt: skip
+    out: dict[str, Any] = {}
+    for robot in robots.split(","):
+        for flags in ([], ["--converge"]) if converge else ([],):
+            cmd = [str(exe) if exe.exists() else "bioplan", "plan", "--robot", robot,
+                   "--objective", "peak_power", "--json", *flags]  # fmt: skip
+            times = json_command_seconds(cmd, runs)
+            label = " ".join(cmd[1:])
+            print(f"bioplan {label}: median {statistics.median(times):.2f} s "
+                  f"(load {os.getloadavg()[0]:.1f})", flush=True)  # fmt: skip
+            out[label] = {"seconds": times, "median_seconds": statistics.median(times)}
+    return out
 
 
 #: ``--only converged`` cases: robot, payload [kg], objective.
@@ -223,6 +232,8 @@ def _converged_child(robot_name: str, payload: float, objective: str, variant: s
     from app.planning import methods, optimal, planner
     from app.planning.robots import load_robot
 
+    if variant == "separate_nodes":
+        optimal.SHARE_NODES = False
     if variant == "before":
         optimal.COMPILE_FROM_POINTS = 10**12
         optimal._WARM.clear()  # the warm-flagged solve then runs with IPOPT's defaults
@@ -267,11 +278,11 @@ def _converged_child(robot_name: str, payload: float, objective: str, variant: s
     print(json.dumps(out, default=float), flush=True)
 
 
-def bench_converged(runs: int, cases: str | None) -> list[dict[str, Any]]:
+def bench_converged(runs: int, cases: str | None, variants: str) -> list[dict[str, Any]]:
     chosen = [c for c in CONVERGED_CASES if cases is None or f"{c[0]}:{c[2]}" in cases.split(",")]
     rows: list[dict[str, Any]] = []
     for robot_name, payload, objective in chosen:
-        for variant in ("before", "after"):
+        for variant in variants.split(","):
             for _ in range(runs):
                 cmd = [sys.executable, __file__, "--converged-child",
                        f"{robot_name}:{payload}:{objective}:{variant}"]  # fmt: skip
@@ -312,6 +323,20 @@ def main() -> None:
         "--cases", default=None,
         help="converged: robot:objective pairs, comma-separated (default: all four)",
     )  # fmt: skip
+    parser.add_argument(
+        "--variants", default="before,after",
+        help="converged: before (no compiled dynamics, cold refinement, change-only stop), "
+        "separate_nodes (each node evaluated as two points, the transcription before "
+        "optimal.SHARE_NODES), after (the defaults); comma-separated",
+    )  # fmt: skip
+    parser.add_argument(
+        "--cli-robots", default="curtain_wall_6dof",
+        help="cli: the robots, comma-separated",
+    )  # fmt: skip
+    parser.add_argument(
+        "--cli-converge", action="store_true",
+        help="cli: also time each plan with --converge",
+    )  # fmt: skip
     parser.add_argument("--converged-child", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.converged_child:
@@ -323,8 +348,8 @@ def main() -> None:
         "speed": lambda: bench_speed(args.runs),
         "convergence": bench_convergence,
         "shares": bench_shares,
-        "cli": lambda: bench_cli(args.runs),
-        "converged": lambda: bench_converged(args.runs, args.cases),
+        "cli": lambda: bench_cli(args.runs, args.cli_robots, args.cli_converge),
+        "converged": lambda: bench_converged(args.runs, args.cases, args.variants),
     }
     results = {
         name: fn()

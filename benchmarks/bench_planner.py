@@ -30,6 +30,17 @@ if __package__ in (None, ""):
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def json_command_seconds(cmd: list[str], runs: int) -> list[float]:
+    """Wall seconds of each of ``runs`` runs of a command that must print JSON, start to end."""
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
+        times.append(time.perf_counter() - t0)
+        json.loads(proc.stdout)
+    return times
+
+
 def bench_plan(runs: int) -> dict[str, Any]:
     from app.planning.planner import plan
     from app.planning.robots import load_robot
@@ -77,12 +88,7 @@ def bench_cli(runs: int) -> dict[str, Any]:
         "quintic,paper",
         "--json",
     ]
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
-        times.append(time.perf_counter() - t0)
-        json.loads(proc.stdout)
+    times = json_command_seconds(cmd, runs)
     return {
         "command": " ".join(cmd[1:]),
         "seconds": times,

@@ -112,6 +112,8 @@ IPOPT_TOL = 1e-8
 _QUARTERS = ((0.0, 0.25, 0.5, 0.75, 1.0), (1.0, 4.0, 2.0, 4.0, 1.0), 12.0)
 _EIGHTHS = (tuple(k / 8 for k in range(9)), (1.0, 4.0, 2.0, 4.0, 2.0, 4.0, 2.0, 4.0, 1.0), 24.0)
 _PEAK_OBJECTIVES = ("peak_power", "peak_torque")
+#: Metrics of the jerk, which is constant per interval and jumps at the nodes.
+_ONE_SIDED = ("jerk", "torque_change")
 #: Torque limits hold at the evaluation points with this relative margin, so that they hold
 #: between them too (checked on the fine grid) [-].
 TORQUE_MARGIN = 2e-3
@@ -439,7 +441,9 @@ class _Grid:
     """Symbolic states of all joints at the nodes (n, N+1) and at the evaluation points.
 
     Each interval k is evaluated at the fractions of its length of ``_QUARTERS`` or ``_EIGHTHS``;
-    point blocks are (n, N) per fraction, so a point's interval is its column. ``h`` is (1, N) [s].
+    point blocks are (n, N) per fraction, so a point's interval is its column, except that with
+    shared nodes (:func:`_shared_nodes`) the first block holds the N+1 nodes and the last
+    fraction's block is gone. ``h`` is (1, N) [s].
     """
 
     q: Any
@@ -447,7 +451,7 @@ class _Grid:
     qdd: Any
     h: Any
     T: Any  # the duration, symbolic [s]
-    point_q: Any = None  # (n, 5N) or (n, 9N)
+    point_q: Any = None  # (n, P): P = 5N or 9N, or 4N + 1 or 8N + 1 with shared nodes
     point_qd: Any = None
     point_qdd: Any = None
     point_jerk: Any = None
@@ -585,7 +589,7 @@ def _build_grid(
         q=ca.vertcat(*rows[0]), qd=ca.vertcat(*rows[1]), qdd=ca.vertcat(*rows[2]), h=h, T=t_sym
     )
     _continuity(problem, grid, cons)
-    _evaluation_points(grid, n, _EIGHTHS if _peak_rule(problem) else _QUARTERS)
+    _evaluation_points(grid, n, _rule(problem), _shared_nodes(problem))
     return grid, dvar
 
 
@@ -603,9 +607,13 @@ def _continuity(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
 
 
 def _evaluation_points(
-    grid: _Grid, n: int, rule: tuple[tuple[float, ...], tuple[float, ...], float]
+    grid: _Grid,
+    n: int,
+    rule: tuple[tuple[float, ...], tuple[float, ...], float],
+    shared_nodes: bool = False,
 ) -> None:
-    """States at the rule's points of every interval and the composite Simpson weights."""
+    """States at the rule's points of every interval and the composite Simpson weights
+    (``shared_nodes``: the nodes once, see :func:`_merge_node_columns`)."""
     import casadi as ca
 
     hh = ca.repmat(grid.h, n, 1)
@@ -627,9 +635,27 @@ def _evaluation_points(
             )
         for store, value in zip(blocks, (*state, jerk, grid.h * (weight / divisor)), strict=True):
             store.append(value)
+    if shared_nodes:  # an interval's end is the next one's start: one column per node
+        _merge_node_columns(grid, blocks, fractions)
     grid.point_q, grid.point_qd, grid.point_qdd, grid.point_jerk, grid.weights = (
         ca.horzcat(*b) for b in blocks
     )
+
+
+def _merge_node_columns(grid: _Grid, blocks: list[list[Any]], fractions: Sequence[float]) -> None:
+    """Replace the rule's first (fraction 0) and last (fraction 1) point blocks, (n, N) each, by
+    one (n, N+1) block at the nodes whose weights add both sides' (so each node is constrained
+    once). The node block's jerk is the next interval's (the last node: the last interval's)."""
+    import casadi as ca
+
+    first, last = fractions.index(0.0), fractions.index(1.0)
+    jerk = blocks[3][first]
+    states = (grid.q, grid.qd, grid.qdd, ca.horzcat(jerk, jerk[:, -1]))
+    zero = ca.MX(1, 1)
+    weight = ca.horzcat(blocks[4][first], zero) + ca.horzcat(zero, blocks[4][last])
+    for store, value in zip(blocks, (*states, weight), strict=True):
+        store[first] = value
+        del store[last]
 
 
 def _bernstein_limits(problem: _Problem, grid: _Grid, cons: _Constraints) -> None:
@@ -1067,6 +1093,32 @@ class ExtraConstraints:
 _WARM: dict[str, Any] = {"ipopt.mu_init": 1e-4, "ipopt.warm_start_init_point": "yes"}
 
 
+def _rule(problem: _Problem) -> tuple[tuple[float, ...], tuple[float, ...], float]:
+    """The evaluation points per interval (fractions), Simpson weights and divisor."""
+    return _EIGHTHS if _peak_rule(problem) else _QUARTERS
+
+
+#: Evaluate each node once (False: as each interval's end and the next one's start, the
+#: behaviour before; kept for ``benchmarks/shared_nodes.py``).
+SHARE_NODES = True
+
+
+def _shared_nodes(problem: _Problem) -> bool:
+    """Constrain each node once (not as one interval's end and the next one's start), unless a
+    metric needs the jerk, which jumps at a node, on both sides of it."""
+    extra = problem.extra
+    metrics = {problem.objective, None if extra is None else extra.metric}
+    return SHARE_NODES and not metrics & set(_ONE_SIDED)
+
+
+def _n_points(problem: _Problem) -> int:
+    """Evaluation points of the transcription."""
+    per_interval = len(_rule(problem)[0])
+    if _shared_nodes(problem):
+        return problem.n_intervals * (per_interval - 1) + 1
+    return problem.n_intervals * per_interval
+
+
 def _peak_rule(problem: _Problem) -> bool:
     """Evaluate on eighths when the objective or a bounded metric is a peak (epigraph) metric."""
     extra = problem.extra
@@ -1276,7 +1328,7 @@ def _nlp(problem: _Problem, warm: Trajectory) -> tuple[dict[str, Any], dict[str,
 
     var, cons = _Variables(), _Constraints()
     clearance = None if problem.extra is None else problem.extra.clearance
-    points = problem.n_intervals * len((_EIGHTHS if _peak_rule(problem) else _QUARTERS)[0])
+    points = _n_points(problem)
     faces = 0 if clearance is None else clearance.n_parameters(points)
     par = _Params.create(problem.start.size, faces, problem.n_intervals)
     par.set("fractions", _fractions(problem))
@@ -1334,6 +1386,7 @@ def _structure_key(problem: _Problem) -> tuple[Any, ...]:
         problem.free,
         tuple(float(problem.start[j]) for j in range(problem.start.size) if j not in problem.free),
         problem.no_reversal,
+        _shared_nodes(problem),
         tuple(np.round(_scales(problem), 9)),
         None if problem.extra is None else problem.extra.key(problem.goal),
     )

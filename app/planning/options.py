@@ -125,7 +125,7 @@ class MethodOptions(Options):
         False,
         help="refine every optimal-control result on meshes of 2N, 4N, ... intervals until its "
         "objective changes by less than 0.1 % (the evidence in solver.convergence); off by "
-        "default: it makes a plan about 3-6x slower (docs/planning.md)",
+        "default: it makes a peak-power plan about 5x slower (docs/planning.md)",
     )
 
 
