@@ -19,14 +19,17 @@ Run: ``.venv/bin/python benchmarks/bench_optimal.py [--runs 5] [--json] [--only 
    per robot of ``--cli-robots`` (default task and payload); ``--cli-converge``: also with
    ``--converge``.
 5. ``converged`` (issue 25, items 1 and 6): ``plan(..., converge=True)`` with the paper's PSO,
-   ``human_optimal`` and ``bound`` on each robot and objective of ``--cases``, each variant in
-   its own child process (cold: nothing cached): ``before`` (every refined mesh solved with
-   IPOPT's default start, interpreted dynamics, the change-only stop), ``separate_nodes`` (the
-   defaults, but every node evaluated twice, as one interval's end and the next one's start:
-   ``optimal.SHARE_NODES = False``) and ``after`` (the defaults: small initial barrier
-   parameter from the coarser optimum, the per-point dynamics compiled to C, the Richardson
-   stop, each node evaluated once). CPU
-   seconds of the process per method (the machine is shared: wall time counts the others'
+   ``human_optimal`` and ``bound`` on each robot and objective of ``--cases``, each variant of
+   ``--variants`` in its own child process (cold: nothing cached in memory):
+   - ``before``: every refined mesh solved with IPOPT's default start, interpreted dynamics,
+     the change-only stop;
+   - ``separate_nodes``: the defaults, but every node evaluated twice, as one interval's end
+     and the next one's start (``optimal.SHARE_NODES = False``);
+   - ``auto_ordering``: the defaults, but MUMPS's automatic fill-reducing ordering
+     (``mumps_pivot_order`` 7) instead of AMD;
+   - ``after``: the defaults (small initial barrier parameter from the coarser optimum, the
+     per-point dynamics compiled to C, the Richardson stop, each node evaluated once, AMD).
+   CPU seconds of the process per method (the machine is shared: wall time counts the others'
    load) and of the C compiler (child processes, all methods together), the mesh sequences,
    and (human_optimal + bound) / PSO.
 """
@@ -234,6 +237,8 @@ def _converged_child(robot_name: str, payload: float, objective: str, variant: s
 
     if variant == "separate_nodes":
         optimal.SHARE_NODES = False
+    if variant == "auto_ordering":
+        optimal._IPOPT_OPTIONS["ipopt.mumps_pivot_order"] = 7
     if variant == "before":
         optimal.COMPILE_FROM_POINTS = 10**12
         optimal._WARM.clear()  # the warm-flagged solve then runs with IPOPT's defaults
@@ -327,7 +332,8 @@ def main() -> None:
         "--variants", default="before,after",
         help="converged: before (no compiled dynamics, cold refinement, change-only stop), "
         "separate_nodes (each node evaluated as two points, the transcription before "
-        "optimal.SHARE_NODES), after (the defaults); comma-separated",
+        "optimal.SHARE_NODES), auto_ordering (MUMPS's automatic ordering instead of AMD), "
+        "after (the defaults); comma-separated",
     )  # fmt: skip
     parser.add_argument(
         "--cli-robots", default="curtain_wall_6dof",

@@ -1502,6 +1502,10 @@ _IPOPT_OPTIONS: dict[str, Any] = {
     # objective runs to this limit before the tau_sq probe settles it (_infeasible).
     "ipopt.max_iter": 1000,
     "ipopt.mu_strategy": "adaptive",
+    # MUMPS's fill-reducing ordering: approximate minimum degree. Its automatic choice costs
+    # 1.3-1.8x the CPU on the refined peak-power meshes (320 intervals) and saves nothing on
+    # the coarse ones (benchmarks/RESULTS.md, "MUMPS ordering").
+    "ipopt.mumps_pivot_order": 0,
     # The MX graph calls the (reduced) SX dynamics once, mapped over the points; expanding it
     # to SX evaluates faster but costs more to build than it saves on these problems
     # (measured, curtain_wall_6dof: 3.2 s built + solved unexpanded, 5.3 s expanded).
