@@ -1099,7 +1099,7 @@ def _rule(problem: _Problem) -> tuple[tuple[float, ...], tuple[float, ...], floa
 
 
 #: Evaluate each node once (False: as each interval's end and the next one's start, the
-#: behaviour before; kept for ``benchmarks/shared_nodes.py``).
+#: behaviour before; ``benchmarks/bench_optimal.py --variants separate_nodes`` measures it).
 SHARE_NODES = True
 
 
