@@ -393,3 +393,23 @@ def test_an_error_message_is_shown_as_one_printable_line() -> None:
     long = one_line("y" * 5000)
     assert len(long) == 1000 and long.endswith("…")
     assert one_line("fine: ä ok") == "fine: ä ok"
+
+
+def test_plan_text_skips_a_joint_whose_change_has_no_ratio(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """The unrestricted bound turns the 6-DOF arm's base, which the quintic leaves unloaded: its
+    peak-torque change has no ratio (None), and `bioplan plan` stopped with a TypeError
+    traceback, even with --json. The line now shows the largest change of the other joints."""
+    from app.cli import main
+
+    out = tmp_path / "plan.json"
+    args = ["--robot", "curtain_wall_6dof", "--objective", "peak_torque", "--intervals", "8"]
+    code = main(["plan", *args, "--method", "quintic,bound_unrestricted", "--out", str(out)])
+    text = capsys.readouterr()
+    assert code == 0, text.err
+    changes = json.loads(out.read_text())["methods"]["bound_unrestricted"]["improvement_pct"]
+    per_joint = changes["peak_torque"]
+    assert None in per_joint  # the case this test is about
+    largest = max((c for c in per_joint if c is not None), key=abs)
+    assert f"unrestricted bound: peak_torque {largest:+.1f}% vs the quintic" in text.out

@@ -149,8 +149,9 @@ def _plan_text(robot: Any, args: argparse.Namespace, payload: dict[str, Any]) ->
         change = m["improvement_pct"].get(args.objective)
         share = shares.get(name)
         text = f"{METHODS[name].label}: {args.objective} "
-        if isinstance(change, list):
-            change = max(change, key=abs) if change else None
+        if isinstance(change, list):  # per joint; None where the quintic's is 0 (no ratio)
+            defined = [c for c in change if c is not None]
+            change = max(defined, key=abs) if defined else None
         text += f"{change:+.1f}% vs the quintic" if change is not None else "(no change)"
         if share is not None and name != "bound":
             text += f", {share:.0f}% of the achievable saving"
