@@ -402,8 +402,9 @@ def test_plan_text_skips_a_joint_whose_change_has_no_ratio(
     quintic,bound_unrestricted` stopped with a TypeError traceback, even with --json: the
     unrestricted bound turns the base, which the quintic leaves unloaded, so that joint's
     peak-torque change has no ratio (NaN, null in the JSON). The summary line now shows the
-    largest change of the other joints. That run costs a minute with a cold compile cache, so
-    the human arm's plan gets a shoulder with the same undefined change here."""
+    largest change of the other joints. That run took 92 s beside a CPU hog with a cold compile
+    cache (13 s warm, idle), so the human arm's plan gets a shoulder with the same undefined
+    change here."""
     import math
 
     from app.cli import main
